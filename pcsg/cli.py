@@ -1,0 +1,210 @@
+"""The `pcsg` command: check, expand, stats and graph .pcsg files."""
+from __future__ import annotations
+
+import argparse
+import glob
+import json
+import os
+import sys
+from pathlib import Path
+
+from .language.errors import PcsgError
+
+EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
+
+
+class UsageError(Exception):
+    pass
+
+
+def _set_value(text: str) -> tuple[str, float]:
+    name, eq, value = text.partition("=")
+    if not eq or not name.strip():
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got '{text}'")
+    try:
+        return name.strip(), float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{value}' is not a number (in --set {text})") from None
+
+
+def _parser() -> argparse.ArgumentParser:
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--set", dest="overrides", metavar="NAME=VALUE", action="append",
+                        type=_set_value, default=[],
+                        help="override an initial parameter of the axiom (repeatable)")
+    common.add_argument("--no-color", action="store_true", help=argparse.SUPPRESS)
+
+    p = argparse.ArgumentParser(prog="pcsg", description="Compile and inspect PCSG grammars: "
+                                "parametric CSG rewriting systems as cyclic CSG graphs.")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    c = sub.add_parser("check", parents=[common], help="check files; errors as file:line:col")
+    c.add_argument("files", nargs="+", metavar="FILE")
+    c.add_argument("-q", "--quiet", action="store_true", help="print only errors and warnings")
+    c.add_argument("--werror", action="store_true", help="treat warnings as errors")
+
+    e = sub.add_parser("expand", parents=[common],
+                       help="the axiom after N parallel derivation steps, as PCSG text")
+    e.add_argument("file", metavar="FILE")
+    e.add_argument("-n", "--steps", type=int, default=1, help="derivation steps (default 1)")
+    e.add_argument("-o", "--output", metavar="OUT", help="write to OUT instead of stdout")
+    e.add_argument("--max-chars", type=int, default=50_000_000,
+                   help="refuse expansions longer than this (default 50 million)")
+
+    s = sub.add_parser("stats", parents=[common], help="node, module and primitive counts")
+    s.add_argument("files", nargs="+", metavar="FILE")
+    s.add_argument("--json", action="store_true", help="machine-readable output")
+
+    g = sub.add_parser("graph", parents=[common], help="the cyclic CSG graph as Graphviz dot")
+    g.add_argument("file", metavar="FILE")
+    g.add_argument("-o", "--output", metavar="OUT", help="write to OUT instead of stdout")
+    return p
+
+
+def expand_globs(patterns: list[str]) -> list[str]:
+    """Shell globs arrive expanded; quoted ones (or ones on shells that don't) are expanded here."""
+    out = []
+    for pat in patterns:
+        if not os.path.exists(pat) and any(ch in pat for ch in "*?["):
+            matches = sorted(glob.glob(pat))
+            if not matches:
+                raise UsageError(f"no file matches '{pat}'")
+            out += matches
+        else:
+            out.append(pat)
+    return out
+
+
+def _report(err: PcsgError | None, warnings, stream=sys.stderr):
+    for w in warnings:
+        print(w.format(), file=stream)
+    if err is not None:
+        for d in err.diagnostics:
+            print(d.format(), file=stream)
+
+
+def _compile(path, overrides):
+    from .compiler import compile_file
+    return compile_file(path, dict(overrides))
+
+
+def cmd_check(args) -> int:
+    failed = 0
+    for path in expand_globs(args.files):
+        try:
+            graph = _compile(path, args.overrides)
+        except PcsgError as e:
+            _report(e, [])
+            failed += 1
+            continue
+        _report(None, graph.warnings)
+        if args.werror and graph.warnings:
+            failed += 1
+        elif not args.quiet:
+            n = len(graph.warnings)
+            print(f"{path}: ok ({len(graph.nodes)} nodes, {len(graph.modules)} module"
+                  f"{'s' if len(graph.modules) != 1 else ''}, {len(graph.params)} parameter"
+                  f"{'s' if len(graph.params) != 1 else ''}"
+                  + (f", {n} warning{'s' if n != 1 else ''}" if n else "") + ")")
+    return EXIT_ERRORS if failed else EXIT_OK
+
+
+def _write(text: str, output: str | None):
+    if output is None:
+        sys.stdout.write(text)
+        return
+    from .output import write_atomic
+    write_atomic(Path(output), text.encode("utf-8"))
+
+
+def cmd_expand(args) -> int:
+    from .graph.expand import ExpansionTooLarge, expand_file
+    if args.steps < 0:
+        raise UsageError("-n must be 0 or more")
+    graph = _compile(args.file, args.overrides)
+    _report(None, graph.warnings)
+    try:
+        text = expand_file(graph, args.steps, args.max_chars)
+    except ExpansionTooLarge as e:
+        raise UsageError(str(e)) from None
+    _write(text, args.output)
+    return EXIT_OK
+
+
+def cmd_stats(args) -> int:
+    from .graph.stats import graph_stats
+    results, failed = [], 0
+    for path in expand_globs(args.files):
+        try:
+            graph = _compile(path, args.overrides)
+            _report(None, graph.warnings)
+            results.append(graph_stats(graph))
+        except PcsgError as e:
+            _report(e, [])
+            failed += 1
+    if args.json:
+        print(json.dumps(results[0] if len(results) == 1 else results, indent=2))
+    else:
+        for r in results:
+            print(_stats_text(r))
+    return EXIT_ERRORS if failed else EXIT_OK
+
+
+def _stats_text(r: dict) -> str:
+    kinds = ", ".join(f"{v} {k}" for k, v in r["node_kinds"].items() if v)
+    modules = ", ".join(f"{m} ({n} rule{'s' if n != 1 else ''})" for m, n in r["modules"].items())
+    return "\n".join([
+        f"{r['file']}",
+        f"  nodes        {r['nodes']} ({kinds})",
+        f"  modules      {modules or 'none'}",
+        f"  parameters   {', '.join(r['parameters']) or 'none'}",
+        f"  expressions  {r['expressions']} ({r['bytecode_instructions']} instructions)",
+        f"  primitives   {r['primitives']:,} in the complete derivation"
+        + (f" ({', '.join(f'{n:,} {k}' for k, n in r['primitives_by_kind'].items())})"
+           if len(r["primitives_by_kind"]) > 1 else ""),
+    ])
+
+
+def cmd_graph(args) -> int:
+    from .graph.dot import to_dot
+    graph = _compile(args.file, args.overrides)
+    _report(None, graph.warnings)
+    _write(to_dot(graph), args.output)
+    return EXIT_OK
+
+
+COMMANDS = {"check": cmd_check, "expand": cmd_expand, "stats": cmd_stats, "graph": cmd_graph}
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        return COMMANDS[args.command](args)
+    except PcsgError as e:
+        _report(e, [])
+        return EXIT_ERRORS
+    except UsageError as e:
+        print(f"pcsg {args.command}: error: {e}", file=sys.stderr)
+        return EXIT_USAGE
+    except OSError as e:
+        what = f"{e.strerror or e}" + (f": {e.filename}" if e.filename else "")
+        print(f"pcsg {args.command}: error: {what}", file=sys.stderr)
+        return EXIT_ERRORS
+    except KeyboardInterrupt:
+        print("pcsg: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        # e.g. `pcsg expand ... | head`: the reader left; that is not an error of ours
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
+    except Exception as e:  # noqa: BLE001 -- a user sees one line, never a traceback
+        if os.environ.get("PCSG_DEBUG"):
+            raise
+        print(f"pcsg: internal error: {type(e).__name__}: {e}\n"
+              f"  (this is a bug in pcsg; PCSG_DEBUG=1 shows the traceback)", file=sys.stderr)
+        return EXIT_INTERNAL
+
+
+if __name__ == "__main__":
+    sys.exit(main())

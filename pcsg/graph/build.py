@@ -1,0 +1,308 @@
+"""AST -> cyclic CSG graph: names resolved, one S-node per module, named
+expressions built once and shared, every semantic error collected."""
+from __future__ import annotations
+
+from collections import defaultdict
+
+from ..language import ast
+from ..language.errors import Diagnostic, PcsgError, sort_key
+from ..language.names import PRIMITIVES, RESERVED, TRANSFORMS
+from ..scene import build_scene
+from .expr import ExprTable
+from .model import (CALC, MATERIAL, OPERATORS, PAINT, PRIMITIVE, SELECT, TRANSFORM, Graph, Node)
+
+
+class _Builder:
+    def __init__(self, program: ast.Program, source, overrides: dict[str, float]):
+        self.program = program
+        self.source = source
+        self.overrides = dict(overrides)
+        self.errors: list[Diagnostic] = []
+        self.warnings: list[Diagnostic] = []
+        self.nodes: list[Node] = []
+        self.expr_ast: list = []
+        self.primitive_nodes: dict[str, int] = {}
+        self.named_nodes: dict[str, int] = {}
+        self.named_building: list[str] = []
+
+    # ---- reporting
+    def error(self, span, message, code, notes=()):
+        self.errors.append(Diagnostic("error", message, span, self.source, list(notes), code))
+
+    def warn(self, span, message, code, notes=()):
+        self.warnings.append(Diagnostic("warning", message, span, self.source, list(notes), code))
+
+    def add(self, node: Node) -> int:
+        self.nodes.append(node)
+        return len(self.nodes) - 1
+
+    def expr(self, node) -> int:
+        idx = self.exprs.add(node)
+        self.expr_ast.append(node)
+        return idx
+
+    # ---- the whole file
+    def build(self) -> Graph:
+        stmts = self.program.statements
+        axioms = [s for s in stmts if isinstance(s, ast.Axiom)]
+        decls = [s for s in stmts if isinstance(s, ast.ModuleDecl)]
+        rules = [s for s in stmts if isinstance(s, ast.Rule)]
+        self.named = {}
+        for s in stmts:
+            if isinstance(s, ast.Named):
+                if s.name in self.named:
+                    first = self.source.locate(self.named[s.name].name_span[0])
+                    self.error(s.name_span, f"'{s.name}' is defined twice (first at {first})",
+                               "duplicate")
+                else:
+                    self.named[s.name] = s
+        self.rules = self._check_rules(rules, decls)
+        self._check_axiom(axioms)
+        self.params = self._collect_params(stmts)
+        self.exprs = ExprTable(self.params, self.error)
+        self._apply_overrides(axioms)
+        self.material_names: list[str] = []
+        self.scene = build_scene([s for s in stmts if isinstance(s, ast.Directive)],
+                                 self._constant, self.error)
+
+        # S-nodes first, so that rule bodies can point at them before they are filled.
+        self.modules = {}
+        for name, (decl, _rules) in self.rules.items():
+            span = decl.name_span if decl else _rules[0].module_span
+            self.modules[name] = self.add(Node(SELECT, name=name, span=span))
+        for name, (decl, by_number) in self.rules.items():
+            s = self.nodes[self.modules[name]]
+            sel = decl.selection if decl else ast.Num(1.0, s.span)
+            s.exprs = [self.expr(sel)]
+            for rule in by_number:
+                s.children.append(self.csg(rule.body))
+                s.edge_spans.append(rule.span)
+        for name, named in self.named.items():
+            self.named_ref(name, named.name_span)
+        root = self.csg(axioms[0].expr) if axioms else -1
+        if self.errors:
+            raise PcsgError(sorted(self.errors, key=sort_key))
+        return Graph(self.source, self.nodes, root, self.params, self.modules, self.exprs,
+                     self.expr_ast, self.scene, self.material_names, self.warnings,
+                     axioms[0].span if axioms else None)
+
+    # ---- statements
+    def _check_rules(self, rules, decls):
+        by_module = defaultdict(list)
+        for r in rules:
+            by_module[r.module].append(r)
+        declared = {}
+        for d in decls:
+            if d.name in declared:
+                first = self.source.locate(declared[d.name].name_span[0])
+                self.error(d.name_span, f"module '{d.name}' is declared twice (first at {first})",
+                           "duplicate")
+            elif d.name not in by_module:
+                self.error(d.name_span, f"'{d.name}' is declared as a module but has no rules "
+                                        f"(write them as '1: {d.name} → ...')", "no-rules")
+            declared.setdefault(d.name, d)
+        out = {}
+        for name, rs in by_module.items():
+            self._reserved(name, rs[0].module_span, "a module")
+            if name in self.named:
+                self.error(self.named[name].name_span,
+                           f"'{name}' is both a module and a named expression", "duplicate")
+            numbers = defaultdict(list)
+            for r in rs:
+                numbers[r.number].append(r)
+            for n, same in numbers.items():
+                for r in same[1:]:
+                    first = self.source.locate(same[0].number_span[0])
+                    self.error(r.number_span, f"rule {n} of '{name}' is given twice "
+                                              f"(first at {first})", "rule-number")
+            expected = set(range(1, len(numbers) + 1))
+            for n in sorted(set(numbers) - expected):
+                missing = sorted(expected - set(numbers))
+                self.error(numbers[n][0].number_span,
+                           f"rules of '{name}' must be numbered 1..{len(numbers)}; "
+                           f"rule {n} leaves a gap (missing: {', '.join(map(str, missing))})",
+                           "rule-number")
+            decl = declared.get(name)
+            if decl is None and len(numbers) > 1:
+                self.error(rs[0].module_span,
+                           f"module '{name}' has {len(numbers)} rules but no selection; declare "
+                           f"one, e.g. '{name} if(..., 2, 1)'", "no-selection")
+            out[name] = (decl, [numbers[n][0] for n in sorted(numbers)])
+        return out
+
+    def _check_axiom(self, axioms):
+        if not axioms:
+            self.errors.append(Diagnostic(
+                "error", "no axiom: a file needs one CSG expression to start from, "
+                         "e.g. '{c = 6} S'", None, self.source, code="axiom"))
+        for extra in axioms[1:]:
+            first = self.source.locate(axioms[0].span[0])
+            self.error(extra.span, f"a second axiom; a file has exactly one (the first is at "
+                                   f"{first}). A module declaration needs a selection "
+                                   f"expression after its name.", "axiom")
+
+    def _reserved(self, name, span, what) -> bool:
+        if name in RESERVED:
+            self.error(span, f"'{name}' is a reserved name ({RESERVED[name]}) and cannot "
+                             f"name {what}", "reserved")
+            return True
+        return False
+
+    def _collect_params(self, stmts) -> dict[str, int]:
+        params: dict[str, int] = {}
+        for assign in _assignments(stmts):
+            if assign.name not in params and not self._reserved(assign.name, assign.name_span,
+                                                                 "a parameter"):
+                params[assign.name] = len(params)
+        for name, (decl, rules) in self.rules.items():
+            if name in params:
+                self.error(rules[0].module_span, f"'{name}' is both a module and a parameter",
+                           "duplicate")
+        for name, named in self.named.items():
+            self._reserved(name, named.name_span, "a named expression")
+        return params
+
+    def _apply_overrides(self, axioms):
+        """--set NAME=VALUE replaces NAME's value in the axiom's initialisation blocks."""
+        if not self.overrides:
+            return
+        initial = []
+        node = axioms[0].expr if axioms else None
+        stack = [node] if node is not None else []
+        while stack:
+            n = stack.pop()
+            if isinstance(n, ast.Calc):
+                initial += n.assigns
+            for child in _csg_children(n):
+                stack.append(child)
+        known = {a.name for a in initial}
+        for name, value in self.overrides.items():
+            if name not in known:
+                listed = ", ".join(sorted(known)) or "none: the axiom has no calculation block"
+                self.errors.append(Diagnostic(
+                    "error", f"--set {name}: '{name}' is not an initial parameter "
+                             f"(initial parameters: {listed})", None, self.source, code="set"))
+            for a in initial:
+                if a.name == name:
+                    a.value = ast.Num(float(value), a.value.span)
+
+    def _constant(self, node) -> float:
+        """A directive value: numbers and pi only."""
+        table = ExprTable({}, self.error)
+        return float(table.evaluate(table.add(node), _EMPTY))
+
+    # ---- CSG expressions
+    def csg(self, e) -> int:
+        if isinstance(e, ast.Ref):
+            return self.ref(e)
+        if isinstance(e, ast.CsgOp):
+            left, right = self.csg(e.left), self.csg(e.right)
+            return self.add(Node(OPERATORS[e.op], children=[left, right], span=e.op_span,
+                                 edge_spans=[e.left.span, e.right.span]))
+        if isinstance(e, ast.Transform):
+            want = TRANSFORMS[e.name]
+            if len(e.args) != want:
+                self.error(e.head_span, f"'{e.name}' takes {want} argument"
+                                        f"{'' if want == 1 else 's'}, got {len(e.args)}", "arity")
+            args = [self.expr(a) for a in e.args]
+            return self._unary(TRANSFORM, e, e.name, args)
+        if isinstance(e, ast.Calc):
+            node = Node(CALC, span=e.head_span)
+            for a in e.assigns:
+                node.targets.append(self.params.get(a.name, -1))
+                node.exprs.append(self.expr(a.value))
+            node.children = [self.csg(e.operand)]
+            node.edge_spans = [e.operand.span]
+            return self.add(node)
+        if isinstance(e, ast.Paint):
+            if len(e.args) != 3:
+                self.error(e.head_span, f"'paint' takes 3 arguments (r, g, b), got {len(e.args)}",
+                           "arity")
+            return self._unary(PAINT, e, "paint", [self.expr(a) for a in e.args])
+        if isinstance(e, ast.Material):
+            if e.name not in self.scene.materials:
+                known = ", ".join(sorted(self.scene.materials)) or "none defined"
+                self.error(e.name_span, f"unknown material '{e.name}' (define it with "
+                                        f"'#material {e.name} ...'; known: {known})", "undefined")
+            if e.name not in self.material_names:
+                self.material_names.append(e.name)
+            return self._unary(MATERIAL, e, e.name, [])
+        raise TypeError(f"not a CSG node: {e!r}")
+
+    def _unary(self, kind, e, name, exprs) -> int:
+        child = self.csg(e.operand)
+        return self.add(Node(kind, name=name, children=[child], exprs=exprs, span=e.head_span,
+                             edge_spans=[e.operand.span]))
+
+    def ref(self, e: ast.Ref) -> int:
+        if e.name in self.modules:
+            return self.modules[e.name]
+        if e.name in self.named:
+            return self.named_ref(e.name, e.span)
+        if e.name in PRIMITIVES:
+            if e.name not in self.primitive_nodes:
+                self.primitive_nodes[e.name] = self.add(Node(PRIMITIVE, name=e.name, span=e.span))
+            return self.primitive_nodes[e.name]
+        if e.name in self.params:
+            what = f"'{e.name}' is a parameter; a CSG operand must be a module, a named " \
+                   f"expression or a primitive"
+        elif e.name in RESERVED:
+            what = f"'{e.name}' is {RESERVED[e.name]}, not an operand"
+        else:
+            what = f"undefined name '{e.name}' (not a module, named expression or primitive: " \
+                   f"{', '.join(PRIMITIVES)})"
+        self.error(e.span, what, "undefined")
+        return self.primitive_node_for_errors()
+
+    def primitive_node_for_errors(self) -> int:
+        return self.add(Node(PRIMITIVE, name="sphere"))
+
+    def named_ref(self, name: str, use_span) -> int:
+        if name in self.named_nodes:
+            return self.named_nodes[name]
+        if name in self.named_building:
+            cycle = self.named_building[self.named_building.index(name):] + [name]
+            self.error(use_span, f"named expression '{name}' refers to itself through "
+                                 f"{' → '.join(cycle)}; recursion must go through a module",
+                       "named-recursion")
+            return self.primitive_node_for_errors()
+        self.named_building.append(name)
+        node = self.csg(self.named[name].body)
+        self.named_building.pop()
+        self.named_nodes[name] = node
+        return node
+
+
+_EMPTY = __import__("numpy").zeros(0)
+
+
+def _csg_children(n):
+    if isinstance(n, ast.CsgOp):
+        return [n.left, n.right]
+    if isinstance(n, (ast.Transform, ast.Calc, ast.Paint, ast.Material)):
+        return [n.operand]
+    return []
+
+
+def _assignments(stmts):
+    """Every assignment in every calculation block of the file."""
+    stack = []
+    for s in stmts:
+        if isinstance(s, ast.Axiom):
+            stack.append(s.expr)
+        elif isinstance(s, ast.Rule):
+            stack.append(s.body)
+        elif isinstance(s, ast.Named):
+            stack.append(s.body)
+    found = []
+    while stack:
+        n = stack.pop()
+        if isinstance(n, ast.Calc):
+            found.append(n.assigns)
+        stack.extend(_csg_children(n))
+    return sorted((a for block in found for a in block), key=lambda a: a.span[0])
+
+
+def build_graph(program: ast.Program, source, overrides: dict[str, float] | None = None) -> Graph:
+    """Build the graph or raise PcsgError with every error found."""
+    return _Builder(program, source, overrides or {}).build()

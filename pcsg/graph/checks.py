@@ -1,0 +1,222 @@
+"""Static checks over the cyclic graph (notation §7 and §9)."""
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from ..language import ast
+from ..language.errors import Diagnostic, PcsgError
+from ..language.names import FLAT_PRIMITIVES
+from .derive import Deriver
+from .model import CALC, DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, Graph
+
+PROBE_NODES = 20_000          # node visits of the contraction probe
+PROBE_REPEATS = 8             # a non-contracting cycle taken this often on one path is reported
+
+
+def reachable(graph: Graph) -> list[bool]:
+    seen = [False] * len(graph.nodes)
+    stack = [graph.root]
+    seen[graph.root] = True
+    while stack:
+        for c in graph.nodes[stack.pop()].children:
+            if not seen[c]:
+                seen[c] = True
+                stack.append(c)
+    return seen
+
+
+def run_checks(graph: Graph) -> list[Diagnostic]:
+    """Errors raise PcsgError; warnings are returned (and added to graph.warnings)."""
+    errors = definite_assignment(graph) + flat_under_solid_operators(graph)
+    if errors:
+        raise PcsgError(errors)
+    warnings = unused_modules(graph) + endless_cycles(graph) + non_contracting_cycles(graph)
+    graph.warnings.extend(warnings)
+    return warnings
+
+
+def _diag(graph, severity, message, span, code, notes=()):
+    return Diagnostic(severity, message, span, graph.source, list(notes), code)
+
+
+def _first_var(node, name):
+    """The first read of `name` in an arithmetic AST, for its position."""
+    stack = [node]
+    while stack:
+        n = stack.pop()
+        if isinstance(n, ast.Var) and n.name == name:
+            return n
+        if isinstance(n, ast.Call):
+            stack.extend(reversed(n.args))
+        elif isinstance(n, ast.Unary):
+            stack.append(n.operand)
+        elif isinstance(n, ast.Binary):
+            stack.extend([n.right, n.left])
+    return node
+
+
+def definite_assignment(graph: Graph) -> list[Diagnostic]:
+    """Parameters read before they are assigned on some path from the axiom.
+    must[n] = ∩ over edges p→n of (must[p] ∪ assigned(p)): a forward data flow,
+    iterated to its greatest fixed point over the cycles. Sets are bitmasks."""
+    nodes, table, names = graph.nodes, graph.exprs, graph.param_names
+    everything = (1 << len(names)) - 1
+    must = [everything] * len(nodes)
+    must[graph.root] = 0
+    live = reachable(graph)
+    work = deque([graph.root])
+    while work:
+        i = work.popleft()
+        n = nodes[i]
+        out = must[i]
+        if n.kind == CALC:
+            for slot in n.targets:
+                out |= 1 << slot
+        for c in n.children:
+            new = must[c] & out if c != graph.root else 0
+            if new != must[c]:
+                must[c] = new
+                work.append(c)
+    errors = []
+    for i, n in enumerate(nodes):
+        if not live[i]:
+            continue
+        have = must[i]
+        for k, expr in enumerate(n.exprs):
+            for name in sorted(table.reads(expr)):
+                if not have >> graph.params[name] & 1:
+                    var = _first_var(graph.expr_ast[expr], name)
+                    errors.append(_diag(graph, "error", f"parameter '{name}' may be read before it "
+                                        f"is assigned: some path from the axiom reaches this "
+                                        f"without assigning it", var.span, "unassigned"))
+            if n.kind == CALC:
+                have |= 1 << n.targets[k]
+    return errors
+
+
+def flat_under_solid_operators(graph: Graph) -> list[Diagnostic]:
+    """tri1/tri2 have no inside, so nothing below ∩ or \\ may derive them."""
+    nodes = graph.nodes
+    flat_below: dict[int, int | None] = {}
+
+    def find_flat(start):
+        seen, stack = {start}, [start]
+        while stack:
+            i = stack.pop()
+            if nodes[i].kind == PRIMITIVE and nodes[i].name in FLAT_PRIMITIVES:
+                return i
+            for c in nodes[i].children:
+                if c not in seen:
+                    seen.add(c)
+                    stack.append(c)
+        return None
+
+    errors = []
+    for i, n in enumerate(nodes):
+        if n.kind not in (INTERSECTION, DIFFERENCE):
+            continue
+        for side, c in enumerate(n.children):
+            if c not in flat_below:
+                flat_below[c] = find_flat(c)
+            f = flat_below[c]
+            if f is not None:
+                op = "∩" if n.kind == INTERSECTION else "\\"
+                prim = nodes[f].name
+                errors.append(_diag(graph, "error", f"'{prim}' is flat (it has no inside) but the "
+                                    f"{'left' if side == 0 else 'right'} operand of '{op}' derives "
+                                    f"it; flat primitives may only be combined by '∪'",
+                                    n.edge_spans[side], "flat-primitive",
+                                    [(nodes[f].span, f"'{prim}' used here")] if nodes[f].span else []))
+    return errors
+
+
+def unused_modules(graph: Graph) -> list[Diagnostic]:
+    live = reachable(graph)
+    return [_diag(graph, "warning", f"module '{name}' is never used: the axiom does not reach it",
+                  graph.nodes[i].span, "unused")
+            for name, i in graph.modules.items() if not live[i]]
+
+
+def endless_cycles(graph: Graph) -> list[Diagnostic]:
+    """A module that can reach itself along a cycle on which no parameter that its
+    selection reads is assigned picks the same rule forever: it never terminates."""
+    nodes, table, names = graph.nodes, graph.exprs, graph.param_names
+    live = reachable(graph)
+    out = []
+    for m, s in enumerate(nodes):
+        if s.kind != SELECT or not live[m] or table.uses_rand(s.exprs[0]):
+            continue
+        reads = {graph.params[p] for p in table.reads(s.exprs[0])}
+        closing = []             # (parent, child number) of edges that close such a cycle
+        seen, stack = {m}, [m]
+        while stack:
+            i = stack.pop()
+            n = nodes[i]
+            if n.kind == CALC and i != m and reads & set(n.targets):
+                continue         # this path changes what the selection reads
+            for k, c in enumerate(n.children):
+                if c == m:
+                    closing.append((i, k))
+                elif c not in seen:
+                    seen.add(c)
+                    stack.append(c)
+        if not closing:
+            continue
+        what = ", ".join(sorted(names[r] for r in reads)) if reads else None
+        because = (f"without changing {what}, which its selection reads" if what else
+                   "and its selection reads no parameter")
+        spans = sorted((nodes[p].edge_spans[k] for p, k in closing), key=lambda sp: sp[0])
+        notes = [(sp, "another such cycle closes here") for sp in spans[1:]]
+        out.append(_diag(graph, "warning", f"'{s.name}' can call itself here {because}: this "
+                         f"cycle never terminates (group operands with parentheses, e.g. "
+                         f"'{{...}} (A ∪ B)', if a calculation block should apply to all of them)",
+                         spans[0], "endless", notes))
+    return out
+
+
+def non_contracting_cycles(graph: Graph) -> list[Diagnostic]:
+    """Walk the derivation for a while with real parameter values; a module instance
+    nested PROBE_REPEATS times in itself with transformations that do not shrink
+    (largest singular value ≥ 1 between successive instances) is reported, since
+    neither hyper-bounding boxes nor the pixel-size level of detail can cut it."""
+    d = Deriver(graph)
+    nodes = graph.nodes
+    reported: dict[int, Diagnostic] = {}
+    budget = [PROBE_NODES]
+    state, h = d.initial()
+    # stack items: (node, state, hash, world-from-local linear map, {module: (map, repeats)}, edge)
+    stack = [(graph.root, state, h, np.eye(3), {}, None)]
+    while stack and budget[0] > 0:
+        i, state, h, lin, seen, edge = stack.pop()
+        budget[0] -= 1
+        n = nodes[i]
+        try:
+            if n.kind == SELECT:
+                prev = seen.get(i)
+                repeats = 0
+                if prev is not None:
+                    rel = np.linalg.solve(prev[0], lin) if np.linalg.det(prev[0]) != 0 else lin
+                    norm = np.linalg.norm(rel, 2)
+                    repeats = prev[1] + 1 if not norm < 1 - 1e-9 else 0
+                    if repeats >= PROBE_REPEATS and i not in reported and edge is not None:
+                        reported[i] = _diag(graph, "warning", f"'{n.name}' calls itself here "
+                                            f"{repeats} times in a row through transformations "
+                                            f"that do not contract (scale {norm:.3g} per cycle): "
+                                            f"bounding boxes and the level of detail cannot "
+                                            f"stop it", edge, "non-contracting")
+                seen = {**seen, i: (lin, repeats)}
+                r = d.select(i, state, h)
+                stack.append((n.children[r], state, d.edge(h, i, r), lin, seen, n.edge_spans[r]))
+                continue
+            if n.kind == CALC:
+                state = d.calc(i, state, h)
+            elif n.kind == TRANSFORM:
+                lin = lin @ d.matrix(i, state)[:3, :3]
+            for k, c in enumerate(n.children):
+                child_h = d.edge(h, i, k) if len(n.children) > 1 else h
+                stack.append((c, state, child_h, lin, seen, n.edge_spans[k]))
+        except PcsgError:
+            continue     # runtime errors are the renderer's to report, not a static check's
+    return list(reported.values())

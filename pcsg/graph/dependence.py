@@ -1,0 +1,41 @@
+"""Which parameters can change what a node derives (its selections), so that
+memoised walks key on those alone and not on the whole parameter state."""
+from __future__ import annotations
+
+from .model import CALC, SELECT, Graph
+
+RAND = "<rand>"     # stands for the instance hash: a rand() decides a selection
+
+
+def structural_params(graph: Graph) -> list[frozenset]:
+    """For each node, the parameters (and RAND) whose values on entry decide its derivation."""
+    table = graph.exprs
+    nodes = graph.nodes
+    rel = [frozenset()] * len(nodes)
+
+    def reads(expr):
+        r = set(table.reads(expr))
+        if table.uses_rand(expr):
+            r.add(RAND)
+        return r
+
+    changed = True
+    while changed:          # monotone over a finite lattice: ends
+        changed = False
+        for i, n in enumerate(nodes):
+            live = set()
+            for c in n.children:
+                live |= rel[c]
+            if n.kind == SELECT:
+                live |= reads(n.exprs[0])
+            elif n.kind == CALC:
+                names = graph.param_names
+                for slot, expr in reversed(list(zip(n.targets, n.exprs))):
+                    if names[slot] in live:
+                        live.discard(names[slot])
+                        live |= reads(expr)
+            new = frozenset(live)
+            if new != rel[i]:
+                rel[i] = new
+                changed = True
+    return rel

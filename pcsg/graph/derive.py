@@ -1,0 +1,93 @@
+"""Walking the derivation in Python: parameter states, selections, T-node
+matrices and instance hashes exactly as the tracer computes them."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..language.errors import Diagnostic, PcsgError
+from ..trace import vm
+from ..trace.transforms import matrix
+from .model import Graph, SELECT
+
+
+class State:
+    """Parameter values of one instance plus which of them are assigned."""
+    __slots__ = ("values", "assigned")
+
+    def __init__(self, values: np.ndarray, assigned: int):
+        self.values, self.assigned = values, assigned
+
+    def items(self, graph: Graph):
+        for name, slot in graph.params.items():
+            if self.assigned >> slot & 1:
+                yield name, float(self.values[slot])
+
+
+def format_value(v: float) -> str:
+    """A float as notation text that reads back bit-exactly."""
+    if math.isnan(v):
+        return "(0/0)"
+    if math.isinf(v):
+        return "(1/0)" if v > 0 else "(-1/0)"
+    if v == int(v) and abs(v) < 1e16:
+        return str(int(v)) if v != 0 or math.copysign(1, v) > 0 else "-0"
+    return repr(v)
+
+
+def _salt(h: int, slot: int) -> int:
+    return int(vm.salt(np.uint64(h), slot))
+
+
+class Deriver:
+    def __init__(self, graph: Graph):
+        self.g = graph
+        self.table = graph.exprs
+
+    def initial(self) -> tuple[State, int]:
+        return State(np.full(len(self.g.params), np.nan), 0), int(vm.ROOT_HASH)
+
+    def value(self, expr: int, state: State, inst_hash: int) -> float:
+        return float(self.table.evaluate(expr, state.values, inst_hash))
+
+    def select(self, node_id: int, state: State, h: int) -> int:
+        """The 0-based rule index an S-node picks, or PcsgError naming module and parameters."""
+        node = self.g.nodes[node_id]
+        x = self.value(node.exprs[0], state, _salt(h, 0))
+        rule = int(vm.select_rule(x, len(node.children)))
+        if rule == 0:
+            raise PcsgError([self.selection_error(node_id, state, x)])
+        return rule - 1
+
+    def selection_error(self, node_id: int, state: State, x: float) -> Diagnostic:
+        node = self.g.nodes[node_id]
+        reads = sorted(self.table.reads(node.exprs[0]))
+        values = ", ".join(f"{k} = {format_value(v)}" for k, v in state.items(self.g) if k in reads)
+        what = "is not a finite number" if not math.isfinite(x) else \
+            f"names rule {int(vm.round_half_away(x))}, but '{node.name}' has rules 1..{len(node.children)}"
+        return Diagnostic("error", f"the selection of module '{node.name}' gives {format_value(x)}, "
+                                   f"which {what} (with {values or 'no parameters read'})",
+                          node.span, self.g.source, code="selection")
+
+    def calc(self, node_id: int, state: State, h: int) -> State:
+        node = self.g.nodes[node_id]
+        values, assigned = state.values.copy(), state.assigned
+        for i, (slot, expr) in enumerate(zip(node.targets, node.exprs)):
+            values[slot] = self.table.evaluate(expr, values, _salt(h, i + 1))
+            assigned |= 1 << slot
+        return State(values, assigned)
+
+    def args(self, node_id: int, state: State) -> list[float]:
+        return [self.value(e, state, 0) for e in self.g.nodes[node_id].exprs]
+
+    def matrix(self, node_id: int, state: State) -> np.ndarray:
+        node = self.g.nodes[node_id]
+        return matrix(node.name, self.args(node_id, state))
+
+    @staticmethod
+    def edge(h: int, node_id: int, child: int) -> int:
+        return int(vm.edge_hash(np.uint64(h), node_id, child))
+
+    def is_select(self, node_id: int) -> bool:
+        return self.g.nodes[node_id].kind == SELECT

@@ -1,0 +1,92 @@
+"""`pcsg expand`: N parallel derivation steps of the axiom (the paper's §2.1),
+printed as PCSG text. Modules not yet rewritten stay as names, preceded by a
+calculation block that gives them their parameter values."""
+from __future__ import annotations
+
+from .derive import Deriver, State, format_value
+from .model import CALC, DIFFERENCE, INTERSECTION, MATERIAL, OPERATOR_SYMBOLS, PAINT, PRIMITIVE, \
+    SELECT, TRANSFORM, UNION, Graph
+from .stats import MAX_LEVELS
+
+# Loosest to tightest, as notation §3: ∪, ∩, \, then prefix operators and operands.
+_LEVEL = {UNION: 1, INTERSECTION: 2, DIFFERENCE: 3}
+_PREFIX = 4
+
+
+class _Printer:
+    def __init__(self, graph: Graph, steps: int, max_chars: int):
+        self.g = graph
+        self.d = Deriver(graph)
+        self.steps = steps
+        self.max_chars = max_chars
+        self.size = 0
+
+    def out(self, parts: list, text: str):
+        parts.append(text)
+        self.size += len(text)
+        if self.size > self.max_chars:
+            raise ExpansionTooLarge(self.max_chars)
+
+    def word(self, node_id: int, state: State, h: int, steps: int, need: int, parts: list):
+        """Append the text of node's derivation; parenthesise if looser than `need`."""
+        node = self.g.nodes[node_id]
+        kind = node.kind
+        if kind == SELECT and steps == 0:
+            self._module(node, state, parts, need)
+        elif kind == SELECT:
+            r = self.d.select(node_id, state, h)
+            self.word(node.children[r], state, self.d.edge(h, node_id, r), steps - 1, need, parts)
+        elif kind == CALC:
+            self.word(node.children[0], self.d.calc(node_id, state, h), h, steps, need, parts)
+        elif kind == PRIMITIVE:
+            self.out(parts, node.name)
+        elif kind in _LEVEL:
+            level = _LEVEL[kind]
+            wrap = level < need
+            if wrap:
+                self.out(parts, "(")
+            self.word(node.children[0], state, self.d.edge(h, node_id, 0), steps, level, parts)
+            self.out(parts, f" {OPERATOR_SYMBOLS[kind]} ")
+            self.word(node.children[1], state, self.d.edge(h, node_id, 1), steps, level + 1, parts)
+            if wrap:
+                self.out(parts, ")")
+        else:
+            if kind == TRANSFORM:
+                args = self.d.args(node_id, state)
+                head = node.name + (f"({', '.join(map(format_value, args))})" if args else "")
+            elif kind == PAINT:
+                head = f"paint({', '.join(map(format_value, self.d.args(node_id, state)))})"
+            else:
+                assert kind == MATERIAL
+                head = f"material({node.name})"
+            self.out(parts, head + " ")
+            self.word(node.children[0], state, h, steps, _PREFIX, parts)
+
+    def _module(self, node, state: State, parts: list, need: int):
+        values = "; ".join(f"{k} = {format_value(v)}" for k, v in state.items(self.g))
+        self.out(parts, f"{{{values}}} {node.name}" if values else node.name)
+
+
+class ExpansionTooLarge(Exception):
+    def __init__(self, limit: int):
+        super().__init__(f"the expansion is longer than {limit:,} characters; "
+                         f"use fewer steps or --max-chars")
+
+
+def expand_axiom(graph: Graph, steps: int, max_chars: int = 50_000_000) -> str:
+    """The axiom after `steps` parallel derivation steps, as one CSG expression."""
+    p = _Printer(graph, min(steps, MAX_LEVELS), max_chars)
+    state, h = p.d.initial()
+    parts: list[str] = []
+    p.word(graph.root, state, h, p.steps, 0, parts)
+    return "".join(parts)
+
+
+def expand_file(graph: Graph, steps: int, max_chars: int = 50_000_000) -> str:
+    """The whole file with its axiom replaced by the expansion: a file `pcsg check` accepts.
+    Macros are shown expanded, since the axiom is printed from the expanded text."""
+    axiom = expand_axiom(graph, steps, max_chars)
+    text = graph.source.expanded
+    start, end = graph.axiom_span
+    header = f"// {graph.source.file} after {steps} derivation step{'s' if steps != 1 else ''}\n"
+    return header + text[:start] + axiom + text[end:].rstrip("\n") + "\n"

@@ -1,0 +1,119 @@
+"""`pcsg stats`: node counts, parameters, modules, and the number of
+primitives of the complete derivation, counted without expanding it."""
+from __future__ import annotations
+
+import sys
+from collections import Counter
+
+import numpy as np
+
+from ..language.errors import Diagnostic, PcsgError
+from .dependence import RAND, structural_params
+from .derive import Deriver, format_value
+from .model import CALC, KIND_NAMES, OPERATORS, PRIMITIVE, SELECT, Graph
+
+MAX_LEVELS = 10_000         # derivation levels (S-node nesting) before we call it endless
+MAX_STATES = 2_000_000      # distinct (node, relevant state) pairs before giving up
+
+
+class Endless(Exception):
+    def __init__(self, diagnostic: Diagnostic):
+        self.diagnostic = diagnostic
+
+
+def count_primitives(graph: Graph) -> int:
+    """Primitives in the complete derivation of the axiom."""
+    return sum(count_by_primitive(graph).values())
+
+
+def count_by_primitive(graph: Graph) -> dict[str, int]:
+    """Primitives of each kind in the complete derivation of the axiom (memoised on node
+    and the parameters that can change its derivation). PcsgError if it never ends."""
+    counter = _Counter(graph)
+    limit = sys.getrecursionlimit()
+    sys.setrecursionlimit(max(limit, 12 * MAX_LEVELS + 1000))
+    try:
+        state, h = counter.d.initial()
+        totals = counter.count(graph.root, state, h, 0)
+        return {name: n for name, n in zip(counter.kinds, totals) if n}
+    except Endless as e:
+        raise PcsgError([e.diagnostic]) from None
+    finally:
+        sys.setrecursionlimit(limit)
+
+
+class _Counter:
+    def __init__(self, graph: Graph):
+        self.g = graph
+        self.d = Deriver(graph)
+        self.rel = structural_params(graph)
+        slots = [sorted(graph.params[p] for p in r if p != RAND) for r in self.rel]
+        self.slots = [np.array(s, dtype=np.int64) for s in slots]
+        self.masks = [sum(1 << i for i in s) for s in slots]
+        self.kinds = sorted({n.name for n in graph.nodes if n.kind == PRIMITIVE})
+        self.unit = {k: tuple(int(k == j) for j in self.kinds) for k in self.kinds}
+        self.memo: dict = {}
+        self.active: set = set()
+
+    def key(self, node, state, h):
+        # Bytes, not floats: nan must equal nan here.
+        key = (node, state.values[self.slots[node]].tobytes(), state.assigned & self.masks[node])
+        return key + ((h,) if RAND in self.rel[node] else ())
+
+    def count(self, node_id: int, state, h: int, level: int) -> tuple:
+        """Counts per primitive kind, in the order of self.kinds."""
+        node = self.g.nodes[node_id]
+        if node.kind == PRIMITIVE:
+            return self.unit[node.name]
+        key = self.key(node_id, state, h)
+        hit = self.memo.get(key)
+        if hit is not None:
+            return hit
+        if key in self.active:
+            raise Endless(self._endless(node_id, state, "repeats with the same parameters"))
+        if level > MAX_LEVELS or len(self.memo) > MAX_STATES:
+            raise Endless(self._endless(node_id, state, f"is still being rewritten after "
+                                                        f"{min(level, MAX_LEVELS)} levels"))
+        self.active.add(key)
+        if node.kind == SELECT:
+            r = self.d.select(node_id, state, h)
+            total = self.count(node.children[r], state, self.d.edge(h, node_id, r), level + 1)
+        elif node.kind == CALC:
+            total = self.count(node.children[0], self.d.calc(node_id, state, h), h, level)
+        elif node.kind in OPERATORS.values():
+            parts = [self.count(c, state, self.d.edge(h, node_id, i), level)
+                     for i, c in enumerate(node.children)]
+            total = tuple(map(sum, zip(*parts)))
+        else:       # T, paint, material: one child, same instance
+            total = self.count(node.children[0], state, h, level)
+        self.active.discard(key)
+        self.memo[key] = total
+        return total
+
+    def _endless(self, node_id, state, what) -> Diagnostic:
+        node = self.g.nodes[node_id]
+        name = node.name if node.kind == SELECT else KIND_NAMES[node.kind]
+        values = ", ".join(f"{k} = {format_value(v)}" for k, v in state.items(self.g))
+        return Diagnostic("error", f"the derivation never ends: '{name}' {what} "
+                                   f"({values or 'no parameters'})",
+                          node.span, self.g.source, code="endless")
+
+
+def graph_stats(graph: Graph, count: bool = True) -> dict:
+    kinds = Counter(KIND_NAMES[n.kind] for n in graph.nodes)
+    out = {
+        "file": graph.source.file,
+        "nodes": len(graph.nodes),
+        "node_kinds": {k: kinds.get(k, 0) for k in KIND_NAMES},
+        "modules": {name: len(graph.nodes[i].children) for name, i in graph.modules.items()},
+        "parameters": graph.param_names,
+        "expressions": len(graph.exprs),
+        "bytecode_instructions": int(len(graph.exprs.arrays()["code"])),
+        "primitives": None,
+        "primitives_by_kind": None,
+    }
+    if count:
+        by_kind = count_by_primitive(graph)
+        out["primitives"] = sum(by_kind.values())
+        out["primitives_by_kind"] = by_kind
+    return out

@@ -1,0 +1,94 @@
+"""Diagnostics that point at file:line:col, with the source line and a caret."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from .source import Source
+
+
+@dataclass
+class Diagnostic:
+    severity: str                  # 'error' or 'warning'
+    message: str
+    span: tuple[int, int] | None   # expanded-text offsets, or None for the whole file
+    source: Source | None = None
+    notes: list[tuple[tuple[int, int] | None, str]] = field(default_factory=list)
+    code: str = ""                 # a stable short name of the class, for tests and tools
+    original: int | None = None    # an offset in the file itself, where no expanded text exists
+
+    @property
+    def location(self):
+        if self.source is None:
+            return None
+        if self.original is not None:
+            return self.source.location(self.original)
+        return self.source.locate(self.span[0] if self.span else 0)
+
+    def format(self, show_source: bool = True) -> str:
+        src = self.source
+        if src is None:
+            return f"pcsg: {self.severity}: {self.message}"
+        if self.span is None and self.original is None:
+            return f"{src.file}: {self.severity}: {self.message}"
+        lines = [f"{self.location}: {self.severity}: {self.message}"]
+        if show_source:
+            lines += _excerpt(src, self.span, self.original)
+        for span, text in self._all_notes():
+            if span is None:
+                lines.append(f"{src.file}: note: {text}")
+            else:
+                lines.append(f"{src.locate(span[0])}: note: {text}")
+        return "\n".join(lines)
+
+    def _all_notes(self):
+        """Explicit notes, then the macro chain of the primary span."""
+        out = list(self.notes)
+        if self.span is not None and self.original is None:
+            uses = self.source.macro_uses(self.span[0])
+            inner = self.source.location(self.source.original_offset(self.span[0]))
+            for i, (name, _use, defined) in enumerate(uses):
+                where = self.source.location(defined)
+                what = f"in macro '{name}' defined at {where}"
+                if i == 0:
+                    what += f" (line {inner.line}, column {inner.column} of the file)"
+                out.append((None, what))
+        return out
+
+    def __str__(self):
+        return self.format(show_source=False)
+
+
+def _excerpt(src: Source, span, original=None) -> list[str]:
+    """The source line with a caret run under the span (under the use, for macro text)."""
+    if original is not None:
+        start, width = src.location(original), 1
+    elif src.macro_uses(span[0]):
+        start, width = src.locate(span[0]), len(src.macro_uses(span[0])[-1][0])
+    else:
+        start = src.locate(span[0])
+        end = src.location(src.original_offset(max(span[0], span[1] - 1)))
+        width = (end.column - start.column + 1) if end.line == start.line else 1
+    text = src.line_text(start.line).expandtabs(1)
+    col = start.column
+    if len(text) > 160:
+        lo = max(0, col - 60)
+        text, col = text[lo:lo + 160], col - lo
+    gutter = f"{start.line:>5} | "
+    return [gutter + text, " " * (len(gutter) - 2) + "| " + " " * (col - 1) + "^" * max(1, width)]
+
+
+class PcsgError(Exception):
+    """One or more errors in a .pcsg file; str() is the full report."""
+
+    def __init__(self, diagnostics: list[Diagnostic]):
+        self.diagnostics = diagnostics
+        super().__init__("\n".join(d.format() for d in diagnostics))
+
+    @property
+    def first(self) -> Diagnostic:
+        return self.diagnostics[0]
+
+
+def sort_key(d: Diagnostic):
+    loc = d.location
+    return (loc.offset if loc else -1, d.message)

@@ -1,0 +1,24 @@
+"""The notation's fixed vocabulary: transformations, primitives, functions."""
+
+# name -> number of arguments (notation §4)
+TRANSFORMS = {
+    "move": 3, "scale": 3, "uscale": 1, "rotx": 1, "roty": 1, "rotz": 1, "rot": 4,
+    "zshear": 2, "xshear": 2, "yshear": 2, "flipxy": 0, "flipxz": 0, "flipyz": 0,
+    "mirror": 3, "matrix": 12,
+}
+
+# notation §5; flat primitives have no inside and may only be combined by union
+PRIMITIVES = ("sphere", "cube", "cylinder", "cone", "tetrahedron", "plane", "tri1", "tri2")
+FLAT_PRIMITIVES = frozenset({"tri1", "tri2"})
+
+FUNCTIONS = ("if", "min", "max", "abs", "sqrt", "pow", "exp", "ln", "log", "log10", "sin", "cos",
+             "tan", "asin", "acos", "atan", "atan2", "deg", "rad", "floor", "ceil", "round",
+             "clamp", "rand")
+
+RESERVED = {
+    **{n: "a transformation" for n in TRANSFORMS},
+    **{n: "a primitive" for n in PRIMITIVES},
+    **{n: "a function" for n in FUNCTIONS},
+    "paint": "the paint operator", "material": "the material operator",
+    "pi": "a constant", "and": "an operator", "or": "an operator", "not": "an operator",
+}

@@ -1,0 +1,281 @@
+"""Text -> AST: preprocess, lark LALR parse (inline transformer, so deep
+nesting builds no intermediate tree and never recurses), positioned errors."""
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+
+from lark import Lark, Token, Transformer
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+
+from . import ast
+from .errors import Diagnostic, PcsgError
+from .postlex import LineJoiner
+from .preprocess import preprocess
+from .source import Source
+
+CSG_OPS = {"∪": "union", "|": "union", "∩": "intersection", "&": "intersection",
+           "\\": "difference", "∖": "difference"}
+ARITH_OPS = {"and": "&&", "or": "||", "not": "!"}
+MAX_FILE_BYTES = 64 * 1024 * 1024
+
+
+def _span(x):
+    if isinstance(x, Token):
+        return (x.start_pos, x.end_pos)
+    return x.span
+
+
+def _join(a, b):
+    return (_span(a)[0], _span(b)[1])
+
+
+class _ToAst(Transformer):
+    """Each callback gets the children of one grammar rule; spans come from tokens."""
+
+    # ---- statements
+    def start(self, c):
+        return ast.Program([s for s in c if s is not None])
+
+    def rule(self, c):
+        num, name, _arrow, body = c
+        return ast.Rule(int(num), str(name), body, _join(num, body), _span(num), _span(name))
+
+    def decl(self, c):
+        name, sel = c
+        return ast.ModuleDecl(str(name), sel, _join(name, sel), _span(name))
+
+    def named(self, c):
+        name, _eq, body = c
+        return ast.Named(str(name), body, _join(name, body), _span(name))
+
+    def axiom(self, c):
+        return ast.Axiom(c[0], c[0].span)
+
+    def directive(self, c):
+        kind, rest = c[0], c[1:]
+        name = None
+        if rest and isinstance(rest[0], Token):
+            name, rest = str(rest[0]), rest[1:]
+        end = rest[-1] if rest else (c[1] if len(c) > 1 else kind)
+        return ast.Directive(str(kind)[1:], name, list(rest), _join(kind, end), _span(kind))
+
+    def dir_item(self, c):
+        key, _eq, value = c
+        return ast.DirectiveItem(str(key), value, _join(key, value), _span(key))
+
+    def tuple(self, c):
+        items = [x for x in c if not isinstance(x, Token)]
+        return ast.Tuple(items, _join(c[0], c[-1]))
+
+    # ---- CSG
+    def csg_op(self, c):
+        left, op, right = c
+        return ast.CsgOp(CSG_OPS[str(op)], left, right, _join(left, right), _span(op))
+
+    def transform(self, c):
+        name, _l, args, close, operand = c
+        return ast.Transform(str(name), args or [], operand, _join(name, operand), _join(name, close))
+
+    def flip(self, c):
+        name, operand = c
+        return ast.Transform(str(name), [], operand, _join(name, operand), _span(name))
+
+    def calculation(self, c):
+        block, operand = c
+        assigns, span = block
+        return ast.Calc(assigns, operand, (span[0], operand.span[1]), span)
+
+    def calc(self, c):
+        return ([x for x in c if isinstance(x, ast.Assign)], _join(c[0], c[-1]))
+
+    def assign(self, c):
+        name, _eq, value = c
+        return ast.Assign(str(name), value, _join(name, value), _span(name))
+
+    def paint(self, c):
+        head, _l, args, close, operand = c
+        return ast.Paint(args or [], operand, _join(head, operand), _join(head, close))
+
+    def material(self, c):
+        head, _l, name, close, operand = c
+        return ast.Material(str(name), operand, _join(head, operand), _join(head, close), _span(name))
+
+    def ref(self, c):
+        return ast.Ref(str(c[0]), _span(c[0]))
+
+    def group(self, c):
+        # Parentheses only group; the span widens to include them for carets.
+        inner = c[1]
+        inner.span = _join(c[0], c[2])
+        return inner
+
+    # ---- arithmetic
+    def args(self, c):
+        return list(c)
+
+    def binary(self, c):
+        left, op, right = c
+        return ast.Binary(ARITH_OPS.get(str(op), str(op)), left, right, _join(left, right))
+
+    def unary(self, c):
+        op, operand = c
+        return ast.Unary(ARITH_OPS.get(str(op), str(op)), operand, _join(op, operand))
+
+    def number(self, c):
+        return ast.Num(float(c[0]), _span(c[0]))
+
+    def var(self, c):
+        return ast.Var(str(c[0]), _span(c[0]))
+
+    def call(self, c):
+        name, _l, args, close = c
+        return ast.Call(str(name), args or [], _join(name, close), _span(name))
+
+
+@functools.lru_cache(maxsize=1)
+def _lark() -> tuple[Lark, LineJoiner]:
+    joiner = LineJoiner()
+    grammar = (Path(__file__).with_name("pcsg.lark")).read_text(encoding="utf-8")
+    parser = Lark(grammar, parser="lalr", lexer="contextual", postlex=joiner,
+                  transformer=_ToAst(), maybe_placeholders=True, cache=True)
+    return parser, joiner
+
+
+def read_source_text(path: str | Path) -> str:
+    """Read a .pcsg file as UTF-8 text; PcsgError (not OSError) for anything unreadable."""
+    name = str(path)
+    try:
+        p = Path(path)
+        if p.is_dir():
+            raise PcsgError([Diagnostic("error", "is a directory, not a .pcsg file", None,
+                                        Source(name, ""), code="io")])
+        size = p.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise PcsgError([Diagnostic("error", f"file is {size / 1e6:.0f} MB; pcsg reads grammars "
+                                        f"of up to {MAX_FILE_BYTES // 2**20} MiB", None,
+                                        Source(name, ""), code="io")])
+        data = p.read_bytes()
+    except OSError as e:
+        raise PcsgError([Diagnostic("error", f"cannot read: {e.strerror or e}", None,
+                                    Source(name, ""), code="io")]) from None
+    return decode(data, name)
+
+
+def decode(data: bytes, name: str) -> str:
+    if b"\x00" in data:
+        raise PcsgError([Diagnostic("error", "this is a binary file, not PCSG text", None,
+                                    Source(name, ""), code="encoding")])
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        text = data[:e.start].decode("utf-8", "replace")
+        src = Source(name, text)
+        raise PcsgError([Diagnostic("error", f"not UTF-8 text (byte 0x{data[e.start]:02x})", None,
+                                    src, code="encoding", original=len(text))]) from None
+
+
+def parse(text: str, file: str = "<string>") -> tuple[ast.Program, Source]:
+    """Parse PCSG text; raises PcsgError with every macro error or the first syntax error."""
+    source, errors = preprocess(text, file)
+    if errors:
+        raise PcsgError(errors)
+    parser, joiner = _lark()
+    try:
+        program = parser.parse(source.expanded)
+    except UnexpectedInput as e:
+        raise PcsgError([_syntax_error(e, source, joiner)]) from None
+    return program, source
+
+
+def parse_file(path: str | Path) -> tuple[ast.Program, Source]:
+    return parse(read_source_text(path), str(path))
+
+
+# ---- syntax errors that say what was expected, in the notation's words ----
+
+_FRIENDLY = {
+    "NAME": "a name", "NUMBER": "a number", "INT": "a rule number", "_NL": "end of line",
+    "$END": "end of file", "ARROW": "'→'", "EQUAL": "'='", "LPAR": "'('", "RPAR": "')'",
+    "LBRACE": "'{'", "RBRACE": "'}'", "UNION": "'∪'", "INTER": "'∩'", "DIFF": "'\\'",
+    "TRANSFORM": "a transformation", "FLIP": "a flip", "PAINT": "'paint'",
+    "MATERIAL": "'material'", "DIRECTIVE": "a directive", "COLON": "':'", "COMMA": "','",
+    "SEMICOLON": "';'", "CMP": "a comparison", "PLUS": "'+'", "MINUS": "'-'", "STAR": "'*'",
+    "SLASH": "'/'", "PERCENT": "'%'", "CARET": "'^'", "BANG": "'!'", "NOT": "'not'",
+    "OR": "'||'", "AND": "'&&'",
+}
+_OPERAND = {"NAME", "LPAR", "TRANSFORM", "FLIP", "PAINT", "MATERIAL", "LBRACE"}
+_RESERVED_TOKENS = {"TRANSFORM": "a transformation", "FLIP": "a transformation",
+                    "PAINT": "the paint operator", "MATERIAL": "the material operator",
+                    "NOT": "an operator"}
+
+
+def _expected(names) -> str:
+    names = set(names)
+    parts = []
+    if _OPERAND <= names:
+        parts.append("an operand (a name, '(', a transformation, '{' or paint/material)")
+        names -= _OPERAND
+    elif {"NUMBER", "NAME", "LPAR", "MINUS"} <= names:
+        parts.append("an arithmetic expression")
+        names -= {"NUMBER", "NAME", "LPAR", "MINUS", "PLUS", "BANG", "NOT"}
+    names -= {"_NL"} if ("$END" in names or parts) else set()
+    parts += sorted(_FRIENDLY.get(n, n) for n in names)
+    if len(parts) > 6:
+        parts = parts[:6] + ["..."]
+    return ", ".join(parts)
+
+
+def _describe(tok: Token) -> str:
+    if tok.type == "$END":
+        return "end of file"
+    if tok.type == "_NL":
+        return "end of line"
+    return f"'{tok.value}'"
+
+
+def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner) -> Diagnostic:
+    text = source.expanded
+    notes = []
+    if isinstance(e, UnexpectedCharacters):
+        pos = e.pos_in_stream
+        ch = text[pos] if pos < len(text) else ""
+        if text.startswith("/*", pos):
+            msg = "comment opened with '/*' is never closed"
+        elif ch == "[" or ch == "]":
+            msg = f"unexpected '{ch}': square brackets are not part of the notation"
+        else:
+            msg = f"unexpected character {ch!r}"
+        return Diagnostic("error", msg, (pos, pos + 1), source, code="syntax")
+    if isinstance(e, UnexpectedEOF) or (isinstance(e, UnexpectedToken) and e.token.type == "$END"):
+        pos = len(text)
+        expected = getattr(e, "expected", None) or getattr(e, "accepts", None) or set()
+        msg = "unexpected end of file"
+        if joiner.open_brackets:
+            b = joiner.open_brackets[-1]
+            msg += f": '{b.value}' is never closed"
+            notes.append(((b.start_pos, b.end_pos), f"'{b.value}' opened here"))
+            pos = b.start_pos
+        elif expected:
+            msg += f", expected {_expected(expected)}"
+        return Diagnostic("error", msg, (pos, pos + 1), source, notes=notes, code="syntax")
+    tok = e.token
+    span = (tok.start_pos, max(tok.end_pos, tok.start_pos + 1))
+    expected = e.accepts or e.expected
+    if tok.type in _RESERVED_TOKENS and ("NAME" in expected or tok.type in ("TRANSFORM", "FLIP")
+                                        and "EQUAL" not in expected and _next_is_eq(text, tok)):
+        msg = f"'{tok.value}' is a reserved name ({_RESERVED_TOKENS[tok.type]})"
+    elif tok.type in _RESERVED_TOKENS and _next_is_eq(text, tok):
+        msg = f"'{tok.value}' is a reserved name ({_RESERVED_TOKENS[tok.type]})"
+    elif tok.type == "_NL" and joiner.open_brackets:
+        msg = f"unexpected end of line, expected {_expected(expected)}"
+    else:
+        msg = f"unexpected {_describe(tok)}, expected {_expected(expected)}"
+    if tok.type == "NUMBER" and "INT" in expected:
+        msg = f"rule numbers are whole numbers, not '{tok.value}'"
+    return Diagnostic("error", msg, span, source, code="syntax")
+
+
+def _next_is_eq(text: str, tok: Token) -> bool:
+    rest = text[tok.end_pos:tok.end_pos + 200].lstrip(" \t")
+    return rest.startswith("=") and not rest.startswith("==")

@@ -1,0 +1,41 @@
+"""Line joining (notation §2): a newline ends a statement unless a bracket
+is open or the line ends with a binary CSG operator, an arrow or `=`.
+Inside a `{...}` block a newline separates assignments, so it is kept there."""
+from __future__ import annotations
+
+from lark import Token
+
+JOINERS = {"UNION", "INTER", "DIFF", "ARROW", "EQUAL"}
+OPENERS = {"LPAR": ")", "LBRACE": "}"}
+CLOSERS = {"RPAR", "RBRACE"}
+
+
+class LineJoiner:
+    always_accept = ("_NL",)
+
+    def __init__(self):
+        self.open_brackets: list[Token] = []
+
+    def process(self, stream):
+        self.open_brackets = []
+        prev = None
+        last = None
+        for tok in stream:
+            kind = tok.type
+            if kind == "_NL":
+                inside = self.open_brackets[-1].type if self.open_brackets else None
+                if inside == "LPAR" or prev in JOINERS or prev in (None, "_NL"):
+                    continue
+                prev = "_NL"
+                yield tok
+                continue
+            if kind in OPENERS:
+                self.open_brackets.append(tok)
+            elif kind in CLOSERS and self.open_brackets:
+                self.open_brackets.pop()
+            prev = kind
+            last = tok
+            yield tok
+        if prev not in (None, "_NL") and last is not None:
+            # The file's last statement needs its end, even without a final newline.
+            yield Token.new_borrow_pos("_NL", "", last)

@@ -1,0 +1,163 @@
+"""`#define` (notation §2): textual, C-like macros without arguments.
+
+The expanded text is assembled from pieces of the original file; each piece
+remembers where it came from and through which macro uses, so that a
+diagnostic can name both the place of use and the place of definition.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from .errors import Diagnostic
+from .source import Piece, Source
+
+# Numbers are matched so that the `e5` of `1e5` is never taken for a name.
+_TOKEN = re.compile(
+    r"(?P<comment>//[^\n]*|/\*.*?(?:\*/|\Z))"
+    r"|(?P<define>^[ \t]*\#define\b)"
+    r"|(?P<number>(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)"
+    r"|(?P<name>[A-Za-z_][A-Za-z0-9_]*)",
+    re.S | re.M,
+)
+_BRACE = re.compile(r"//[^\n]*|/\*.*?(?:\*/|\Z)|[{}]", re.S)
+_NAME = re.compile(r"[ \t]*([A-Za-z_][A-Za-z0-9_]*)")
+MAX_EXPANSION = 50_000_000
+
+
+@dataclass
+class Macro:
+    name: str
+    body: tuple[int, int]     # the replacement: a range of the original text
+    defined: int              # offset of the macro's name in its #define
+
+
+class _Expander:
+    def __init__(self, text: str, source: Source):
+        self.text = text
+        self.source = source
+        self.macros: dict[str, Macro] = {}
+        self.out: list[str] = []
+        self.pieces: list[Piece] = []
+        self.length = 0
+        self.errors: list[Diagnostic] = []
+
+    def emit(self, start: int, end: int, uses: tuple):
+        if end <= start:
+            return
+        self.pieces.append(Piece(self.length, start, uses))
+        self.out.append(self.text[start:end])
+        self.length += end - start
+        if self.length > MAX_EXPANSION:
+            raise _TooLarge
+
+    def error(self, offset: int, message: str):
+        self.errors.append(Diagnostic("error", message, None, self.source, code="macro",
+                                      original=offset))
+
+    def expand(self, start: int, end: int, uses: tuple, active: frozenset, top: bool):
+        """Copy text[start:end], replacing macro names (and, at top level, consuming #define)."""
+        text, pos = self.text, start
+        while pos < end:
+            m = _TOKEN.search(text, pos, end)
+            if m is None:
+                break
+            kind = m.lastgroup
+            if kind == "define":
+                if not top:
+                    pos = m.end()
+                    continue
+                self.emit(pos, m.start(), uses)
+                pos = self.define(m.start(), m.end())
+                continue
+            if kind == "name" and m.group() in self.macros and m.group() not in active:
+                macro = self.macros[m.group()]
+                self.emit(pos, m.start(), uses)
+                inner = ((macro.name, m.start(), macro.defined),) + uses
+                self.expand(*macro.body, inner, active | {macro.name}, top=False)
+                # An empty expansion still marks its place, so errors can point at the use.
+                self.pieces.append(Piece(self.length, m.start(), uses))
+                pos = m.end()
+                continue
+            self.emit(pos, m.end(), uses)
+            pos = m.end()
+        self.emit(pos, end, uses)
+
+    def define(self, start: int, directive_end: int) -> int:
+        """Register a #define; emit its newlines so that line numbers stay put."""
+        text = self.text
+        m = _NAME.match(text, directive_end)
+        line_end = text.find("\n", directive_end)
+        line_end = len(text) if line_end < 0 else line_end
+        if m is None or m.end() > line_end:
+            self.error(start, "#define needs a name")
+            return self._blank(start, line_end)
+        name, after = m.group(1), m.end()
+        rest = text[after:line_end]
+        body_start = after + len(rest) - len(rest.lstrip())
+        stripped = _strip_comment(rest).strip()
+        if stripped.startswith("{"):
+            end = self._block_end(body_start, name)
+            body = (body_start, end)
+        elif not stripped and self._next_line_starts_block(line_end):
+            brace = text.index("{", line_end)
+            end = self._block_end(brace, name)
+            body = (brace, end)
+        else:
+            end = line_end
+            body = (body_start, body_start + len(stripped))
+        if name in self.macros:
+            first = self.source.location(self.macros[name].defined)
+            self.error(m.start(1), f"macro '{name}' is defined twice (first at {first})")
+        else:
+            self.macros[name] = Macro(name, body, m.start(1))
+        return self._blank(start, end)
+
+    def _blank(self, start: int, end: int) -> int:
+        for i in range(start, end):
+            if self.text[i] == "\n":
+                self.emit(i, i + 1, ())
+        return end
+
+    def _next_line_starts_block(self, line_end: int) -> bool:
+        nxt = self.text[line_end + 1:line_end + 1 + 4096].lstrip(" \t\r")
+        return nxt.startswith("{")
+
+    def _block_end(self, brace: int, name: str) -> int:
+        depth = 0
+        for m in _BRACE.finditer(self.text, brace):
+            if m.group() == "{":
+                depth += 1
+            elif m.group() == "}":
+                depth -= 1
+                if depth == 0:
+                    return m.end()
+        self.error(brace, f"the '{{' of macro '{name}' is never closed")
+        return len(self.text)
+
+
+class _TooLarge(Exception):
+    pass
+
+
+def _strip_comment(line: str) -> str:
+    m = re.search(r"//|/\*", line)
+    return line if m is None else line[:m.start()]
+
+
+def preprocess(text: str, file: str) -> tuple[Source, list[Diagnostic]]:
+    """Expand the macros of `text`; return the Source (with its map) and any errors."""
+    if "#define" not in text:
+        return Source(file, text, text, [Piece(0, 0)]), []
+    source = Source(file, text)
+    ex = _Expander(text, source)
+    try:
+        ex.expand(0, len(text), (), frozenset(), top=True)
+    except _TooLarge:
+        ex.errors.append(Diagnostic(
+            "error", f"macro expansion exceeds {MAX_EXPANSION // 1_000_000} million characters "
+                     "(a macro that uses itself through another?)", None, source, code="macro"))
+    expanded = Source(file, text, "".join(ex.out), ex.pieces)
+    for d in ex.errors:
+        d.source = expanded
+    return expanded, ex.errors

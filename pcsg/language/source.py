@@ -1,0 +1,71 @@
+"""A source file and the map from its macro-expanded text back to the file."""
+from __future__ import annotations
+
+import bisect
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class Location:
+    file: str
+    line: int        # 1-based
+    column: int      # 1-based, in characters
+    offset: int      # 0-based offset in the original text
+
+    def __str__(self):
+        return f"{self.file}:{self.line}:{self.column}"
+
+
+@dataclass(frozen=True)
+class Piece:
+    """Expanded text [start, start+len) is a copy of original text from `origin`.
+
+    `uses` lists, innermost macro first, (macro name, offset of the use,
+    offset of the definition's name) for text that came out of a macro body.
+    """
+    start: int
+    origin: int
+    uses: tuple = ()
+
+
+@dataclass
+class Source:
+    file: str
+    text: str                       # the original file
+    expanded: str = ""              # after #define
+    pieces: list[Piece] = field(default_factory=list)
+
+    def __post_init__(self):
+        self._line_starts = [0] + [i + 1 for i, ch in enumerate(self.text) if ch == "\n"]
+        self._piece_starts = [p.start for p in self.pieces]
+
+    def _piece(self, offset: int) -> Piece | None:
+        i = bisect.bisect_right(self._piece_starts, offset) - 1
+        return self.pieces[i] if i >= 0 else None
+
+    def location(self, original_offset: int) -> Location:
+        off = max(0, min(original_offset, len(self.text)))
+        line = bisect.bisect_right(self._line_starts, off)
+        return Location(self.file, line, off - self._line_starts[line - 1] + 1, off)
+
+    def original_offset(self, expanded_offset: int) -> int:
+        p = self._piece(expanded_offset)
+        if p is None:
+            return expanded_offset
+        return p.origin + (expanded_offset - p.start)
+
+    def macro_uses(self, expanded_offset: int) -> tuple:
+        p = self._piece(expanded_offset)
+        return p.uses if p else ()
+
+    def locate(self, expanded_offset: int) -> Location:
+        """Where the user should look: for macro text, the outermost place of use."""
+        uses = self.macro_uses(expanded_offset)
+        if uses:
+            return self.location(uses[-1][1])
+        return self.location(self.original_offset(expanded_offset))
+
+    def line_text(self, line: int) -> str:
+        start = self._line_starts[line - 1]
+        end = self.text.find("\n", start)
+        return self.text[start:] if end < 0 else self.text[start:end]

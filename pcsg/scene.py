@@ -1,0 +1,72 @@
+"""Scene directives (notation §8): #camera, #light, #sky, #material."""
+from __future__ import annotations
+
+from .graph.model import Scene
+from .language import ast
+
+# directive -> key -> number of values
+DIRECTIVES = {
+    "camera": {"eye": 3, "at": 3, "up": 3, "fov": 1},
+    "light": {"at": 3, "color": 3, "radius": 1},
+    "sky": {"color": 3, "horizon": 3, "zenith": 3},
+    "material": {"color": 3, "diffuse": 1, "specular": 1, "shininess": 1, "reflect": 1,
+                 "ior": 1, "transmit": 1},
+}
+MATERIAL_DEFAULTS = {"color": (0.8, 0.8, 0.8), "diffuse": 0.7, "specular": 0.3, "shininess": 40.0,
+                     "reflect": 0.0, "ior": 1.0, "transmit": 0.0}
+
+
+def _known(words) -> str:
+    return ", ".join(sorted(words))
+
+
+def build_scene(directives: list[ast.Directive], constants, report) -> Scene:
+    """Evaluate directives; `constants(node)` compiles a parameter-free expression to a float
+    (reporting its own errors); `report(span, message, code)` reports the rest."""
+    scene = Scene()
+    seen: dict[str, ast.Directive] = {}
+    for d in directives:
+        keys = DIRECTIVES.get(d.kind)
+        if keys is None:
+            report(d.kind_span, f"unknown directive '#{d.kind}' (known: "
+                                f"{_known('#' + k for k in DIRECTIVES)}, #define)", "directive")
+            continue
+        if d.kind == "material":
+            if d.name is None:
+                report(d.kind_span, "#material needs a name: #material NAME color=(r,g,b) ...",
+                       "directive")
+                continue
+        elif d.name is not None:
+            report(d.kind_span, f"#{d.kind} takes no name, only key=value pairs", "directive")
+        if d.kind in ("camera", "sky") and d.kind in seen:
+            report(d.kind_span, f"a second #{d.kind}; a file has at most one", "directive")
+            continue
+        seen[d.kind] = d
+        values = {}
+        for item in d.items:
+            want = keys.get(item.key)
+            if want is None:
+                report(item.key_span, f"unknown key '{item.key}' for #{d.kind} "
+                                      f"(known: {_known(keys)})", "directive")
+                continue
+            if item.key in values:
+                report(item.key_span, f"'{item.key}' is given twice", "directive")
+                continue
+            parts = item.value.items if isinstance(item.value, ast.Tuple) else [item.value]
+            if len(parts) != want:
+                shape = "a number" if want == 1 else f"{want} values in parentheses"
+                report(item.value.span, f"'{item.key}' takes {shape}, got {len(parts)}", "directive")
+                continue
+            nums = tuple(constants(p) for p in parts)
+            values[item.key] = nums[0] if want == 1 else nums
+        if d.kind == "camera":
+            scene.camera = values
+        elif d.kind == "light":
+            scene.lights.append(values)
+        elif d.kind == "sky":
+            scene.sky = values
+        elif d.name in scene.materials:
+            report(d.kind_span, f"material '{d.name}' is defined twice", "directive")
+        else:
+            scene.materials[d.name] = {**MATERIAL_DEFAULTS, **values}
+    return scene
