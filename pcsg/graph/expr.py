@@ -54,7 +54,13 @@ def _arity_text(name, lo, hi, got):
 
 
 class ExprTable:
-    """All compiled expressions of one graph, sharing a code array and constant pool."""
+    """All compiled expressions of one graph, sharing a code array and constant pool.
+
+    params maps parameter names to slots of the params array given to the VM.
+    report(span, message, code) receives every error, code being one of
+    'undefined-name', 'unknown-function', 'arity'; the offending node compiles
+    to nan so that compilation goes on and collects them all.
+    """
 
     def __init__(self, params: dict[str, int], report):
         self.params = params
@@ -107,8 +113,11 @@ class ExprTable:
     def evaluate(self, idx, params, inst_hash: int = 0) -> float:
         a = self.arrays()
         _, start, end, depth = self._exprs[idx]
-        return float(vm.eval_expr(a['code'], a['consts'], start, end,
-                                  np.asarray(params, dtype=np.float64),
+        values = np.ascontiguousarray(params, dtype=np.float64)
+        need = max((self.params[n] for n in self.reads(idx)), default=-1)
+        if values.ndim != 1 or values.size <= need:
+            raise ValueError(f"expression {idx} reads slot {need}; got {values.shape} values")
+        return float(vm.eval_expr(a['code'], a['consts'], start, end, values,
                                   np.uint64(int(inst_hash) & 0xFFFFFFFFFFFFFFFF),
                                   np.empty(max(depth, 1))))
 

@@ -3,6 +3,7 @@ nesting builds no intermediate tree and never recurses), positioned errors."""
 from __future__ import annotations
 
 import functools
+import re
 from pathlib import Path
 
 from lark import Lark, Token, Transformer
@@ -10,6 +11,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 
 from . import ast
 from .errors import Diagnostic, PcsgError
+from .names import RESERVED
 from .postlex import LineJoiner
 from .preprocess import preprocess
 from .source import Source
@@ -262,18 +264,38 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner) -> Dia
     tok = e.token
     span = (tok.start_pos, max(tok.end_pos, tok.start_pos + 1))
     expected = e.accepts or e.expected
-    if tok.type in _RESERVED_TOKENS and ("NAME" in expected or tok.type in ("TRANSFORM", "FLIP")
-                                        and "EQUAL" not in expected and _next_is_eq(text, tok)):
+    word = _word_before(text, tok.start_pos)
+    if tok.value == "/" and text.startswith("/*", tok.start_pos):
+        msg = "comment opened with '/*' is never closed"
+    elif tok.type in _RESERVED_TOKENS and ("NAME" in expected or _next_is_eq(text, tok)):
         msg = f"'{tok.value}' is a reserved name ({_RESERVED_TOKENS[tok.type]})"
-    elif tok.type in _RESERVED_TOKENS and _next_is_eq(text, tok):
-        msg = f"'{tok.value}' is a reserved name ({_RESERVED_TOKENS[tok.type]})"
+    elif tok.type == "EQUAL" and word and word[0] in RESERVED:
+        msg = f"'{word[0]}' is a reserved name ({RESERVED[word[0]]}) and cannot be defined"
+        span = word[1]
+    elif tok.type == "NUMBER" and tok.value.startswith(".") and "COLON" in expected:
+        msg = "rule numbers are whole numbers"
+        span = (text.rfind("\n", 0, tok.start_pos) + 1, tok.end_pos)
+    elif tok.type in ("UNION", "INTER", "DIFF") and _starts_line(text, tok):
+        msg = (f"a line cannot start with '{tok.value}': to continue the line before, end that "
+               f"line with the operator instead")
     elif tok.type == "_NL" and joiner.open_brackets:
         msg = f"unexpected end of line, expected {_expected(expected)}"
     else:
         msg = f"unexpected {_describe(tok)}, expected {_expected(expected)}"
-    if tok.type == "NUMBER" and "INT" in expected:
-        msg = f"rule numbers are whole numbers, not '{tok.value}'"
     return Diagnostic("error", msg, span, source, code="syntax")
+
+
+def _word_before(text: str, pos: int):
+    m = re.search(r"([A-Za-z_][A-Za-z0-9_]*)[ \t]*$", text[max(0, pos - 200):pos])
+    if m is None:
+        return None
+    base = max(0, pos - 200)
+    return m.group(1), (base + m.start(1), base + m.end(1))
+
+
+def _starts_line(text: str, tok: Token) -> bool:
+    before = text[:tok.start_pos].rstrip(" \t")
+    return not before or before.endswith("\n")
 
 
 def _next_is_eq(text: str, tok: Token) -> bool:

@@ -36,6 +36,6 @@ class LineJoiner:
             prev = kind
             last = tok
             yield tok
-        if prev not in (None, "_NL") and last is not None:
+        if prev not in (None, "_NL") and last is not None and not self.open_brackets:
             # The file's last statement needs its end, even without a final newline.
             yield Token.new_borrow_pos("_NL", "", last)

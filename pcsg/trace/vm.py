@@ -210,6 +210,12 @@ def select_rule(x, nrules):
 
 @_jit
 def eval_expr(code, consts, start, end, params, inst_hash, stack):
+    """Run rows [start, end) of code; return the value left on top of the stack.
+
+    params: float64 parameter values by slot; inst_hash: uint64 instance hash
+    for rand(), already salted; stack: float64 scratch of the expression's depth.
+    Allocates nothing and never raises on any input value.
+    """
     sp = 0            # number of values on the stack
     nrand = 0         # rand() calls made so far
     pc = start

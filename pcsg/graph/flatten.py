@@ -1,0 +1,66 @@
+"""The complete derivation as a flat list of transformed primitives: the
+deliberately simple reference that the graph tracer is checked against."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..language.errors import Diagnostic, PcsgError
+from .derive import Deriver
+from .model import CALC, MATERIAL, OPERATORS, PAINT, PRIMITIVE, SELECT, TRANSFORM, Graph
+from .stats import MAX_LEVELS
+
+
+@dataclass
+class Instance:
+    primitive: str
+    matrix: np.ndarray            # 4x4, world from the primitive's object frame
+    paint: tuple | None           # the innermost paint(r, g, b) above it
+    material: str | None          # the innermost material(NAME) above it
+    path: tuple                   # CSG operators above it: ((node, child number), ...)
+
+
+def flatten(graph: Graph, max_primitives: int = 1_000_000) -> list[Instance]:
+    """Every primitive of the derivation with its world matrix, in derivation order.
+    Raises PcsgError when there are more than max_primitives."""
+    d = Deriver(graph)
+    nodes = graph.nodes
+    out: list[Instance] = []
+    state, h = d.initial()
+    stack = [(graph.root, state, h, np.eye(4), None, None, (), 0)]
+    while stack:
+        i, state, h, m, paint, material, path, level = stack.pop()
+        n = nodes[i]
+        if level > MAX_LEVELS:
+            raise PcsgError([Diagnostic("error", f"the derivation is deeper than {MAX_LEVELS} "
+                                        f"levels at '{n.name}'", n.span, graph.source,
+                                        code="endless")])
+        if n.kind == PRIMITIVE:
+            out.append(Instance(n.name, m, paint, material, path))
+            if len(out) > max_primitives:
+                raise PcsgError([Diagnostic("error", f"the derivation has more than "
+                                            f"{max_primitives:,} primitives; the reference "
+                                            f"expansion is for small orders", None, graph.source,
+                                            code="too-large")])
+            continue
+        if n.kind == SELECT:
+            r = d.select(i, state, h)
+            stack.append((n.children[r], state, d.edge(h, i, r), m, paint, material, path,
+                          level + 1))
+            continue
+        if n.kind == CALC:
+            state = d.calc(i, state, h)
+        elif n.kind == TRANSFORM:
+            m = m @ d.matrix(i, state)
+        elif n.kind == PAINT:
+            paint = tuple(d.args(i, state))
+        elif n.kind == MATERIAL:
+            material = n.name
+        if n.kind in OPERATORS.values():
+            for k in reversed(range(len(n.children))):   # reversed: left operand first out
+                stack.append((n.children[k], state, d.edge(h, i, k), m, paint, material,
+                              path + ((i, k),), level))
+        else:
+            stack.append((n.children[0], state, h, m, paint, material, path, level))
+    return out

@@ -1,0 +1,41 @@
+from pathlib import Path
+
+import pytest
+
+from pcsg.compiler import compile_text
+from pcsg.language.errors import PcsgError
+
+ROOT = Path(__file__).resolve().parent.parent
+GRAMMARS = ROOT / "grammars"
+
+
+def errors_of(text: str, file: str = "t.pcsg", **overrides) -> list:
+    """The diagnostics compiling `text` raises (fails the test if it compiles)."""
+    with pytest.raises(PcsgError) as e:
+        compile_text(text, file, overrides)
+    return e.value.diagnostics
+
+
+def first_error(text: str, **overrides) -> str:
+    d = errors_of(text, **overrides)[0]
+    return f"{d.location.line}:{d.location.column}: {d.message}" if d.location else d.message
+
+
+SIERPINSKI = """{c = 6} S                          // start node and initialisation of c
+S if(c > 0, 2, 1)                  // module S and its selection function
+1: S → tetrahedron                 // terminating rule
+2: S → {c = c-1} (move(0.5,0.5,0.5) uscale(0.5) S ∪     // generating rule
+                  move(-0.5,-0.5,0.5) uscale(0.5) S ∪
+                  move(0.5,-0.5,-0.5) uscale(0.5) S ∪
+                  move(-0.5,0.5,-0.5) uscale(0.5) S)
+"""
+
+# Fig. 3a exactly as the paper prints it: the block binds to the first operand only.
+FIG3A_AS_PRINTED = """{c=6} S // definition of the start node and initialization of c
+S if(c > 0,2,1) // declaration of the module S and its selection function
+1: S → tetrahedron // terminating rule
+2: S → {c=c-1} move(0.5,0.5,0.5) uscale(0.5) S ∪ // generating rule
+           move(-0.5,-0.5,0.5) uscale(0.5) S ∪
+           move(0.5,-0.5,-0.5) uscale(0.5) S ∪
+           move(-0.5,0.5,-0.5) uscale(0.5) S
+"""
