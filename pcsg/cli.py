@@ -76,7 +76,8 @@ def expand_globs(patterns: list[str]) -> list[str]:
     return out
 
 
-def _report(err: PcsgError | None, warnings, stream=sys.stderr):
+def _report(err: PcsgError | None, warnings, stream=None):
+    stream = stream or sys.stderr
     for w in warnings:
         print(w.format(), file=stream)
     if err is not None:

@@ -71,7 +71,7 @@ class _Counter:
             return hit
         if key in self.active:
             raise Endless(self._endless(node_id, state, "repeats with the same parameters"))
-        if level > MAX_LEVELS or len(self.memo) > MAX_STATES:
+        if node.kind == SELECT and (level >= MAX_LEVELS or len(self.memo) > MAX_STATES):
             raise Endless(self._endless(node_id, state, f"is still being rewritten after "
                                                         f"{min(level, MAX_LEVELS)} levels"))
         self.active.add(key)

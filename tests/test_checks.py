@@ -1,0 +1,72 @@
+"""Static checks: definite assignment over the cyclic graph, termination and contraction."""
+from pcsg.compiler import compile_text
+
+from .conftest import FIG3A_AS_PRINTED, SIERPINSKI, errors_of
+
+
+def warnings_of(text):
+    return compile_text(text, "t.pcsg").warnings
+
+
+class TestDefiniteAssignment:
+    def test_assigned_on_every_path(self):
+        compile_text("{c = 1} S ∪ {c = 2} S\nS if(c > 0, 2, 1)\n1: S → sphere\n2: S → {c = c-1} S")
+
+    def test_assigned_on_some_paths_only(self):
+        errs = errors_of("{c = 1} S ∪ S\nS if(c > 0, 2, 1)\n1: S → sphere\n2: S → {c = c-1} S")
+        assert [(e.location.line, e.location.column, e.code) for e in errs] == \
+            [(2, 6, "unassigned"), (4, 13, "unassigned")]
+
+    def test_assignment_inside_the_cycle_does_not_count_for_the_first_visit(self):
+        # S is first reached without d; the cycle assigns it, but too late
+        errs = errors_of("{c = 2} S\nS if(c > 0, 2, 1)\n1: S → move(d, 0, 0) sphere\n"
+                         "2: S → {c = c-1; d = 1} S")
+        assert errs[0].message.startswith("parameter 'd' may be read before it is assigned")
+        assert (errs[0].location.line, errs[0].location.column) == (3, 13)
+
+    def test_shared_named_expression_needs_it_on_all_uses(self):
+        compile_text("{r = 1} A ∪ {r = 2} move(1,0,0) A\nA = uscale(r) sphere")
+        errs = errors_of("{r = 1} A ∪ move(1,0,0) A\nA = uscale(r) sphere")
+        assert errs[0].location.line == 2
+
+    def test_unreachable_modules_are_not_checked_but_reported(self):
+        w = warnings_of("{p = 1} sphere\n1: T → uscale(q) sphere ∪ {q = 1} sphere")
+        assert [x.code for x in w] == ["unused"]
+
+
+class TestTermination:
+    def test_fig3a_as_printed_never_terminates(self):
+        w = [x for x in warnings_of(FIG3A_AS_PRINTED) if x.code == "endless"]
+        assert len(w) == 1
+        assert w[0].message.startswith("'S' can call itself here without changing c")
+        assert (w[0].location.line, w[0].location.column) == (5, 44)
+        assert len(w[0].notes) == 2          # the other two branches
+
+    def test_fig3a_with_parentheses_is_clean(self):
+        assert warnings_of(SIERPINSKI) == []
+
+    def test_constant_selection_with_a_cycle(self):
+        w = warnings_of("S\n1: S → sphere ∪ move(2,0,0) uscale(0.5) S")
+        assert [x.code for x in w] == ["endless"]
+        assert "its selection reads no parameter" in w[0].message
+
+    def test_random_selection_is_not_reported(self):
+        assert warnings_of("S\nS if(rand() < 0.5, 1, 2)\n1: S → sphere\n"
+                           "2: S → sphere ∪ move(2,0,0) uscale(0.5) S") == []
+
+
+class TestContraction:
+    def test_non_contracting_cycle_is_reported(self):
+        w = warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
+                        "2: S → sphere ∪ {n = n-1} move(2,0,0) S")
+        assert [x.code for x in w] == ["non-contracting"]
+        assert (w[0].location.line, w[0].location.column) == (4, 39)
+
+    def test_a_few_non_contracting_rounds_are_fine(self):
+        # the tree's leaf segments: a rotation, repeated `segments` times
+        assert warnings_of("{n = 2} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
+                           "2: S → sphere ∪ {n = n-1} move(0,0,1) rotz(-90) S") == []
+
+    def test_contracting_cycle_is_clean(self):
+        assert warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
+                           "2: S → sphere ∪ {n = n-1} move(2,0,0) uscale(0.9) S") == []

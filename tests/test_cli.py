@@ -1,0 +1,124 @@
+"""The pcsg command line: check, expand, stats, graph, --set, exit codes."""
+import json
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from pcsg.cli import main
+
+from .conftest import GRAMMARS, SIERPINSKI
+
+
+def run(capsys, *argv):
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def sierpinski(tmp_path):
+    p = tmp_path / "s.pcsg"
+    p.write_text(SIERPINSKI, encoding="utf-8")
+    return p
+
+
+def test_check_ok_and_errors(capsys, tmp_path, sierpinski):
+    bad = tmp_path / "bad.pcsg"
+    bad.write_text("{c = 1} S\n1: S → foo\n", encoding="utf-8")
+    code, out, err = run(capsys, "check", str(sierpinski), str(bad))
+    assert code == 1
+    assert f"{sierpinski}: ok (15 nodes, 1 module, 1 parameter)" in out
+    assert err.startswith(f"{bad}:2:8: error: undefined name 'foo'")
+
+
+def test_check_samples_and_quoted_globs(capsys):
+    code, out, err = run(capsys, "check", str(GRAMMARS / "*.pcsg"))
+    assert code == 0, err
+    assert out.count(": ok (") == len(list(GRAMMARS.glob("*.pcsg"))) >= 2
+
+
+def test_check_warnings_and_werror(capsys, tmp_path):
+    p = tmp_path / "w.pcsg"
+    p.write_text("S\n1: S → sphere ∪ move(2,0,0) uscale(0.5) S\n", encoding="utf-8")
+    code, out, err = run(capsys, "check", str(p))
+    assert code == 0 and "warning: 'S' can call itself here" in err and "1 warning" in out
+    code, out, err = run(capsys, "check", "--werror", str(p))
+    assert code == 1
+
+
+def test_expand(capsys, sierpinski, tmp_path):
+    code, out, err = run(capsys, "expand", str(sierpinski), "-n", "2", "--set", "c=2")
+    assert code == 0, err
+    axiom = out.splitlines()[1]
+    assert axiom.count("tetrahedron") == 0 and axiom.count("{c = 0} S") == 16
+    target = tmp_path / "e.pcsg"
+    code, out, err = run(capsys, "expand", str(sierpinski), "-n", "3", "--set", "c=2",
+                         "-o", str(target))
+    assert code == 0 and out == ""
+    code, out, err = run(capsys, "check", str(target))
+    assert code == 0
+
+
+def test_expand_refuses_huge_output(capsys, sierpinski):
+    code, out, err = run(capsys, "expand", str(sierpinski), "-n", "8", "--max-chars", "1000")
+    assert code == 2 and "longer than 1,000 characters" in err
+
+
+def test_stats_text_and_json(capsys, sierpinski):
+    code, out, err = run(capsys, "stats", str(sierpinski))
+    assert "primitives   4,096 in the complete derivation" in out
+    code, out, err = run(capsys, "stats", str(sierpinski), "--json", "--set", "c=8")
+    data = json.loads(out)
+    assert data["primitives"] == 4 ** 8 and data["modules"] == {"S": 2}
+    assert data["node_kinds"]["select"] == 1 and data["parameters"] == ["c"]
+
+
+def test_set_errors(capsys, sierpinski):
+    code, out, err = run(capsys, "stats", str(sierpinski), "--set", "k=1")
+    assert code == 1 and "'k' is not an initial parameter (initial parameters: c)" in err
+    with pytest.raises(SystemExit) as e:
+        main(["stats", str(sierpinski), "--set", "c=abc"])
+    assert e.value.code == 2
+    assert "'abc' is not a number" in capsys.readouterr().err
+
+
+def test_graph_dot(capsys, sierpinski):
+    code, out, err = run(capsys, "graph", str(sierpinski))
+    assert code == 0 and out.startswith("// ") and "digraph pcsg {" in out
+    assert 'shape=diamond' in out and 'label="S\\nif(c > 0, 2, 1)"' in out
+    assert out.count("style=dashed") == 4            # the four cycles back to S
+    assert 'label="c = c - 1"' in out
+
+
+def test_unreadable_inputs(capsys, tmp_path):
+    code, out, err = run(capsys, "check", str(tmp_path))
+    assert code == 1 and "is a directory" in err
+    code, out, err = run(capsys, "check", str(tmp_path / "missing.pcsg"))
+    assert code == 1 and "cannot read: No such file or directory" in err
+    binary = tmp_path / "b.pcsg"
+    binary.write_bytes(b"\x00\x01\x02")
+    code, out, err = run(capsys, "check", str(binary))
+    assert code == 1 and "binary file" in err
+    latin = tmp_path / "l.pcsg"
+    latin.write_bytes(b"sphere // caf\xe9\n")
+    code, out, err = run(capsys, "check", str(latin))
+    assert code == 1 and "l.pcsg:1:14: error: not UTF-8 text (byte 0xe9)" in err
+
+
+def test_output_directory_missing(capsys, sierpinski, tmp_path):
+    code, out, err = run(capsys, "graph", str(sierpinski), "-o", str(tmp_path / "no" / "g.dot"))
+    assert code == 1 and "No such file or directory" in err and "Traceback" not in err
+
+
+def test_console_script_runs_without_traceback(tmp_path):
+    exe = shutil.which("pcsg") or str(__import__("pathlib").Path(sys.executable).parent / "pcsg")
+    bad = tmp_path / "bad.pcsg"
+    bad.write_text("{c = 6} S\nS if(c > 0, 2, 1)\n1: S → tetrahedron ∪ (\n", encoding="utf-8")
+    r = subprocess.run([exe, "check", str(bad)], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    assert f"{bad}:4:1: error: unexpected end of file" in r.stderr or ":3:" in r.stderr
+    r = subprocess.run([exe, "stats", str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=16"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and "4,294,967,29" in r.stdout

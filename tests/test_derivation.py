@@ -1,0 +1,115 @@
+"""stats counts, expand round trips, and the flat reference expansion agree."""
+import numpy as np
+import pytest
+
+from pcsg.compiler import compile_file, compile_text
+from pcsg.graph.expand import expand_axiom, expand_file
+from pcsg.graph.flatten import flatten
+from pcsg.graph.stats import count_by_primitive, count_primitives
+from pcsg.language.errors import PcsgError
+
+from .conftest import GRAMMARS, SIERPINSKI
+
+SAMPLES = {"sierpinski": {"c": 2}, "sympodial_tree": {"cnt": 3}, "carpenter_terrain": {"cnt": 2}}
+
+
+def sample(name, **overrides):
+    path = GRAMMARS / f"{name}.pcsg"
+    if not path.exists():
+        pytest.skip(f"{path.name} not written yet")
+    return compile_file(path, overrides)
+
+
+class TestCounts:
+    def test_sierpinski_order_6_is_4096_tetrahedra(self):
+        assert count_by_primitive(compile_text(SIERPINSKI)) == {"tetrahedron": 4096}
+        assert count_by_primitive(sample("sierpinski"))["tetrahedron"] == 4096
+
+    def test_sierpinski_order_16_is_counted_without_expanding(self):
+        assert count_by_primitive(sample("sierpinski", c=16))["tetrahedron"] == 4 ** 16
+
+    def test_terrain_order_8_is_131072_triangles(self):
+        counts = count_by_primitive(sample("carpenter_terrain", cnt=8))
+        assert counts.get("tri1", 0) + counts.get("tri2", 0) == 131072
+
+    @pytest.mark.parametrize("name, overrides", [("sierpinski", {"c": 3}),
+                                                 ("sympodial_tree", {"cnt": 5}),
+                                                 ("carpenter_terrain", {"cnt": 3})])
+    def test_memoised_count_equals_brute_force(self, name, overrides):
+        g = sample(name, **overrides)
+        assert count_primitives(g) == len(flatten(g))
+
+    def test_endless_derivation_is_reported_not_hung(self):
+        g = compile_text("{n = 0} S\nS 2 - (n > 1e300)\n1: S → sphere\n2: S → {n = n + 1} S")
+        with pytest.raises(PcsgError) as e:
+            count_primitives(g)
+        assert e.value.diagnostics[0].message.startswith(
+            "the derivation never ends: 'S' is still being rewritten after 10000 levels")
+
+    def test_repeating_state_is_reported(self):
+        g = compile_text("{n = 1} S\nS if(n > 0, 2, 1)\n1: S → sphere\n2: S → {n = n} S")
+        with pytest.raises(PcsgError) as e:
+            count_primitives(g)
+        assert "'S' repeats with the same parameters (n = 1)" in e.value.diagnostics[0].message
+
+    def test_selection_out_of_range_names_module_and_values(self):
+        g = compile_text("{c = 3} S\nS c\n1: S → sphere\n2: S → cube")
+        with pytest.raises(PcsgError) as e:
+            count_primitives(g)
+        d = e.value.diagnostics[0]
+        assert d.message == ("the selection of module 'S' gives 3, which names rule 3, but 'S' "
+                             "has rules 1..2 (with c = 3)")
+        assert (d.location.line, d.location.column) == (2, 1)
+
+
+class TestExpand:
+    def test_one_step_of_sierpinski(self):
+        g = compile_text(SIERPINSKI)
+        assert expand_axiom(g, 0) == "{c = 6} S"
+        assert expand_axiom(g, 1) == " ∪ ".join(
+            f"move({x}, {y}, {z}) uscale(0.5) {{c = 5}} S"
+            for x, y, z in [("0.5", "0.5", "0.5"), ("-0.5", "-0.5", "0.5"),
+                            ("0.5", "-0.5", "-0.5"), ("-0.5", "0.5", "-0.5")])
+
+    @pytest.mark.parametrize("name", SAMPLES)
+    @pytest.mark.parametrize("steps", [0, 1, 2, 3])
+    def test_expansion_checks_and_derives_the_same_object(self, name, steps):
+        g = sample(name, **SAMPLES[name])
+        text = expand_file(g, steps)
+        g2 = compile_text(text, "expanded.pcsg")
+        assert count_by_primitive(g2) == count_by_primitive(g)
+        a, b = flatten(g), flatten(g2)
+        assert [x.primitive for x in a] == [x.primitive for x in b]
+        for x, y in zip(a, b):
+            assert np.array_equal(x.matrix, y.matrix)
+            assert x.paint == y.paint and x.material == y.material
+
+    def test_complete_expansion_leaves_no_module(self):
+        g = sample("sierpinski", c=2)
+        axiom = expand_axiom(g, 100)
+        assert " S" not in axiom and axiom.count("tetrahedron") == 16
+
+    def test_expansion_keeps_values_exact(self):
+        g = compile_text("{a = 0.1 + 0.2} S\n1: S → move(a, 1/3, -0) sphere")
+        text = expand_axiom(g, 1)
+        assert text == "move(0.30000000000000004, 0.3333333333333333, -0) sphere"
+
+
+class TestTerrain:
+    def test_every_shared_vertex_gets_one_height(self):
+        """No cracks: each world xy vertex of the complete derivation has one height."""
+        g = sample("carpenter_terrain", cnt=4)
+        corners = {"tri1": [(0, 0, 0), (1, 0, 0), (0, 1, 0)],
+                   "tri2": [(0, 0, 0), (-1, 0, 0), (0, -1, 0)]}
+        heights: dict[tuple, set] = {}
+        triangles = [x for x in flatten(g) if x.primitive in corners]
+        assert len(triangles) == 2 * 4 ** 4
+        for x in triangles:
+            for c in corners[x.primitive]:
+                p = x.matrix @ np.array([*c, 1.0])
+                key = (round(p[0] * 2 ** 10), round(p[1] * 2 ** 10))
+                heights.setdefault(key, set()).add(float(p[2]))
+        assert len(heights) == (2 ** 4 + 1) ** 2          # the grid of the unit square
+        spread = max(max(h) - min(h) for h in heights.values())
+        assert spread < 1e-12, f"heights of one vertex differ by {spread}"
+        assert len({z for h in heights.values() for z in h}) > 100   # it is not flat
