@@ -29,7 +29,7 @@ def test_check_ok_and_errors(capsys, tmp_path, sierpinski):
     bad.write_text("{c = 1} S\n1: S → foo\n", encoding="utf-8")
     code, out, err = run(capsys, "check", str(sierpinski), str(bad))
     assert code == 1
-    assert f"{sierpinski}: ok (15 nodes, 1 module, 1 parameter)" in out
+    assert f"{sierpinski}: ok (13 nodes, 1 module, 1 parameter)" in out
     assert err.startswith(f"{bad}:2:8: error: undefined name 'foo'")
 
 

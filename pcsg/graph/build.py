@@ -196,9 +196,19 @@ class _Builder:
         if isinstance(e, ast.Ref):
             return self.ref(e)
         if isinstance(e, ast.CsgOp):
-            left, right = self.csg(e.left), self.csg(e.right)
-            return self.add(Node(OPERATORS[e.op], children=[left, right], span=e.op_span,
-                                 edge_spans=[e.left.span, e.right.span]))
+            # A chain A ∪ B ∪ C (or A \ B \ C = A \ (B ∪ C)) is one n-ary node: no
+            # recursion along long chains such as expand's output, and one place where
+            # the tracer can order the operands front to back.
+            operands = []
+            head = e
+            while isinstance(head, ast.CsgOp) and head.op == e.op:
+                operands.append(head.right)
+                head = head.left
+            operands.append(head)
+            operands.reverse()
+            children = [self.csg(x) for x in operands]
+            return self.add(Node(OPERATORS[e.op], children=children, span=e.op_span,
+                                 edge_spans=[x.span for x in operands]))
         if isinstance(e, ast.Transform):
             want = TRANSFORMS[e.name]
             if len(e.args) != want:

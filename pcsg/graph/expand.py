@@ -45,9 +45,10 @@ class _Printer:
             wrap = level < need
             if wrap:
                 self.out(parts, "(")
-            self.word(node.children[0], state, self.d.edge(h, node_id, 0), steps, level, parts)
-            self.out(parts, f" {OPERATOR_SYMBOLS[kind]} ")
-            self.word(node.children[1], state, self.d.edge(h, node_id, 1), steps, level + 1, parts)
+            for k, c in enumerate(node.children):
+                if k:
+                    self.out(parts, f" {OPERATOR_SYMBOLS[kind]} ")
+                self.word(c, state, self.d.edge(h, node_id, k), steps, level + (k > 0), parts)
             if wrap:
                 self.out(parts, ")")
         else:

@@ -19,7 +19,7 @@ from .source import Source
 CSG_OPS = {"∪": "union", "|": "union", "∩": "intersection", "&": "intersection",
            "\\": "difference", "∖": "difference"}
 ARITH_OPS = {"and": "&&", "or": "||", "not": "!"}
-MAX_FILE_BYTES = 64 * 1024 * 1024
+MAX_FILE_BYTES = 8 * 1024 * 1024     # lark parses ~100k tokens/s; a PCSG system is short
 
 
 def _span(x):
@@ -154,8 +154,9 @@ def read_source_text(path: str | Path) -> str:
                                         Source(name, ""), code="io")])
         size = p.stat().st_size
         if size > MAX_FILE_BYTES:
-            raise PcsgError([Diagnostic("error", f"file is {size / 1e6:.0f} MB; pcsg reads grammars "
-                                        f"of up to {MAX_FILE_BYTES // 2**20} MiB", None,
+            raise PcsgError([Diagnostic("error", f"file is {size / 2**20:.1f} MiB; pcsg reads "
+                                        f"grammars of up to {MAX_FILE_BYTES // 2**20} MiB (an "
+                                        f"expanded derivation that large: use fewer steps)", None,
                                         Source(name, ""), code="io")])
         data = p.read_bytes()
     except OSError as e:

@@ -22,7 +22,8 @@ _TOKEN = re.compile(
 )
 _BRACE = re.compile(r"//[^\n]*|/\*.*?(?:\*/|\Z)|[{}]", re.S)
 _NAME = re.compile(r"[ \t]*([A-Za-z_][A-Za-z0-9_]*)")
-MAX_EXPANSION = 50_000_000
+MAX_EXPANSION = 8_000_000       # characters of expanded text
+MAX_USES = 20_000               # macro expansions, nested ones included
 
 
 @dataclass
@@ -41,6 +42,7 @@ class _Expander:
         self.pieces: list[Piece] = []
         self.length = 0
         self.errors: list[Diagnostic] = []
+        self.uses = 0
 
     def emit(self, start: int, end: int, uses: tuple):
         if end <= start:
@@ -72,6 +74,9 @@ class _Expander:
                 continue
             if kind == "name" and m.group() in self.macros and m.group() not in active:
                 macro = self.macros[m.group()]
+                self.uses += 1
+                if self.uses > MAX_USES:
+                    raise _TooLarge
                 self.emit(pos, m.start(), uses)
                 inner = ((macro.name, m.start(), macro.defined),) + uses
                 self.expand(*macro.body, inner, active | {macro.name}, top=False)
@@ -155,8 +160,8 @@ def preprocess(text: str, file: str) -> tuple[Source, list[Diagnostic]]:
         ex.expand(0, len(text), (), frozenset(), top=True)
     except _TooLarge:
         ex.errors.append(Diagnostic(
-            "error", f"macro expansion exceeds {MAX_EXPANSION // 1_000_000} million characters "
-                     "(a macro that uses itself through another?)", None, source, code="macro"))
+            "error", f"macros expand to more than {MAX_USES:,} uses or {MAX_EXPANSION:,} "
+                     f"characters; nested macros multiply", None, source, code="macro"))
     expanded = Source(file, text, "".join(ex.out), ex.pieces)
     for d in ex.errors:
         d.source = expanded
