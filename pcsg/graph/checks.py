@@ -213,7 +213,7 @@ def non_contracting_cycles(graph: Graph) -> list[Diagnostic]:
             if n.kind == CALC:
                 state = d.calc(i, state, h)
             elif n.kind == TRANSFORM:
-                lin = lin @ d.matrix(i, state)[:3, :3]
+                lin = lin @ d.matrix(i, state, h)[:3, :3]
             for k, c in enumerate(n.children):
                 child_h = d.edge(h, i, k) if len(n.children) > 1 else h
                 stack.append((c, state, child_h, lin, seen, n.edge_spans[k]))

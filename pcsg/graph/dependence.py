@@ -2,13 +2,14 @@
 memoised walks key on those alone and not on the whole parameter state."""
 from __future__ import annotations
 
-from .model import CALC, SELECT, Graph
+from .model import CALC, SELECT, TRANSFORM, Graph
 
 RAND = "<rand>"     # stands for the instance hash: a rand() decides a selection
 
 
-def structural_params(graph: Graph) -> list[frozenset]:
-    """For each node, the parameters (and RAND) whose values on entry decide its derivation."""
+def structural_params(graph: Graph, geometry: bool = False) -> list[frozenset]:
+    """For each node, the parameters (and RAND) whose values on entry decide its
+    derivation: its selections, and with `geometry` also its transformations."""
     table = graph.exprs
     nodes = graph.nodes
     rel = [frozenset()] * len(nodes)
@@ -28,6 +29,9 @@ def structural_params(graph: Graph) -> list[frozenset]:
                 live |= rel[c]
             if n.kind == SELECT:
                 live |= reads(n.exprs[0])
+            elif n.kind == TRANSFORM and geometry:
+                for e in n.exprs:
+                    live |= reads(e)
             elif n.kind == CALC:
                 names = graph.param_names
                 for slot, expr in reversed(list(zip(n.targets, n.exprs))):

@@ -78,12 +78,14 @@ class Deriver:
             assigned |= 1 << slot
         return State(values, assigned)
 
-    def args(self, node_id: int, state: State) -> list[float]:
-        return [self.value(e, state, 0) for e in self.g.nodes[node_id].exprs]
+    def args(self, node_id: int, state: State, h: int) -> list[float]:
+        """T-node and paint arguments; the k-th draws rand() with salt(h, k + 1)."""
+        return [self.value(e, state, _salt(h, k + 1))
+                for k, e in enumerate(self.g.nodes[node_id].exprs)]
 
-    def matrix(self, node_id: int, state: State) -> np.ndarray:
+    def matrix(self, node_id: int, state: State, h: int) -> np.ndarray:
         node = self.g.nodes[node_id]
-        return matrix(node.name, self.args(node_id, state))
+        return matrix(node.name, self.args(node_id, state, h))
 
     @staticmethod
     def edge(h: int, node_id: int, child: int) -> int:

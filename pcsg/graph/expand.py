@@ -53,10 +53,10 @@ class _Printer:
                 self.out(parts, ")")
         else:
             if kind == TRANSFORM:
-                args = self.d.args(node_id, state)
+                args = self.d.args(node_id, state, h)
                 head = node.name + (f"({', '.join(map(format_value, args))})" if args else "")
             elif kind == PAINT:
-                head = f"paint({', '.join(map(format_value, self.d.args(node_id, state)))})"
+                head = f"paint({', '.join(map(format_value, self.d.args(node_id, state, h)))})"
             else:
                 assert kind == MATERIAL
                 head = f"material({node.name})"

@@ -52,9 +52,9 @@ def flatten(graph: Graph, max_primitives: int = 1_000_000) -> list[Instance]:
         if n.kind == CALC:
             state = d.calc(i, state, h)
         elif n.kind == TRANSFORM:
-            m = m @ d.matrix(i, state)
+            m = m @ d.matrix(i, state, h)
         elif n.kind == PAINT:
-            paint = tuple(d.args(i, state))
+            paint = tuple(d.args(i, state, h))
         elif n.kind == MATERIAL:
             material = n.name
         if n.kind in OPERATORS.values():

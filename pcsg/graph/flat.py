@@ -1,0 +1,81 @@
+"""The graph as flat numpy arrays: the only form the numba kernels see."""
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from ..language.names import PRIMITIVES
+from ..trace.transforms import CODES as TRANSFORM_CODES
+from .model import MATERIAL, PRIMITIVE, SELECT, TRANSFORM, Graph
+from .terminating import terminating_rules
+
+Flat = namedtuple("Flat", [
+    "kind",          # int8[n]      node kind (model.SELECT ...)
+    "code",          # int32[n]     transformation, primitive or material code; -1
+    "child_start",   # int32[n]     into `children`
+    "child_count",   # int32[n]
+    "children",      # int32[m]
+    "expr_start",    # int32[n]     into `expr_ids` / `targets`
+    "expr_count",    # int32[n]
+    "expr_ids",      # int32[k]     selection | arguments | assigned values
+    "targets",       # int32[k]     C-nodes: the parameter slot each value goes to
+    "term_rule",     # int32[n]     S-nodes: the rule that ends soonest, -1 if none
+    "box",           # float64[n,6] hyper-bounding box in the node's input frame
+    "vm_code",       # int32[q,2]   expression bytecode
+    "vm_consts",     # float64[c]
+    "vm_start",      # int32[e]     per expression
+    "vm_end",        # int32[e]
+    "root",          # int64
+    "n_params",      # int64
+    "max_stack",     # int64        expression stack depth
+    "max_children",  # int64
+])
+
+
+def flatten_graph(graph: Graph, boxes: np.ndarray) -> Flat:
+    nodes = graph.nodes
+    n = len(nodes)
+    kind = np.array([x.kind for x in nodes], dtype=np.int8)
+    code = np.full(n, -1, dtype=np.int32)
+    for i, x in enumerate(nodes):
+        if x.kind == TRANSFORM:
+            code[i] = TRANSFORM_CODES[x.name]
+        elif x.kind == PRIMITIVE:
+            code[i] = PRIMITIVES.index(x.name)
+        elif x.kind == MATERIAL:
+            code[i] = graph.material_names.index(x.name)
+    counts = np.array([len(x.children) for x in nodes], dtype=np.int32)
+    ecounts = np.array([len(x.exprs) for x in nodes], dtype=np.int32)
+    term = np.full(n, -1, dtype=np.int32)
+    for s, r in terminating_rules(graph).items():
+        term[s] = r
+    vm = graph.exprs.arrays()
+    return Flat(
+        kind=kind, code=code,
+        child_start=_starts(counts), child_count=counts,
+        children=np.array([c for x in nodes for c in x.children], dtype=np.int32),
+        expr_start=_starts(ecounts), expr_count=ecounts,
+        expr_ids=np.array([e for x in nodes for e in x.exprs], dtype=np.int32),
+        targets=np.array([t for x in nodes for t in (x.targets or [-1] * len(x.exprs))],
+                         dtype=np.int32),
+        term_rule=term,
+        box=np.ascontiguousarray(boxes, dtype=np.float64),
+        vm_code=np.ascontiguousarray(vm["code"], dtype=np.int32).reshape(-1, 2),
+        vm_consts=np.asarray(vm["consts"], dtype=np.float64),
+        vm_start=np.asarray(vm["start"], dtype=np.int32),
+        vm_end=np.asarray(vm["end"], dtype=np.int32),
+        root=np.int64(graph.root), n_params=np.int64(max(1, len(graph.params))),
+        max_stack=np.int64(max(1, vm["max_stack"])),
+        max_children=np.int64(max(1, counts.max(initial=1))),
+    )
+
+
+def _starts(counts: np.ndarray) -> np.ndarray:
+    out = np.zeros(len(counts), dtype=np.int32)
+    if len(counts) > 1:
+        out[1:] = np.cumsum(counts[:-1])
+    return out
+
+
+__all__ = ["Flat", "flatten_graph", "SELECT"]

@@ -1,0 +1,44 @@
+"""Tracing many rays: fixed chunks of rays under prange, each chunk with its own
+scratch, so every ray's result is the same at any thread count."""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from .nodes import F_WIDTH, I_WIDTH, N_EVENTS
+from .walk import IV_WIDTH, R_WIDTH, first_hit
+
+CHUNK = 256
+INTERVAL_ROWS = 4096
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def trace_rays(flat, origins, directions, tmin, tmax, any_hit, lod, max_depth, stack_depth,
+               out, events):
+    """out[i] = the R_* row of ray i; events[chunk] counts per event kind and node."""
+    n = origins.shape[0]
+    chunks = (n + CHUNK - 1) // CHUNK
+    n_nodes = flat.kind.shape[0]
+    for c in prange(chunks):
+        F = np.empty((stack_depth, F_WIDTH))
+        I = np.zeros((stack_depth, I_WIDTH), dtype=np.int64)
+        H = np.zeros(stack_depth, dtype=np.uint64)
+        Fi = np.empty((stack_depth, F_WIDTH))
+        Ii = np.zeros((stack_depth, I_WIDTH), dtype=np.int64)
+        Hi = np.zeros(stack_depth, dtype=np.uint64)
+        params = np.full((2 * stack_depth, flat.n_params), np.nan)
+        iv = np.empty((INTERVAL_ROWS, IV_WIDTH))
+        lists = np.zeros((stack_depth + 1, 2), dtype=np.int64)
+        vstack = np.empty(flat.max_stack)
+        args = np.empty(12)
+        m34 = np.empty((3, 4))
+        out8 = np.empty(8)
+        order = np.empty(flat.max_children, dtype=np.int64)
+        keys = np.empty(flat.max_children)
+        ev = np.zeros((N_EVENTS, n_nodes), dtype=np.int64)
+        for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
+            first_hit(flat, origins[i, 0], origins[i, 1], origins[i, 2],
+                      directions[i, 0], directions[i, 1], directions[i, 2],
+                      tmin, tmax, any_hit, lod, max_depth, params, F, I, H, Fi, Ii, Hi,
+                      iv, lists, vstack, args, m34, out8, order, keys, ev, out[i])
+        events[c] = ev

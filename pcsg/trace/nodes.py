@@ -1,0 +1,214 @@
+"""What a ray does at each kind of node, shared by the tracing walks.
+
+A frame is one instance on a walk: the ray in that instance's frame (the
+direction is never renormalised, so t is the same in every frame), the
+accumulated world-from-local linear map M (for normals and sizes), the t-window,
+the paint and material in force, its parameter slot, instance hash and level.
+Frames are rows of three per-walk arrays: F (floats), I (ints), H (hashes).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from . import vm
+from .transforms import affine
+
+_jit = njit(cache=True, error_model="numpy", nogil=True)
+
+# F columns
+OX, DX, M0, T0, T1, PAINT = 0, 3, 6, 15, 16, 17
+F_WIDTH = 20
+# I columns
+NODE, SLOT, LEVEL, MAT, CUT, PHASE = 0, 1, 2, 3, 4, 5
+I_WIDTH = 6
+
+# event kinds, counted per node and reported once per render
+EV_LOD, EV_DEPTH, EV_STACK, EV_INTERVALS, EV_SINGULAR, EV_SELECTION, EV_NONFINITE = range(7)
+N_EVENTS = 7
+
+
+@_jit
+def copy_frame(F, I, H, src, dst):
+    if src != dst:
+        F[dst, :] = F[src, :]
+        I[dst, :] = I[src, :]
+        H[dst] = H[src]
+
+
+@_jit
+def box_window(box, F, f):
+    """Where the frame's ray is inside `box`: (t_enter, t_exit), empty if enter > exit."""
+    t0 = -np.inf
+    t1 = np.inf
+    for a in range(3):
+        o = F[f, OX + a]
+        d = F[f, DX + a]
+        lo = box[a]
+        hi = box[a + 3]
+        if d == 0.0:
+            if o < lo or o > hi:
+                return np.inf, -np.inf
+            continue
+        inv = 1.0 / d
+        ta = (lo - o) * inv
+        tb = (hi - o) * inv
+        if ta > tb:
+            ta, tb = tb, ta
+        if ta > t0:
+            t0 = ta
+        if tb < t1:
+            t1 = tb
+    return t0, t1
+
+
+@_jit
+def box_normal(box, F, f, t):
+    """Outward local normal of the box face the ray crosses at t."""
+    best = np.inf
+    axis = 0
+    sign = 1.0
+    for a in range(3):
+        p = F[f, OX + a] + t * F[f, DX + a]
+        for side in range(2):
+            plane = box[a + 3 * side]
+            if math.isfinite(plane) and abs(p - plane) < best:
+                best = abs(p - plane)
+                axis = a
+                sign = 1.0 if side == 1 else -1.0
+    if axis == 0:
+        return sign, 0.0, 0.0
+    if axis == 1:
+        return 0.0, sign, 0.0
+    return 0.0, 0.0, sign
+
+
+@_jit
+def world_normal(F, f, nx, ny, nz, out, k):
+    """out[k:k+3] = unit world normal: the inverse transpose of M applied to n,
+    written as sign(det M) times the cofactor matrix, which needs no division."""
+    m = F[f, M0:M0 + 9]
+    c00 = m[4] * m[8] - m[5] * m[7]
+    c01 = m[5] * m[6] - m[3] * m[8]
+    c02 = m[3] * m[7] - m[4] * m[6]
+    c10 = m[2] * m[7] - m[1] * m[8]
+    c11 = m[0] * m[8] - m[2] * m[6]
+    c12 = m[1] * m[6] - m[0] * m[7]
+    c20 = m[1] * m[5] - m[2] * m[4]
+    c21 = m[2] * m[3] - m[0] * m[5]
+    c22 = m[0] * m[4] - m[1] * m[3]
+    det = m[0] * c00 + m[1] * c01 + m[2] * c02
+    s = 1.0 if det >= 0.0 else -1.0
+    x = s * (c00 * nx + c01 * ny + c02 * nz)
+    y = s * (c10 * nx + c11 * ny + c12 * nz)
+    z = s * (c20 * nx + c21 * ny + c22 * nz)
+    length = math.sqrt(x * x + y * y + z * z)
+    if length > 0.0:
+        x /= length
+        y /= length
+        z /= length
+    out[k] = x
+    out[k + 1] = y
+    out[k + 2] = z
+
+
+@_jit
+def world_size(box, F, f):
+    """An upper bound of the world extent of this instance of `box`."""
+    size = 0.0
+    for a in range(3):
+        e = box[a + 3] - box[a]
+        if not math.isfinite(e):
+            return np.inf
+        col = math.sqrt(F[f, M0 + a] ** 2 + F[f, M0 + 3 + a] ** 2 + F[f, M0 + 6 + a] ** 2)
+        size += e * col
+    return size
+
+
+@_jit
+def expr(flat, params, slot, k, inst_hash, stack):
+    """Evaluate expression number k of the flat table with the parameters of `slot`."""
+    return vm.eval_expr(flat.vm_code, flat.vm_consts, flat.vm_start[k], flat.vm_end[k],
+                        params[slot], inst_hash, stack)
+
+
+@_jit
+def run_calc(flat, node, params, src, dst, h, stack):
+    """A C-node: copy the parameter state into slot dst, then assign in order."""
+    if src != dst:
+        params[dst, :] = params[src, :]
+    e0 = flat.expr_start[node]
+    for k in range(flat.expr_count[node]):
+        v = expr(flat, params, dst, flat.expr_ids[e0 + k], vm.salt(h, k + 1), stack)
+        params[dst, flat.targets[e0 + k]] = v
+
+
+@_jit
+def pick_rule(flat, node, params, slot, h, stack):
+    """The 0-based rule an S-node selects, or -1 if its selection is invalid."""
+    x = expr(flat, params, slot, flat.expr_ids[flat.expr_start[node]], vm.salt(h, 0), stack)
+    return vm.select_rule(x, flat.child_count[node]) - 1
+
+
+@_jit
+def eval_args(flat, node, params, slot, h, stack, args):
+    e0 = flat.expr_start[node]
+    ok = True
+    for k in range(flat.expr_count[node]):
+        args[k] = expr(flat, params, slot, flat.expr_ids[e0 + k], vm.salt(h, k + 1), stack)
+        if not math.isfinite(args[k]):
+            ok = False
+    return ok
+
+
+@_jit
+def enter_transform(flat, node, F, f, params, slot, h, stack, args, m34):
+    """Map frame f's ray into the T-node's child frame, in place. Returns 0 if fine,
+    1 for non-finite arguments, 2 for a singular map (the instance is then empty)."""
+    if not eval_args(flat, node, params, slot, h, stack, args):
+        return 1
+    affine(flat.code[node], args, m34)
+    a, b, c = m34[0, 0], m34[0, 1], m34[0, 2]
+    d, e, g = m34[1, 0], m34[1, 1], m34[1, 2]
+    p, q, r = m34[2, 0], m34[2, 1], m34[2, 2]
+    c00 = e * r - g * q
+    c01 = g * p - d * r
+    c02 = d * q - e * p
+    det = a * c00 + b * c01 + c * c02
+    if not (det != 0.0 and math.isfinite(det)):
+        return 2
+    inv = 1.0 / det
+    # rows of L^-1 = cofactor(L)^T / det
+    i00, i01, i02 = c00 * inv, (c * q - b * r) * inv, (b * g - c * e) * inv
+    i10, i11, i12 = c01 * inv, (a * r - c * p) * inv, (c * d - a * g) * inv
+    i20, i21, i22 = c02 * inv, (b * p - a * q) * inv, (a * e - b * d) * inv
+    ox = F[f, OX] - m34[0, 3]
+    oy = F[f, OX + 1] - m34[1, 3]
+    oz = F[f, OX + 2] - m34[2, 3]
+    dx, dy, dz = F[f, DX], F[f, DX + 1], F[f, DX + 2]
+    F[f, OX] = i00 * ox + i01 * oy + i02 * oz
+    F[f, OX + 1] = i10 * ox + i11 * oy + i12 * oz
+    F[f, OX + 2] = i20 * ox + i21 * oy + i22 * oz
+    F[f, DX] = i00 * dx + i01 * dy + i02 * dz
+    F[f, DX + 1] = i10 * dx + i11 * dy + i12 * dz
+    F[f, DX + 2] = i20 * dx + i21 * dy + i22 * dz
+    # M <- M L
+    for row in range(3):
+        m0 = F[f, M0 + 3 * row]
+        m1 = F[f, M0 + 3 * row + 1]
+        m2 = F[f, M0 + 3 * row + 2]
+        F[f, M0 + 3 * row] = m0 * a + m1 * d + m2 * p
+        F[f, M0 + 3 * row + 1] = m0 * b + m1 * e + m2 * q
+        F[f, M0 + 3 * row + 2] = m0 * c + m1 * g + m2 * r
+    return 0
+
+
+@_jit
+def enter_paint(flat, node, F, f, params, slot, h, stack, args):
+    if not eval_args(flat, node, params, slot, h, stack, args):
+        return False
+    for k in range(3):
+        F[f, PAINT + k] = args[k]
+    return True

@@ -1,0 +1,291 @@
+"""The reference tracer: the complete derivation expanded into a plain CSG TREE
+and traced ray by ray with Roth's interval CSG. Deliberately simple (pure Python
+and numpy, one njit call per primitive and batch of rays), for small orders: it
+is the oracle the graph tracer is checked against.
+
+Semantics (the contract the tracer is compared on)
+--------------------------------------------------
+- A ray is p(t) = o + t d with d as given (not normalised); t is in units of d.
+- A leaf is the primitive with its world matrix M (world from object). The ray
+  goes to the object frame with M^-1 (t unchanged), ``primitives.intersect``
+  gives the interval, normals go to world with M^-T (outward even for a
+  mirror) and are normalised. A singular or non-finite M makes the leaf empty.
+  Each interval is clipped to [tmin, tmax] (the clipped end keeps the
+  primitive's normal); an interval that misses [tmin, tmax] is dropped.
+- Every interval end carries (t, unit world normal, paint, material, primitive).
+- union: the sorted union, intervals that touch or overlap merged (closed sets);
+  degenerate intervals [t, t] (flat triangles, grazing hits) are kept.
+- intersection: max of starts, min of ends; only pieces with start < end are
+  kept (regularised: solids that only touch give nothing).
+- difference (n-ary, first child minus all the others): the first child
+  intersected with the complement of the union of the others; boundaries that
+  come from a subtracted operand get their normal negated and keep that
+  operand's paint/material; only pieces with start < end are kept (so A \\ A
+  is empty).
+- The hit is the first interval whose start t is > tmin (strictly): an
+  interval clipped at tmin (the origin inside a solid) is not a hit, the
+  next one is. For a flat triangle the normal is turned so that
+  dot(normal, d) <= 0; a solid's normal is the CSG outward normal as is.
+- Misses: hit False, t inf, normal nan, paint nan, material -1, primitive ''.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..graph.derive import Deriver
+from ..graph.model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, OPERATORS, PAINT, PRIMITIVE,
+                           SELECT, TRANSFORM, UNION, Graph)
+from ..graph.stats import MAX_LEVELS
+from ..language.errors import Diagnostic, PcsgError
+from . import primitives
+
+LEAF = -1            # tree node kind of a primitive; operators use the graph's kinds
+_OPNAMES = {UNION: "union", INTERSECTION: "intersection", DIFFERENCE: "difference"}
+_CHUNK = 4096        # rays per batch (bounds the per-leaf arrays)
+
+
+class Leaf:
+    """A primitive of the expanded tree."""
+    __slots__ = ("code", "name", "matrix", "paint", "material", "inverse", "normal_matrix")
+
+    def __init__(self, code, name, matrix, paint, material):
+        self.code, self.name, self.matrix = code, name, matrix
+        self.paint, self.material = paint, material          # rgb tuple | None, index | -1
+        self.inverse = self.normal_matrix = None              # None: singular, empty
+        if np.all(np.isfinite(matrix)):
+            det = np.linalg.det(matrix[:3, :3])
+            if det != 0.0 and math.isfinite(det):
+                inv = np.linalg.inv(matrix)
+                if np.all(np.isfinite(inv)):
+                    self.inverse = inv
+                    self.normal_matrix = inv[:3, :3].T
+
+
+class Op:
+    """An operator of the expanded tree: kind UNION / INTERSECTION / DIFFERENCE."""
+    __slots__ = ("kind", "children")
+
+    def __init__(self, kind, n):
+        self.kind, self.children = kind, [None] * n
+
+    @property
+    def name(self):
+        return _OPNAMES[self.kind]
+
+
+@njit(cache=True, error_model='numpy')
+def _intersect_many(code, O, D, out, hit):
+    for k in range(O.shape[0]):
+        hit[k] = primitives.intersect(code, O[k, 0], O[k, 1], O[k, 2],
+                                      D[k, 0], D[k, 1], D[k, 2], out[k])
+
+
+class Reference:
+    def __init__(self, graph: Graph, max_primitives: int = 200_000):
+        self.graph = graph
+        self.nodes: list = []        # tree nodes in pre-order: children after parents
+        self.root = self._build(graph, max_primitives)
+
+    # ---- the expanded tree ------------------------------------------------------
+
+    def _build(self, graph: Graph, max_primitives: int) -> int:
+        """Walk the derivation as pcsg.graph.flatten does, keeping the operators."""
+        d = Deriver(graph)
+        gnodes = graph.nodes
+        tree = self.nodes
+        nleaves = 0
+        state, h = d.initial()
+        holder = [None]
+        # (graph node, state, hash, matrix, paint, material, level, parent slots, slot)
+        stack = [(graph.root, state, h, np.eye(4), None, -1, 0, holder, 0)]
+        while stack:
+            i, state, h, m, paint, material, level, parent, slot = stack.pop()
+            n = gnodes[i]
+            if level > MAX_LEVELS:
+                raise PcsgError([Diagnostic("error", f"the derivation is deeper than {MAX_LEVELS} "
+                                            f"levels at '{n.name}'", n.span, graph.source,
+                                            code="endless")])
+            if n.kind == PRIMITIVE:
+                nleaves += 1
+                if nleaves > max_primitives:
+                    raise PcsgError([Diagnostic("error", f"the derivation has more than "
+                                                f"{max_primitives:,} primitives; the reference "
+                                                f"tracer is for small orders", None, graph.source,
+                                                code="too-large")])
+                parent[slot] = len(tree)
+                tree.append(Leaf(primitives.CODES[n.name], n.name, m, paint, material))
+                continue
+            if n.kind == SELECT:
+                r = d.select(i, state, h)
+                stack.append((n.children[r], state, d.edge(h, i, r), m, paint, material,
+                              level + 1, parent, slot))
+                continue
+            if n.kind in OPERATORS.values():
+                op = Op(n.kind, len(n.children))
+                parent[slot] = len(tree)
+                tree.append(op)
+                for k in reversed(range(len(n.children))):
+                    stack.append((n.children[k], state, d.edge(h, i, k), m, paint, material,
+                                  level, op.children, k))
+                continue
+            if n.kind == CALC:
+                state = d.calc(i, state, h)
+            elif n.kind == TRANSFORM:
+                m = m @ d.matrix(i, state, h)
+            elif n.kind == PAINT:
+                paint = tuple(float(v) for v in d.args(i, state, h))
+            elif n.kind == MATERIAL:
+                material = graph.material_names.index(n.name)
+            stack.append((n.children[0], state, h, m, paint, material, level, parent, slot))
+        return holder[0]
+
+    @property
+    def leaves(self) -> list[Leaf]:
+        return [n for n in self.nodes if isinstance(n, Leaf)]
+
+    # ---- tracing ----------------------------------------------------------------
+
+    def trace(self, origins, directions, tmin=1e-9, tmax=np.inf) -> dict:
+        O = np.ascontiguousarray(np.asarray(origins, dtype=np.float64).reshape(-1, 3))
+        D = np.ascontiguousarray(np.asarray(directions, dtype=np.float64).reshape(-1, 3))
+        if O.shape != D.shape:
+            raise ValueError("origins and directions must have the same shape (N, 3)")
+        n = len(O)
+        res = {"hit": np.zeros(n, dtype=bool), "t": np.full(n, np.inf),
+               "normal": np.full((n, 3), np.nan), "paint": np.full((n, 3), np.nan),
+               "material": np.full(n, -1, dtype=np.int64),
+               "primitive": np.full(n, "", dtype=object)}
+        for a in range(0, n, _CHUNK):
+            self._trace_chunk(O[a:a + _CHUNK], D[a:a + _CHUNK], float(tmin), float(tmax),
+                              res, a)
+        return res
+
+    def _leaf_hits(self, leaf: Leaf, O, D, tmin, tmax):
+        """Per ray: None, or the clipped interval [t0, end0, t1, end1] of the leaf."""
+        n = len(O)
+        if leaf.inverse is None:
+            return [None] * n
+        inv = leaf.inverse
+        Oo = np.ascontiguousarray(O @ inv[:3, :3].T + inv[:3, 3])
+        Do = np.ascontiguousarray(D @ inv[:3, :3].T)
+        out = np.empty((n, 8))
+        hit = np.zeros(n, dtype=bool)
+        _intersect_many(leaf.code, Oo, Do, out, hit)
+        nin = out[:, 2:5] @ leaf.normal_matrix.T
+        nout = out[:, 5:8] @ leaf.normal_matrix.T
+        with np.errstate(invalid="ignore", divide="ignore"):
+            nin /= np.linalg.norm(nin, axis=1, keepdims=True)
+            nout /= np.linalg.norm(nout, axis=1, keepdims=True)
+        flat = leaf.code in primitives.FLAT
+        res = [None] * n
+        for k in np.flatnonzero(hit):
+            t0, t1 = max(out[k, 0], tmin), min(out[k, 1], tmax)
+            if not t0 <= t1:
+                continue
+            res[k] = (t0, (tuple(nin[k]), leaf, flat), t1, (tuple(nout[k]), leaf, flat))
+        return res
+
+    def _trace_chunk(self, O, D, tmin, tmax, res, offset):
+        nodes = self.nodes
+        leaf_hits = {}
+        for idx, node in enumerate(nodes):
+            if isinstance(node, Leaf):
+                leaf_hits[idx] = self._leaf_hits(node, O, D, tmin, tmax)
+        for k in range(len(O)):
+            spans = [None] * len(nodes)
+            for idx in range(len(nodes) - 1, -1, -1):     # children come after parents
+                node = nodes[idx]
+                if isinstance(node, Leaf):
+                    iv = leaf_hits[idx][k]
+                    spans[idx] = [] if iv is None else [iv]
+                    continue
+                kids = [spans[c] for c in node.children]
+                for c in node.children:
+                    spans[c] = None
+                if node.kind == UNION:
+                    spans[idx] = union(kids)
+                elif node.kind == INTERSECTION:
+                    acc = kids[0]
+                    for other in kids[1:]:
+                        acc = intersection(acc, other)
+                    spans[idx] = acc
+                else:
+                    spans[idx] = difference(kids[0], kids[1:])
+            for t0, e0, _t1, _e1 in spans[self.root]:
+                if t0 > tmin:
+                    normal, leaf, flat = e0
+                    nrm = np.array(normal)
+                    if flat and np.dot(nrm, D[k]) > 0.0:
+                        nrm = -nrm
+                    j = offset + k
+                    res["hit"][j] = True
+                    res["t"][j] = t0
+                    res["normal"][j] = nrm
+                    if leaf.paint is not None:
+                        res["paint"][j] = leaf.paint
+                    res["material"][j] = leaf.material
+                    res["primitive"][j] = leaf.name
+                    break
+
+
+# ---- Roth's interval CSG on sorted lists of disjoint closed intervals ----------------
+# An interval is (t0, end0, t1, end1); an end is (normal tuple, Leaf, is_flat).
+
+def union(lists):
+    """The union of several interval lists; touching or overlapping intervals merge."""
+    items = sorted((iv for lst in lists for iv in lst), key=lambda iv: iv[0])
+    out = []
+    for iv in items:
+        if out and iv[0] <= out[-1][2]:
+            last = out[-1]
+            if iv[2] > last[2]:
+                out[-1] = (last[0], last[1], iv[2], iv[3])
+        else:
+            out.append(iv)
+    return out
+
+
+def intersection(a, b):
+    """The regularised intersection: pieces with start < end only."""
+    out = []
+    i = j = 0
+    while i < len(a) and j < len(b):
+        x, y = a[i], b[j]
+        s, se = (x[0], x[1]) if x[0] >= y[0] else (y[0], y[1])
+        e, ee = (x[2], x[3]) if x[2] <= y[2] else (y[2], y[3])
+        if s < e:
+            out.append((s, se, e, ee))
+        if x[2] <= y[2]:
+            i += 1
+        else:
+            j += 1
+    return out
+
+
+def _negate(end):
+    normal, leaf, flat = end
+    return (tuple(-v for v in normal), leaf, flat)
+
+
+_NO_END = ((0.0, 0.0, 1.0), None, False)
+
+
+def complement(lst):
+    """The complement over (-inf, inf); the ends come from the operand, negated."""
+    out = []
+    t, e = -math.inf, _NO_END
+    for t0, e0, t1, e1 in lst:
+        out.append((t, e, t0, _negate(e0)))
+        t, e = t1, _negate(e1)
+    out.append((t, e, math.inf, _NO_END))
+    return out
+
+
+def difference(a, others):
+    """a minus the union of others (regularised)."""
+    if not a:
+        return []
+    return intersection(a, complement(union(others)))

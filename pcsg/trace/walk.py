@@ -1,0 +1,404 @@
+"""The per-ray walks over the cyclic graph (njit, explicit stacks, no recursion).
+
+`first_hit` finds the nearest surface: union children are visited nearest box
+first and anything beyond the best hit so far is skipped (Bekaert & Willems
+§3.1). At an ∩ or \\ node it asks `intervals` for that subtree's sorted interval
+list along the ray (Roth 1982), so both work on recursive operands too.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..graph.model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, PAINT as PAINT_NODE,
+                           PRIMITIVE, SELECT, TRANSFORM, UNION)
+from . import vm
+from .nodes import (CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
+                    EV_SINGULAR, EV_STACK, LEVEL, M0, MAT, NODE, OX, PAINT, PHASE, SLOT, T0, T1,
+                    box_normal, box_window, copy_frame, enter_paint, enter_transform, pick_rule,
+                    run_calc, world_normal, world_size)
+from .primitives import intersect
+
+_jit = njit(cache=True, error_model="numpy", nogil=True)
+
+FLAT_MIN = 6            # primitive codes >= this are the flat triangles
+# interval record columns: an interval is [t_in, t_out] with what is at each end
+IT_IN, IT_OUT, IN_N, OUT_N, IN_PAINT, OUT_PAINT, IN_MAT, OUT_MAT = 0, 1, 2, 5, 8, 11, 14, 15
+IV_WIDTH = 16
+# what a ray's result row holds
+R_T, R_N, R_PAINT, R_MAT, R_HIT = 0, 1, 4, 7, 8
+R_WIDTH = 9
+
+
+@_jit
+def choose_rule(flat, node, F, I, H, f, params, stack, lod, dnorm, max_depth, t_enter, ev):
+    """The S-node's rule for frame f: >= 0 a rule, -1 the instance is empty, -2 hit its box.
+    Past the depth bound or below the pixel footprint the walk stops refining and
+    follows the rule that ends soonest (graph/terminating.py)."""
+    level = I[f, LEVEL] + 1
+    I[f, LEVEL] = level
+    if I[f, CUT] == 0:
+        if level > max_depth:
+            I[f, CUT] = 1
+            ev[EV_DEPTH, node] += 1
+        elif lod > 0.0 and world_size(flat.box[node], F, f) < lod * dnorm * max(t_enter, 0.0):
+            I[f, CUT] = 1
+            ev[EV_LOD, node] += 1
+    if I[f, CUT] == 1:
+        r = flat.term_rule[node]
+        if r < 0:
+            return -2
+        if level > 4 * max_depth + 64:      # a terminating rule that keeps recursing
+            return -1
+        return r
+    r = pick_rule(flat, node, params, I[f, SLOT], H[f], stack)
+    if r < 0:
+        ev[EV_SELECTION, node] += 1
+        return -1
+    return r
+
+
+@_jit
+def enter_child(flat, node, k, F, I, H, src, dst):
+    copy_frame(F, I, H, src, dst)
+    I[dst, NODE] = flat.children[flat.child_start[node] + k]
+    I[dst, PHASE] = 0
+    if flat.child_count[node] > 1:
+        H[dst] = vm.edge_hash(H[src], node, k)
+
+
+@_jit
+def step_unary(flat, node, kind, F, I, H, f, slot_base, params, stack, args, m34, ev):
+    """S-free single-child nodes, in place on frame f: True if the walk goes on."""
+    if kind == TRANSFORM:
+        bad = enter_transform(flat, node, F, f, params, I[f, SLOT], H[f], stack, args, m34)
+        if bad != 0:
+            ev[EV_NONFINITE if bad == 1 else EV_SINGULAR, node] += 1
+            return False
+    elif kind == CALC:
+        run_calc(flat, node, params, I[f, SLOT], slot_base + f, H[f], stack)
+        I[f, SLOT] = slot_base + f
+    elif kind == PAINT_NODE:
+        if not enter_paint(flat, node, F, f, params, I[f, SLOT], H[f], stack, args):
+            ev[EV_NONFINITE, node] += 1
+            return False
+    elif kind == MATERIAL:
+        I[f, MAT] = flat.code[node]
+    I[f, NODE] = flat.children[flat.child_start[node]]
+    return True
+
+
+@_jit
+def set_end(iv, row, side, t, F, I, f, nx, ny, nz):
+    """Fill one end (0 = in, 1 = out) of interval `row` with t, world normal, paint, material."""
+    iv[row, IT_IN + side] = t
+    world_normal(F, f, nx, ny, nz, iv[row], IN_N + 3 * side)
+    for c in range(3):
+        iv[row, IN_PAINT + 3 * side + c] = F[f, PAINT + c]
+    iv[row, IN_MAT + side] = I[f, MAT]
+
+
+@_jit
+def combine(iv, a0, na, b0, nb, out0, op):
+    """Roth's interval CSG of the lists at a0 (na) and b0 (nb) into out0; returns the count.
+    op: 0 union, 1 intersection, 2 difference (the ends taken from b show its inside)."""
+    ia = 0
+    ib = 0
+    ina = False
+    inb = False
+    inside = False
+    n = 0
+    while ia < 2 * na or ib < 2 * nb:
+        ta = iv[a0 + ia // 2, IT_IN + ia % 2] if ia < 2 * na else np.inf
+        tb = iv[b0 + ib // 2, IT_IN + ib % 2] if ib < 2 * nb else np.inf
+        from_a = ta <= tb
+        if from_a:
+            src, side = a0 + ia // 2, ia % 2
+            ina = side == 0
+            ia += 1
+        else:
+            src, side = b0 + ib // 2, ib % 2
+            inb = side == 0
+            ib += 1
+        if op == 0:
+            now = ina or inb
+        elif op == 1:
+            now = ina and inb
+        else:
+            now = ina and not inb
+        if now == inside:
+            continue
+        inside = now
+        end = 0 if now else 1
+        row = out0 + n
+        iv[row, IT_IN + end] = iv[src, IT_IN + side]
+        flip = -1.0 if (op == 2 and not from_a) else 1.0
+        for c in range(3):
+            iv[row, IN_N + 3 * end + c] = flip * iv[src, IN_N + 3 * side + c]
+            iv[row, IN_PAINT + 3 * end + c] = iv[src, IN_PAINT + 3 * side + c]
+        iv[row, IN_MAT + end] = iv[src, IN_MAT + side]
+        if end == 1:
+            n += 1
+    return n
+
+
+@_jit
+def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, lists, stack,
+              args, m34, out8, lod, dnorm, max_depth, ev):
+    """The interval list of frame f0's subtree within [w0, w1], computed bottom-up with
+    an explicit stack; operators keep a phase (the next child) while their children run.
+    Returns (start row in iv, count)."""
+    cap_f = F.shape[0]
+    cap_iv = iv.shape[0]
+    F[0, :] = F0[f0, :]
+    I[0, :] = I0[f0, :]
+    H[0] = H0[f0]
+    F[0, T0] = w0
+    F[0, T1] = w1
+    I[0, PHASE] = 0
+    sp = 1              # frames
+    ls = 0              # lists: rows [start, count]
+    top = 0             # first free interval row
+    while sp > 0:
+        f = sp - 1
+        node = I[f, NODE]
+        kind = flat.kind[node]
+        phase = I[f, PHASE]
+        if phase == 0:
+            b0, b1 = box_window(flat.box[node], F, f)
+            t0 = max(F[f, T0], b0)
+            t1 = min(F[f, T1], b1)
+            if t0 > t1:
+                lists[ls, 0] = top
+                lists[ls, 1] = 0
+                ls += 1
+                sp -= 1
+                continue
+            F[f, T0] = t0
+            F[f, T1] = t1
+            if kind == PRIMITIVE:
+                n = 0
+                r = out8
+                if intersect(flat.code[node], F[f, OX], F[f, OX + 1], F[f, OX + 2],
+                             F[f, DX], F[f, DX + 1], F[f, DX + 2], r):
+                    a = max(r[0], t0)
+                    b = min(r[1], t1)
+                    if a <= b and top < cap_iv:
+                        set_end(iv, top, 0, a, F, I, f, r[2], r[3], r[4])
+                        set_end(iv, top, 1, b, F, I, f, r[5], r[6], r[7])
+                        n = 1
+                    elif a <= b:
+                        ev[EV_INTERVALS, node] += 1
+                lists[ls, 0] = top
+                lists[ls, 1] = n
+                ls += 1
+                top += n
+                sp -= 1
+                continue
+            if kind == SELECT:
+                r = choose_rule(flat, node, F, I, H, f, params, stack, lod, dnorm, max_depth,
+                                t0, ev)
+                if r == -2:         # a graftal below the footprint: its box is the solid
+                    n = 0
+                    if top < cap_iv:
+                        nx, ny, nz = box_normal(flat.box[node], F, f, t0)
+                        set_end(iv, top, 0, t0, F, I, f, nx, ny, nz)
+                        nx, ny, nz = box_normal(flat.box[node], F, f, t1)
+                        set_end(iv, top, 1, t1, F, I, f, nx, ny, nz)
+                        n = 1
+                    lists[ls, 0] = top
+                    lists[ls, 1] = n
+                    ls += 1
+                    top += n
+                    sp -= 1
+                elif r == -1:
+                    lists[ls, 0] = top
+                    lists[ls, 1] = 0
+                    ls += 1
+                    sp -= 1
+                else:
+                    H[f] = vm.edge_hash(H[f], node, r)
+                    I[f, NODE] = flat.children[flat.child_start[node] + r]
+                continue
+            if kind == UNION or kind == INTERSECTION or kind == DIFFERENCE:
+                if sp >= cap_f:
+                    ev[EV_STACK, node] += 1
+                    lists[ls, 0] = top
+                    lists[ls, 1] = 0
+                    ls += 1
+                    sp -= 1
+                    continue
+                I[f, PHASE] = 1
+                enter_child(flat, node, 0, F, I, H, f, sp)
+                sp += 1
+                continue
+            if not step_unary(flat, node, kind, F, I, H, f, slot_base, params, stack, args,
+                              m34, ev):
+                lists[ls, 0] = top
+                lists[ls, 1] = 0
+                ls += 1
+                sp -= 1
+            continue
+        # an operator whose child number phase-1 has just left its list on top
+        if phase > 1:
+            a0, na = lists[ls - 2, 0], lists[ls - 2, 1]
+            b0, nb = lists[ls - 1, 0], lists[ls - 1, 1]
+            op = 0 if kind == UNION else (1 if kind == INTERSECTION else 2)
+            if top + na + nb > cap_iv:
+                ev[EV_INTERVALS, node] += 1
+                n = na                      # keep the accumulator as it was
+            else:
+                n = combine(iv, a0, na, b0, nb, top, op)
+                for row in range(n):
+                    iv[a0 + row, :] = iv[top + row, :]
+            ls -= 1
+            lists[ls - 1, 1] = n
+            top = a0 + n
+        acc = lists[ls - 1, 1]
+        done = phase >= flat.child_count[node] or (acc == 0 and kind != UNION)
+        if done:
+            sp -= 1
+        else:
+            I[f, PHASE] = phase + 1
+            enter_child(flat, node, phase, F, I, H, f, sp)
+            sp += 1
+    return lists[0, 0], lists[0, 1]
+
+
+@_jit
+def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
+              params, F, I, H, Fi, Ii, Hi, iv, lists, stack, args, m34, out8, order, keys, ev,
+              res):
+    """Trace one ray from the root; writes res (R_* columns). Returns True on a hit."""
+    cap = F.shape[0]
+    dnorm = math.sqrt(dx * dx + dy * dy + dz * dz)
+    F[0, OX] = ox
+    F[0, OX + 1] = oy
+    F[0, OX + 2] = oz
+    F[0, DX] = dx
+    F[0, DX + 1] = dy
+    F[0, DX + 2] = dz
+    for k in range(9):
+        F[0, M0 + k] = 1.0 if k % 4 == 0 else 0.0
+    F[0, T0] = tmin
+    F[0, T1] = tmax
+    for k in range(3):
+        F[0, PAINT + k] = np.nan
+    I[0, NODE] = flat.root
+    I[0, SLOT] = 0
+    I[0, LEVEL] = 0
+    I[0, MAT] = -1
+    I[0, CUT] = 0
+    I[0, PHASE] = 0
+    H[0] = vm.ROOT_HASH
+    params[0, :] = np.nan
+    best = tmax
+    hit = False
+    sp = 1
+    while sp > 0:
+        sp -= 1
+        f = sp
+        while True:         # follow single-child nodes in place
+            node = I[f, NODE]
+            kind = flat.kind[node]
+            b0, b1 = box_window(flat.box[node], F, f)
+            t0 = max(F[f, T0], b0)
+            t1 = min(F[f, T1], b1, best)
+            if t0 > t1:
+                break
+            F[f, T0] = t0
+            F[f, T1] = t1
+            if kind == PRIMITIVE:
+                code = flat.code[node]
+                r = out8
+                if intersect(code, F[f, OX], F[f, OX + 1], F[f, OX + 2],
+                             F[f, DX], F[f, DX + 1], F[f, DX + 2], r):
+                    t = r[0]
+                    # not `t >= t0`: the box entry may round past the primitive's own entry
+                    if t > tmin and t < best:
+                        best = t
+                        hit = True
+                        res[R_T] = t
+                        world_normal(F, f, r[2], r[3], r[4], res, R_N)
+                        if code >= FLAT_MIN and res[R_N] * dx + res[R_N + 1] * dy + \
+                                res[R_N + 2] * dz > 0.0:
+                            for c in range(3):
+                                res[R_N + c] = -res[R_N + c]
+                        for c in range(3):
+                            res[R_PAINT + c] = F[f, PAINT + c]
+                        res[R_MAT] = I[f, MAT]
+                        if any_hit:
+                            return True
+                break
+            if kind == SELECT:
+                r = choose_rule(flat, node, F, I, H, f, params, stack, lod, dnorm, max_depth,
+                                t0, ev)
+                if r == -2:
+                    if t0 > tmin and t0 < best:
+                        best = t0
+                        hit = True
+                        res[R_T] = t0
+                        nx, ny, nz = box_normal(flat.box[node], F, f, t0)
+                        world_normal(F, f, nx, ny, nz, res, R_N)
+                        for c in range(3):
+                            res[R_PAINT + c] = F[f, PAINT + c]
+                        res[R_MAT] = I[f, MAT]
+                        if any_hit:
+                            return True
+                    break
+                if r < 0:
+                    break
+                H[f] = vm.edge_hash(H[f], node, r)
+                I[f, NODE] = flat.children[flat.child_start[node] + r]
+                continue
+            if kind == UNION:
+                n = flat.child_count[node]
+                if sp + n > cap:
+                    ev[EV_STACK, node] += 1
+                    break
+                # nearest box first: sort the children that the window meets by entry
+                m = 0
+                for k in range(n):
+                    c = flat.children[flat.child_start[node] + k]
+                    e0, e1 = box_window(flat.box[c], F, f)
+                    e0 = max(e0, t0)
+                    if e0 <= min(e1, t1):
+                        j = m
+                        while j > 0 and keys[j - 1] < e0:    # descending: nearest pops first
+                            keys[j] = keys[j - 1]
+                            order[j] = order[j - 1]
+                            j -= 1
+                        keys[j] = e0
+                        order[j] = k
+                        m += 1
+                for j in range(m - 1, -1, -1):     # the source frame f is overwritten last
+                    enter_child(flat, node, order[j], F, I, H, f, sp + j)
+                    F[sp + j, T0] = keys[j]
+                sp += m
+                break
+            if kind == INTERSECTION or kind == DIFFERENCE:
+                start, count = intervals(flat, F, I, H, f, t0, t1, params, cap, Fi, Ii, Hi,
+                                         iv, lists, stack, args, m34, out8, lod, dnorm,
+                                         max_depth, ev)
+                for j in range(count):
+                    t = iv[start + j, IT_IN]
+                    if t > tmin and t < best:
+                        best = t
+                        hit = True
+                        res[R_T] = t
+                        for c in range(3):
+                            res[R_N + c] = iv[start + j, IN_N + c]
+                            res[R_PAINT + c] = iv[start + j, IN_PAINT + c]
+                        res[R_MAT] = iv[start + j, IN_MAT]
+                        if any_hit:
+                            return True
+                        break
+                break
+            if not step_unary(flat, node, kind, F, I, H, f, 0, params, stack, args, m34, ev):
+                break
+    res[R_HIT] = 1.0 if hit else 0.0
+    if not hit:
+        res[R_T] = np.inf
+    return hit

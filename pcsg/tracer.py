@@ -1,0 +1,134 @@
+"""`pcsg.load(path, **overrides).trace(origins, directions)`: the graph tracer
+for Python users, and what the renderer builds on."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .compiler import compile_file, compile_text
+from .graph.bounds import hyper_boxes
+from .graph.flat import flatten_graph
+from .graph.model import KIND_NAMES, SELECT, Graph
+from .trace.kernel import CHUNK, trace_rays
+from .trace.nodes import (EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
+                          EV_SINGULAR, EV_STACK, N_EVENTS)
+from .trace.walk import R_HIT, R_MAT, R_N, R_PAINT, R_T, R_WIDTH
+
+MAX_DEPTH = 64
+BATCH = 1 << 16             # rays per kernel call: bounds the per-chunk event arrays
+
+
+@dataclass
+class Hits:
+    t: np.ndarray               # (N,) distance along the given direction; inf where missed
+    normal: np.ndarray          # (N, 3) unit world normal (zeros where missed)
+    paint: np.ndarray           # (N, 3) paint(r,g,b) in force at the hit; nan if none
+    material: np.ndarray        # (N,) index into Traced.material_names, -1 if none
+    hit: np.ndarray             # (N,) bool
+    events: np.ndarray = field(repr=False, default=None)   # (kinds, nodes) counts
+
+
+def _pad(boxes: np.ndarray) -> np.ndarray:
+    """Widen every box by a relative hair so that rounding in the slab test can never
+    cull a primitive whose own exact test would hit (boxes must be conservative)."""
+    out = boxes.copy()
+    finite = np.isfinite(out)
+    scale = np.where(finite, np.abs(out), 0.0)
+    ext = 1e-9 * (scale[:, :3] + scale[:, 3:]) + 1e-12
+    out[:, :3] = np.where(finite[:, :3], out[:, :3] - ext, out[:, :3])
+    out[:, 3:] = np.where(finite[:, 3:], out[:, 3:] + ext, out[:, 3:])
+    return out
+
+
+class Traced:
+    """A compiled, bounded, flattened PCSG object, ready to trace."""
+
+    def __init__(self, graph: Graph, max_depth: int = MAX_DEPTH, stack_depth: int | None = None):
+        self.graph = graph
+        self.max_depth = int(max_depth)
+        boxes, self.bounds_method = hyper_boxes(graph)
+        self.boxes = boxes
+        self.flat = flatten_graph(graph, _pad(boxes))
+        kids = int(self.flat.max_children)
+        self.stack_depth = int(stack_depth or kids + (self.max_depth + 2) * min(kids, 16) + 32)
+
+    @property
+    def material_names(self) -> list[str]:
+        return self.graph.material_names
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """The root's hyper-bounding box (xmin, ymin, zmin, xmax, ymax, zmax)."""
+        return self.boxes[self.graph.root]
+
+    def trace(self, origins, directions, tmin: float = 1e-9, tmax: float = np.inf,
+              any_hit: bool = False, lod: float = 0.0) -> Hits:
+        """Trace rays o + t d. `lod` is the pixel footprint in radians (0: no level of
+        detail); `any_hit` stops at the first hit found (shadow rays)."""
+        o = np.ascontiguousarray(np.asarray(origins, dtype=np.float64).reshape(-1, 3))
+        d = np.ascontiguousarray(np.asarray(directions, dtype=np.float64).reshape(-1, 3))
+        if o.shape != d.shape:
+            raise ValueError(f"origins {o.shape} and directions {d.shape} differ")
+        n = len(o)
+        out = np.zeros((n, R_WIDTH))
+        events = np.zeros((N_EVENTS, len(self.graph.nodes)), dtype=np.int64)
+        for s in range(0, n, BATCH):
+            e = min(n, s + BATCH)
+            ev = np.zeros(((e - s + CHUNK - 1) // CHUNK, N_EVENTS, len(self.graph.nodes)),
+                          dtype=np.int64)
+            trace_rays(self.flat, o[s:e], d[s:e], float(tmin), float(tmax), bool(any_hit),
+                       float(lod), self.max_depth, self.stack_depth, out[s:e], ev)
+            events += ev.sum(axis=0)
+        return Hits(t=out[:, R_T].copy(), normal=out[:, R_N:R_N + 3].copy(),
+                    paint=np.where(out[:, R_HIT:R_HIT + 1] > 0, out[:, R_PAINT:R_PAINT + 3],
+                                   np.nan),
+                    material=np.where(out[:, R_HIT] > 0, out[:, R_MAT], -1).astype(np.int64),
+                    hit=out[:, R_HIT] > 0, events=events)
+
+    def describe_events(self, events: np.ndarray) -> list[str]:
+        """One line per kind of thing that happened, naming where."""
+        g = self.graph
+
+        def where(kind):
+            nodes = np.nonzero(events[kind])[0]
+            names = []
+            for i in nodes[np.argsort(-events[kind][nodes])][:3]:
+                n = g.nodes[i]
+                label = f"'{n.name}'" if n.kind == SELECT else KIND_NAMES[n.kind]
+                if n.span is not None:
+                    label += f" at {g.source.locate(n.span[0])}"
+                names.append(label)
+            return ", ".join(names), int(events[kind].sum())
+
+        lines = []
+        texts = {
+            EV_LOD: "level of detail: {n:,} instances smaller than a pixel were finished with "
+                    "their terminating rule ({w})",
+            EV_DEPTH: "depth limit: {n:,} instances reached --max-depth {d} and were finished "
+                      "with their terminating rule ({w}); raise --max-depth to refine further",
+            EV_SELECTION: "{n:,} instances were empty because a selection was not a valid rule "
+                          "number ({w})",
+            EV_SINGULAR: "{n:,} instances were empty because of a singular transformation ({w})",
+            EV_NONFINITE: "{n:,} instances were empty because of a non-finite argument ({w})",
+            EV_STACK: "walk stack full {n:,} times ({w}); raise --stack-depth (now {s})",
+            EV_INTERVALS: "interval lists full {n:,} times ({w}); an ∩ or \\ subtree has "
+                          "too many pieces along one ray",
+        }
+        for kind, text in texts.items():
+            w, n = where(kind)
+            if n:
+                lines.append(text.format(n=n, w=w, d=self.max_depth, s=self.stack_depth))
+        return lines
+
+
+def load(path: str | Path, max_depth: int = MAX_DEPTH, **overrides: float) -> Traced:
+    """Compile a .pcsg file (raising PcsgError on errors) and prepare it for tracing.
+    Keyword arguments override initial parameters, like --set."""
+    return Traced(compile_file(path, overrides), max_depth=max_depth)
+
+
+def loads(text: str, file: str = "<string>", max_depth: int = MAX_DEPTH,
+          **overrides: float) -> Traced:
+    return Traced(compile_text(text, file, overrides), max_depth=max_depth)
