@@ -48,7 +48,8 @@ class Traced:
     def __init__(self, graph: Graph, max_depth: int = MAX_DEPTH, stack_depth: int | None = None):
         self.graph = graph
         self.max_depth = int(max_depth)
-        boxes, self.bounds_method = hyper_boxes(graph)
+        boxes, self.bounds_method, problems = hyper_boxes(graph, self.max_depth)
+        self.warnings = list(graph.warnings) + problems
         self.boxes = boxes
         self.flat = flatten_graph(graph, _pad(boxes))
         kids = int(self.flat.max_children)

@@ -15,7 +15,7 @@ import sys
 
 import numpy as np
 
-from ..language.errors import PcsgError
+from ..language.errors import Diagnostic, PcsgError
 from ..trace.primitives import BOXES, CODES
 from .dependence import RAND, structural_params
 from .derive import Deriver
@@ -23,7 +23,7 @@ from .model import CALC, DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM,
 from .stats import MAX_LEVELS
 
 EMPTY = np.array([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf])
-MAX_STATES = 50_000
+MAX_STATES = 5_000     # beyond this the compiled walk is faster
 
 
 class TooManyStates(Exception):
@@ -57,7 +57,48 @@ def intersect_box(a, b):
     return out if np.all(out[:3] <= out[3:]) else EMPTY.copy()
 
 
+MAX_POINTS = 256       # corner points kept per instance before they are merged into a box
+MAX_ROUNDS = 400       # fixed-point rounds for systems that re-enter the same state
+
+
+def as_box(b: np.ndarray) -> np.ndarray:
+    """A bound is either finite corner points (k, 3) or a box (6,) with infinite sides."""
+    if b.ndim == 2:
+        if len(b) == 0:
+            return EMPTY.copy()
+        return np.concatenate([b.min(axis=0), b.max(axis=0)])
+    return b
+
+
+def _corners(box: np.ndarray) -> np.ndarray:
+    if box[0] > box[3]:
+        return np.zeros((0, 3))
+    if not np.all(np.isfinite(box)):
+        return box
+    lo, hi = box[:3], box[3:]
+    return np.array([[(lo, hi)[i][0], (lo, hi)[j][1], (lo, hi)[k][2]]
+                     for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+
+
+def transform_bound(m: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Points map exactly (no growth under rotation: the paper's Fig. 9); boxes with
+    infinite sides by interval arithmetic."""
+    if b.ndim == 2:
+        return b @ m[:3, :3].T + m[:3, 3]
+    return transform_box(m, b)
+
+
+def unite_bounds(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    if a.ndim == 2 and b.ndim == 2:
+        pts = np.concatenate([a, b])
+        return pts if len(pts) <= MAX_POINTS else _corners(as_box(pts))
+    return union_box(as_box(a), as_box(b))
+
+
 class _Walker:
+    """One round of the memoised walk; re-entering a state that is still being computed
+    (an endless system) takes the previous round's estimate of it."""
+
     def __init__(self, graph: Graph):
         self.g = graph
         self.d = Deriver(graph)
@@ -66,60 +107,98 @@ class _Walker:
         slots = [sorted(graph.params[p] for p in r if p != RAND) for r in rel]
         self.slots = [np.array(s, dtype=np.int64) for s in slots]
         self.masks = [sum(1 << i for i in s) for s in slots]
+        self.estimate: dict = {}
+        self.reset()
+
+    def reset(self):
         self.memo: dict = {}
-        self.boxes = np.tile(EMPTY, (len(graph.nodes), 1))
+        self.active: set = set()
+        self.reentered: set = set()
+        self.boxes = np.tile(EMPTY, (len(self.g.nodes), 1))
 
     def box(self, i: int, state, h: int, level: int) -> np.ndarray:
         n = self.g.nodes[i]
         if n.kind == PRIMITIVE:
-            b = BOXES[CODES[n.name]].copy()
-            self.boxes[i] = union_box(self.boxes[i], b)
+            b = _corners(BOXES[CODES[n.name]])
+            self.boxes[i] = union_box(self.boxes[i], as_box(b))
             return b
         key = (i, state.values[self.slots[i]].tobytes(), state.assigned & self.masks[i],
                h if self.rand[i] else 0)
         hit = self.memo.get(key)
         if hit is not None:
             return hit
-        if len(self.memo) >= MAX_STATES:
+        if key in self.active:
+            self.reentered.add(key)
+            return self.estimate.get(key, np.zeros((0, 3)))
+        if len(self.memo) >= MAX_STATES or level >= MAX_LEVELS:
             raise TooManyStates
+        self.active.add(key)
         if n.kind == SELECT:
-            if level >= MAX_LEVELS:
-                raise TooManyStates
             r = self.d.select(i, state, h)
             b = self.box(n.children[r], state, self.d.edge(h, i, r), level + 1)
         elif n.kind == CALC:
             b = self.box(n.children[0], self.d.calc(i, state, h), h, level)
         elif n.kind == TRANSFORM:
-            b = transform_box(self.d.matrix(i, state, h), self.box(n.children[0], state, h, level))
+            b = transform_bound(self.d.matrix(i, state, h),
+                                self.box(n.children[0], state, h, level))
         elif n.kind in (UNION, INTERSECTION, DIFFERENCE):
             parts = [self.box(c, state, self.d.edge(h, i, k), level)
                      for k, c in enumerate(n.children)]
             b = parts[0]
             for p in parts[1:]:
                 if n.kind == UNION:
-                    b = union_box(b, p)
+                    b = unite_bounds(b, p)
                 elif n.kind == INTERSECTION:
-                    b = intersect_box(b, p)
+                    b = _corners(intersect_box(as_box(b), as_box(p)))
         else:       # paint, material
             b = self.box(n.children[0], state, h, level)
+        self.active.discard(key)
         self.memo[key] = b
-        self.boxes[i] = union_box(self.boxes[i], b)
+        self.boxes[i] = union_box(self.boxes[i], as_box(b))
         return b
 
 
-def hyper_boxes(graph: Graph) -> tuple[np.ndarray, str]:
-    """(n, 6) boxes (xmin, ymin, zmin, xmax, ymax, zmax) per node, and which method
-    computed them ('memoised' or 'every instance')."""
+def _memoised(graph: Graph) -> np.ndarray:
+    """Exact boxes by the memoised walk, iterated to a fixed point over re-entered
+    states; TooManyStates when memoising cannot help."""
     w = _Walker(graph)
+    for _ in range(MAX_ROUNDS):
+        w.reset()
+        state, h = w.d.initial()
+        w.box(graph.root, state, h, 0)
+        if not w.reentered:
+            return w.boxes
+        new = {k: w.memo[k] for k in w.reentered}
+        if all(k in w.estimate and _same(as_box(new[k]), as_box(w.estimate[k])) for k in new):
+            return w.boxes
+        w.estimate.update(new)
+    raise TooManyStates
+
+
+def _same(a, b) -> bool:
+    scale = np.nanmax(np.abs(np.where(np.isfinite(a), a, 0.0))) + 1e-300
+    both = np.isfinite(a) & np.isfinite(b)
+    return bool(np.array_equal(np.isfinite(a), np.isfinite(b))
+                and np.all(np.abs(a[both] - b[both]) <= 1e-13 * scale))
+
+
+def hyper_boxes(graph: Graph, max_depth: int = 64):
+    """(n, 6) boxes (xmin, ymin, zmin, xmax, ymax, zmax) per node; which method computed
+    them: 'memoised', 'every instance', or 'unbounded' when there were too many instances
+    to visit (then no box culls anything: slow, never wrong); and the runtime errors met
+    on the way (an invalid selection: that instance is empty)."""
+    problems = []
     limit = sys.getrecursionlimit()
     sys.setrecursionlimit(max(limit, 20 * MAX_LEVELS))
     try:
-        state, h = w.d.initial()
-        w.box(graph.root, state, h, 0)
-        return w.boxes, "memoised"
-    except (TooManyStates, PcsgError):
+        return _memoised(graph), "memoised", problems
+    except TooManyStates:
         pass
+    except PcsgError as e:
+        problems = [Diagnostic("warning", d.message + "; that instance is empty", d.span,
+                               d.source, d.notes, d.code) for d in e.diagnostics]
     finally:
         sys.setrecursionlimit(limit)
     from ..trace.boxwalk import walk_boxes
-    return walk_boxes(graph), "every instance"
+    boxes, complete = walk_boxes(graph, max_depth)
+    return boxes, "every instance" if complete else "unbounded", problems

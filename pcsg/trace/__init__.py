@@ -1,0 +1,34 @@
+"""The njit side: expression machine, transformations, primitives, walks.
+
+numba's on-disk cache checks only the file of the function it caches, not the
+files of the functions it calls, so a kernel in kernel.py would keep running an
+old copy of walk.py after an upgrade. The guard below drops the cached kernels
+whenever any source they are built from changes."""
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+
+def _refresh_kernel_cache() -> None:
+    here = Path(__file__).resolve().parent
+    sources = sorted(here.glob("*.py")) + [here.parent / "graph" / "model.py",
+                                           here.parent / "language" / "names.py"]
+    digest = hashlib.sha256(b"".join(p.read_bytes() for p in sources)).hexdigest()
+    cache = here / "__pycache__"
+    stamp = cache / "pcsg-kernels.sha256"
+    try:
+        if stamp.read_text() == digest:
+            return
+    except OSError:
+        pass
+    try:
+        cache.mkdir(exist_ok=True)
+        for f in list(cache.glob("*.nbi")) + list(cache.glob("*.nbc")):
+            f.unlink(missing_ok=True)
+        stamp.write_text(digest)
+    except OSError:
+        pass        # a read-only install: numba keeps its cache in the user's directory
+
+
+_refresh_kernel_cache()

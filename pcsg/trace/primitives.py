@@ -138,7 +138,7 @@ def _sphere(out, ox, oy, oz, dx, dy, dz):
     cy = oz * dx - ox * dz
     cz = ox * dy - oy * dx
     disc = a - (cx * cx + cy * cy + cz * cz)
-    if disc < 0.0:
+    if not (disc >= 0.0):                        # also nan (overflow far away)
         return False
     sq = math.sqrt(disc)
     q = -(b + math.copysign(sq, b))
@@ -150,6 +150,8 @@ def _sphere(out, ox, oy, oz, dx, dy, dz):
         r2 = c / q
         if r1 > r2:
             r1, r2 = r2, r1
+        if not (r1 <= r2):                       # nan
+            return False
     _enter(out, r1, ox + r1 * dx, oy + r1 * dy, oz + r1 * dz)
     _leave(out, r2, ox + r2 * dx, oy + r2 * dy, oz + r2 * dz)
     return True
@@ -201,7 +203,7 @@ def _cylinder(out, ox, oy, oz, dx, dy, dz):
         b = ox * dx + oy * dy
         cr = ox * dy - oy * dx
         disc = a - cr * cr                       # = b^2 - a c
-        if disc < 0.0:
+        if not (disc >= 0.0):
             return False
         sq = math.sqrt(disc)
         q = -(b + math.copysign(sq, b))
@@ -213,6 +215,8 @@ def _cylinder(out, ox, oy, oz, dx, dy, dz):
             r2 = c / q
             if r1 > r2:
                 r1, r2 = r2, r1
+            if not (r1 <= r2):                   # nan
+                return False
         _enter(out, r1, ox + r1 * dx, oy + r1 * dy, 0.0)
         _leave(out, r2, ox + r2 * dx, oy + r2 * dy, 0.0)
     return out[0] <= out[1]
@@ -258,6 +262,8 @@ def _cone(out, ox, oy, oz, dx, dy, dz):
             n = 1                                    # the whole line
         else:
             r = -C / (2.0 * B)
+            if r != r:
+                return False
             n = 1
             if B > 0.0:
                 p1 = r
@@ -265,6 +271,8 @@ def _cone(out, ox, oy, oz, dx, dy, dz):
                 p0 = r
     else:
         disc = B * B - A * C
+        if disc != disc:                             # nan: overflow far away
+            return False
         if disc < 0.0:
             if A > 0.0:
                 return False
@@ -280,6 +288,8 @@ def _cone(out, ox, oy, oz, dx, dy, dz):
                 r2 = C / q
                 if r1 > r2:
                     r1, r2 = r2, r1
+                if not (r1 <= r2):               # nan
+                    return False
             if A > 0.0:
                 n = 1
                 p0 = r1

@@ -24,7 +24,8 @@ Semantics (the contract the tracer is compared on)
   is empty).
 - The hit is the first interval whose start t is > tmin (strictly): an
   interval clipped at tmin (the origin inside a solid) is not a hit, the
-  next one is. For a flat triangle the normal is turned so that
+  next one is; with trace(..., exits=True) such a ray reports instead where
+  it leaves the solid (t_out < tmax, the outward normal there). For a flat triangle the normal is turned so that
   dot(normal, d) <= 0; a solid's normal is the CSG outward normal as is.
 - Misses: hit False, t inf, normal nan, paint nan, material -1, primitive ''.
 """
@@ -144,11 +145,29 @@ class Reference:
 
     @property
     def leaves(self) -> list[Leaf]:
+        """The primitives in derivation order (the order of pcsg.graph.flatten)."""
         return [n for n in self.nodes if isinstance(n, Leaf)]
+
+    def as_tree(self):
+        """The expanded tree as nested tuples: ('union' | 'intersection' |
+        'difference', [children]) and leaves (code, 4x4 world matrix, paint rgb or
+        None, material index or -1)."""
+        built = [None] * len(self.nodes)
+        for idx in range(len(self.nodes) - 1, -1, -1):      # children come after parents
+            n = self.nodes[idx]
+            if isinstance(n, Leaf):
+                built[idx] = (n.code, n.matrix, n.paint, n.material)
+            else:
+                built[idx] = (n.name, [built[c] for c in n.children])
+        return built[self.root]
 
     # ---- tracing ----------------------------------------------------------------
 
-    def trace(self, origins, directions, tmin=1e-9, tmax=np.inf) -> dict:
+    def trace(self, origins, directions, tmin=1e-9, tmax=np.inf, exits=False) -> dict:
+        """First hits of the rays o + t d, t in (tmin, tmax]. With exits=True a ray
+        that starts inside a solid (its first interval is clipped at tmin) reports
+        where it leaves it instead (t_out and the outward normal there), if that is
+        before tmax; by default such a ray sees past the solid to the next start."""
         O = np.ascontiguousarray(np.asarray(origins, dtype=np.float64).reshape(-1, 3))
         D = np.ascontiguousarray(np.asarray(directions, dtype=np.float64).reshape(-1, 3))
         if O.shape != D.shape:
@@ -160,7 +179,7 @@ class Reference:
                "primitive": np.full(n, "", dtype=object)}
         for a in range(0, n, _CHUNK):
             self._trace_chunk(O[a:a + _CHUNK], D[a:a + _CHUNK], float(tmin), float(tmax),
-                              res, a)
+                              bool(exits), res, a)
         return res
 
     def _leaf_hits(self, leaf: Leaf, O, D, tmin, tmax):
@@ -171,24 +190,25 @@ class Reference:
         inv = leaf.inverse
         Oo = np.ascontiguousarray(O @ inv[:3, :3].T + inv[:3, 3])
         Do = np.ascontiguousarray(D @ inv[:3, :3].T)
-        out = np.empty((n, 8))
+        out = np.zeros((n, 8))
         hit = np.zeros(n, dtype=bool)
         _intersect_many(leaf.code, Oo, Do, out, hit)
-        nin = out[:, 2:5] @ leaf.normal_matrix.T
-        nout = out[:, 5:8] @ leaf.normal_matrix.T
+        rows = np.flatnonzero(hit)
+        nin = out[rows, 2:5] @ leaf.normal_matrix.T
+        nout = out[rows, 5:8] @ leaf.normal_matrix.T
         with np.errstate(invalid="ignore", divide="ignore"):
             nin /= np.linalg.norm(nin, axis=1, keepdims=True)
             nout /= np.linalg.norm(nout, axis=1, keepdims=True)
         flat = leaf.code in primitives.FLAT
         res = [None] * n
-        for k in np.flatnonzero(hit):
+        for r, k in enumerate(rows):
             t0, t1 = max(out[k, 0], tmin), min(out[k, 1], tmax)
-            if not t0 <= t1:
-                continue
-            res[k] = (t0, (tuple(nin[k]), leaf, flat), t1, (tuple(nout[k]), leaf, flat))
+            if not (t0 <= t1 and t0 < math.inf and t1 > -math.inf):
+                continue                         # outside [tmin, tmax] or at infinity
+            res[k] = (t0, (tuple(nin[r]), leaf, flat), t1, (tuple(nout[r]), leaf, flat))
         return res
 
-    def _trace_chunk(self, O, D, tmin, tmax, res, offset):
+    def _trace_chunk(self, O, D, tmin, tmax, exits, res, offset):
         nodes = self.nodes
         leaf_hits = {}
         for idx, node in enumerate(nodes):
@@ -214,7 +234,9 @@ class Reference:
                     spans[idx] = acc
                 else:
                     spans[idx] = difference(kids[0], kids[1:])
-            for t0, e0, _t1, _e1 in spans[self.root]:
+            for t0, e0, t1, e1 in spans[self.root]:
+                if exits and t0 <= tmin < t1 < tmax:     # inside at tmin: the exit
+                    t0, e0 = t1, e1
                 if t0 > tmin:
                     normal, leaf, flat = e0
                     nrm = np.array(normal)

@@ -101,9 +101,20 @@ def set_end(iv, row, side, t, F, I, f, nx, ny, nz):
 
 
 @_jit
+def _state(op, ina, inb):
+    if op == 0:
+        return ina or inb
+    if op == 1:
+        return ina and inb
+    return ina and not inb
+
+
+@_jit
 def combine(iv, a0, na, b0, nb, out0, op):
     """Roth's interval CSG of the lists at a0 (na) and b0 (nb) into out0; returns the count.
-    op: 0 union, 1 intersection, 2 difference (the ends taken from b show its inside)."""
+    op: 0 union, 1 intersection, 2 difference (the ends taken from b show its inside).
+    All ends at one t are applied together before the state is compared, so that
+    coincident surfaces (A \\ A) leave no zero-length sliver."""
     ia = 0
     ib = 0
     ina = False
@@ -113,27 +124,31 @@ def combine(iv, a0, na, b0, nb, out0, op):
     while ia < 2 * na or ib < 2 * nb:
         ta = iv[a0 + ia // 2, IT_IN + ia % 2] if ia < 2 * na else np.inf
         tb = iv[b0 + ib // 2, IT_IN + ib % 2] if ib < 2 * nb else np.inf
-        from_a = ta <= tb
-        if from_a:
-            src, side = a0 + ia // 2, ia % 2
-            ina = side == 0
+        t = min(ta, tb)
+        src_a = -1
+        while ia < 2 * na and iv[a0 + ia // 2, IT_IN + ia % 2] == t:
+            src_a = ia
+            ina = ia % 2 == 0
             ia += 1
-        else:
-            src, side = b0 + ib // 2, ib % 2
-            inb = side == 0
+        was_b = inb
+        src_b = -1
+        while ib < 2 * nb and iv[b0 + ib // 2, IT_IN + ib % 2] == t:
+            src_b = ib
+            inb = ib % 2 == 0
             ib += 1
-        if op == 0:
-            now = ina or inb
-        elif op == 1:
-            now = ina and inb
-        else:
-            now = ina and not inb
+        now = _state(op, ina, inb)
         if now == inside:
             continue
         inside = now
+        # the surface that made the change: a's if a alone would have made it
+        from_a = src_a >= 0 and (src_b < 0 or _state(op, ina, was_b) == now)
+        if from_a:
+            src, side = a0 + src_a // 2, src_a % 2
+        else:
+            src, side = b0 + src_b // 2, src_b % 2
         end = 0 if now else 1
         row = out0 + n
-        iv[row, IT_IN + end] = iv[src, IT_IN + side]
+        iv[row, IT_IN + end] = t
         flip = -1.0 if (op == 2 and not from_a) else 1.0
         for c in range(3):
             iv[row, IN_N + 3 * end + c] = flip * iv[src, IN_N + 3 * side + c]
@@ -315,13 +330,16 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                 r = out8
                 if intersect(code, F[f, OX], F[f, OX + 1], F[f, OX + 2],
                              F[f, DX], F[f, DX + 1], F[f, DX + 2], r):
-                    t = r[0]
-                    # not `t >= t0`: the box entry may round past the primitive's own entry
+                    # the first boundary crossing: the entry, or the exit from inside.
+                    # Not `t >= t0`: the box entry may round past the primitive's own entry.
+                    side = 0 if r[0] > tmin else 1
+                    t = r[side]
                     if t > tmin and t < best:
                         best = t
                         hit = True
                         res[R_T] = t
-                        world_normal(F, f, r[2], r[3], r[4], res, R_N)
+                        world_normal(F, f, r[2 + 3 * side], r[3 + 3 * side], r[4 + 3 * side],
+                                     res, R_N)
                         if code >= FLAT_MIN and res[R_N] * dx + res[R_N + 1] * dy + \
                                 res[R_N + 2] * dz > 0.0:
                             for c in range(3):
@@ -382,16 +400,18 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                 start, count = intervals(flat, F, I, H, f, t0, t1, params, cap, Fi, Ii, Hi,
                                          iv, lists, stack, args, m34, out8, lod, dnorm,
                                          max_depth, ev)
-                for j in range(count):
-                    t = iv[start + j, IT_IN]
+                for j in range(2 * count):          # every end, in order along the ray
+                    row = start + j // 2
+                    side = j % 2
+                    t = iv[row, IT_IN + side]
                     if t > tmin and t < best:
                         best = t
                         hit = True
                         res[R_T] = t
                         for c in range(3):
-                            res[R_N + c] = iv[start + j, IN_N + c]
-                            res[R_PAINT + c] = iv[start + j, IN_PAINT + c]
-                        res[R_MAT] = iv[start + j, IN_MAT]
+                            res[R_N + c] = iv[row, IN_N + 3 * side + c]
+                            res[R_PAINT + c] = iv[row, IN_PAINT + 3 * side + c]
+                        res[R_MAT] = iv[row, IN_MAT + side]
                         if any_hit:
                             return True
                         break

@@ -1,0 +1,153 @@
+"""Hyper-bounding boxes by visiting every instance (njit), for systems whose
+instances are too many to memoise in Python: each instance's box is computed
+bottom-up in its own frame and united into its node's hyper box. The walk stops
+refining where the tracer does (the depth bound: terminating rules, or the box
+itself for a graftal), so the boxes bound exactly what the tracer can reach."""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..graph.model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, PAINT, PRIMITIVE, SELECT,
+                           TRANSFORM, UNION)
+from . import vm
+from .nodes import eval_args, pick_rule, run_calc
+from .primitives import BOXES
+from .transforms import affine
+
+NODE, SLOT, LEVEL, PHASE, CUT = range(5)
+
+
+@njit(cache=True, error_model="numpy")
+def _transform_box(m, b, out):
+    if b[0] > b[3]:
+        out[:] = b
+        return
+    for i in range(3):
+        lo = m[i, 3]
+        hi = m[i, 3]
+        for j in range(3):
+            a = m[i, j]
+            if a > 0.0:
+                lo += a * b[j]
+                hi += a * b[j + 3]
+            elif a < 0.0:
+                lo += a * b[j + 3]
+                hi += a * b[j]
+        out[i] = lo
+        out[i + 3] = hi
+
+
+@njit(cache=True, error_model="numpy")
+def _unite(acc, b):
+    for a in range(3):
+        acc[a] = min(acc[a], b[a])
+        acc[a + 3] = max(acc[a + 3], b[a + 3])
+
+
+@njit(cache=True, error_model="numpy")
+def walk(flat, max_depth, budget, capacity, boxes):
+    """Fill boxes[n] (pre-set to empty) with the union of node n's instance boxes.
+    Returns 0, or 1 if the visit budget or the stack capacity ran out."""
+    fr = np.zeros((capacity, 5), dtype=np.int64)
+    hs = np.zeros(capacity, dtype=np.uint64)
+    params = np.full((capacity, flat.n_params), np.nan)
+    acc = np.empty((capacity, 6))          # each frame's instance box so far
+    tmp = np.empty(6)
+    stack = np.empty(flat.max_stack)
+    args = np.empty(12)
+    m34 = np.empty((3, 4))
+    fr[0, NODE] = flat.root
+    hs[0] = vm.ROOT_HASH
+    sp = 1
+    visits = 0
+    while sp > 0:
+        f = sp - 1
+        node = fr[f, NODE]
+        kind = flat.kind[node]
+        phase = fr[f, PHASE]
+        if phase == 0:
+            visits += 1
+            if visits > budget:
+                return 1
+            acc[f, :3] = np.inf
+            acc[f, 3:] = -np.inf
+        child = -1
+        if kind == PRIMITIVE:
+            acc[f, :] = BOXES[flat.code[node]]
+        elif kind == SELECT:
+            if phase == 0:
+                level = fr[f, LEVEL] + 1
+                fr[f, LEVEL] = level
+                if level > max_depth:
+                    fr[f, CUT] = 1
+                if fr[f, CUT] == 1:
+                    r = flat.term_rule[node]
+                    if r < 0 or level > 4 * max_depth + 64:
+                        r = -1          # a graftal: bounded by its own box (no growth)
+                else:
+                    r = pick_rule(flat, node, params, fr[f, SLOT], hs[f], stack)
+                if r >= 0:
+                    child = r
+                    fr[f, PHASE] = 1 + r
+            else:
+                _unite(acc[f], acc[f + 1])
+        elif kind == TRANSFORM or kind == CALC or kind == PAINT or kind == MATERIAL:
+            if phase == 0:
+                child = 0
+                fr[f, PHASE] = 1
+            elif kind == TRANSFORM:
+                eval_args(flat, node, params, fr[f, SLOT], hs[f], stack, args)
+                affine(flat.code[node], args, m34)
+                _transform_box(m34, acc[f + 1], tmp)
+                acc[f, :] = tmp
+            else:
+                acc[f, :] = acc[f + 1]
+        else:   # UNION, INTERSECTION, DIFFERENCE: children one by one
+            if phase > 0:
+                b = acc[f + 1]
+                if phase == 1 or kind == UNION:
+                    _unite(acc[f], b)
+                elif kind == INTERSECTION:
+                    for a in range(3):
+                        acc[f, a] = max(acc[f, a], b[a])
+                        acc[f, a + 3] = min(acc[f, a + 3], b[a + 3])
+            if phase < flat.child_count[node]:
+                child = phase
+                fr[f, PHASE] = phase + 1
+        if child >= 0:
+            if sp >= capacity:
+                return 1
+            g = sp
+            fr[g, :] = fr[f, :]
+            fr[g, NODE] = flat.children[flat.child_start[node] + child]
+            fr[g, PHASE] = 0
+            hs[g] = hs[f]
+            if kind == SELECT or flat.child_count[node] > 1:
+                hs[g] = vm.edge_hash(hs[f], node, child)
+            if kind == CALC:
+                run_calc(flat, node, params, fr[f, SLOT], g, hs[f], stack)
+                fr[g, SLOT] = g
+            sp += 1
+            continue
+        if acc[f, 0] > acc[f, 3] or acc[f, 1] > acc[f, 4] or acc[f, 2] > acc[f, 5]:
+            acc[f, :3] = np.inf         # normalise empty
+            acc[f, 3:] = -np.inf
+        _unite(boxes[node], acc[f])
+        sp -= 1
+    return 0
+
+
+def walk_boxes(graph, max_depth: int = 64, budget: int = 60_000_000):
+    """(n, 6) hyper boxes of every node by visiting every instance; nodes whose instances
+    could not all be visited (budget) are left unbounded, which is always safe."""
+    from ..graph.flat import flatten_graph
+    n = len(graph.nodes)
+    empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
+    flat = flatten_graph(graph, empty)
+    boxes = empty.copy()
+    capacity = (max_depth + 2) * (n + 2) + 16
+    if walk(flat, max_depth, budget, capacity, boxes) != 0:
+        boxes[:] = [-np.inf, -np.inf, -np.inf, np.inf, np.inf, np.inf]
+        return boxes, False
+    return boxes, True
