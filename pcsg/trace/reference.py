@@ -15,8 +15,9 @@ Semantics (the contract the tracer is compared on)
 - Every interval end carries (t, unit world normal, paint, material, primitive).
 - union: the sorted union, intervals that touch or overlap merged (closed sets);
   degenerate intervals [t, t] (flat triangles, grazing hits) are kept.
-- intersection: max of starts, min of ends; only pieces with start < end are
-  kept (regularised: solids that only touch give nothing).
+- intersection: max of starts, min of ends; only pieces longer than SLIVER
+  (1e-9 relative) are kept (regularised: solids that only touch give nothing,
+  and coincident surfaces that rounding separates leave no sliver).
 - difference (n-ary, first child minus all the others): the first child
   intersected with the complement of the union of the others; boundaries that
   come from a subtracted operand get their normal negated and keep that
@@ -270,15 +271,19 @@ def union(lists):
     return out
 
 
+SLIVER = 1e-9   # relative: thinner pieces are coincident surfaces up to rounding
+
+
 def intersection(a, b):
-    """The regularised intersection: pieces with start < end only."""
+    """The regularised intersection: pieces thicker than SLIVER only (the graph tracer
+    drops the same slivers, which coincident surfaces leave where rounding differs)."""
     out = []
     i = j = 0
     while i < len(a) and j < len(b):
         x, y = a[i], b[j]
         s, se = (x[0], x[1]) if x[0] >= y[0] else (y[0], y[1])
         e, ee = (x[2], x[3]) if x[2] <= y[2] else (y[2], y[3])
-        if s < e:
+        if e - s > SLIVER * max(1.0, abs(s)):
             out.append((s, se, e, ee))
         if x[2] <= y[2]:
             i += 1

@@ -23,6 +23,7 @@ from .primitives import intersect
 
 _jit = njit(cache=True, error_model="numpy", nogil=True)
 
+SLIVER = 1e-9           # relative thickness below which ∩ and \ pieces are slivers
 FLAT_MIN = 6            # primitive codes >= this are the flat triangles
 # interval record columns: an interval is [t_in, t_out] with what is at each end
 IT_IN, IT_OUT, IN_N, OUT_N, IN_PAINT, OUT_PAINT, IN_MAT, OUT_MAT = 0, 1, 2, 5, 8, 11, 14, 15
@@ -155,7 +156,9 @@ def combine(iv, a0, na, b0, nb, out0, op):
             iv[row, IN_PAINT + 3 * end + c] = iv[src, IN_PAINT + 3 * side + c]
         iv[row, IN_MAT + end] = iv[src, IN_MAT + side]
         if end == 1:
-            n += 1
+            # ∩ and \ drop slivers: coincident surfaces that rounding pulled apart
+            if op == 0 or t - iv[row, IT_IN] > SLIVER * max(1.0, abs(iv[row, IT_IN])):
+                n += 1
     return n
 
 
@@ -384,7 +387,9 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                     e0 = max(e0, t0)
                     if e0 <= min(e1, t1):
                         j = m
-                        while j > 0 and keys[j - 1] < e0:    # descending: nearest pops first
+                        # descending, so the nearest pops first; on a tie the earlier
+                        # operand pops first and keeps the surface (as a union merges)
+                        while j > 0 and keys[j - 1] <= e0:
                             keys[j] = keys[j - 1]
                             order[j] = order[j - 1]
                             j -= 1
