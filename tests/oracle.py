@@ -29,7 +29,7 @@ def camera_rays(bounds, n, direction, spread=0.5, seed=0):
 
 def assert_agrees(traced, origins, directions, min_hits=1):
     """The graph tracer and the brute-force reference agree ray by ray."""
-    ref = Reference(traced.graph).trace(origins, directions)
+    ref = Reference(traced.graph).trace(origins, directions, exits=True)
     got = traced.trace(origins, directions)
     bad = np.nonzero(got.hit != ref["hit"])[0]
     assert len(bad) == 0, (f"{len(bad)} of {len(origins)} rays disagree on hit/miss, e.g. ray "

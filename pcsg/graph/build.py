@@ -59,8 +59,8 @@ class _Builder:
         self.rules = self._check_rules(rules, decls)
         self._check_axiom(axioms)
         self.params = self._collect_params(stmts)
-        self.exprs = ExprTable(self.params, self.error)
         self._apply_overrides(axioms)
+        self.exprs = ExprTable(self.params, self.error, self._initial_constants(axioms, stmts))
         self.material_names: list[str] = []
         self.scene = build_scene([s for s in stmts if isinstance(s, ast.Directive)],
                                  self._constant, self.error)
@@ -185,6 +185,31 @@ class _Builder:
             for a in initial:
                 if a.name == name:
                     a.value = ast.Num(float(value), a.value.span)
+
+    def _initial_constants(self, axioms, stmts) -> dict[str, float]:
+        """Parameters assigned once, in a calculation block at the head of the axiom (so on
+        every path), from constants, and never again: their reads fold to that value, so
+        that e.g. the tree's rotx(alpha1) becomes a fixed matrix. The blocks still assign
+        them, so parameter states (expand, stats) are unchanged."""
+        if not axioms or self.errors:
+            return {}
+        head, e = [], axioms[0].expr
+        while isinstance(e, (ast.Calc, ast.Paint, ast.Material)):
+            if isinstance(e, ast.Calc):
+                head += e.assigns
+            e = e.operand
+        counts = defaultdict(int)
+        for a in _assignments(stmts):
+            counts[a.name] += 1
+        known: dict[str, float] = {}
+        probe = ExprTable(self.params, lambda *_: None, known)
+        for a in head:
+            if counts[a.name] != 1:
+                continue
+            value = probe.constant(probe.add(a.value))
+            if value is not None:
+                known[a.name] = value
+        return known
 
     def _constant(self, node) -> float:
         """A directive value: numbers and pi only."""

@@ -62,9 +62,10 @@ class ExprTable:
     to nan so that compilation goes on and collects them all.
     """
 
-    def __init__(self, params: dict[str, int], report):
+    def __init__(self, params: dict[str, int], report, constants: dict[str, float] | None = None):
         self.params = params
         self.report = report
+        self.constants = constants or {}      # parameters known to hold one value everywhere
         self._code: list[tuple[int, int]] = []
         self._consts: list[float] = []
         self._const_index: dict[bytes, int] = {}
@@ -127,6 +128,8 @@ class ExprTable:
         if isinstance(n, ast.Num):
             return ('const', float(n.value))
         if isinstance(n, ast.Var):
+            if n.name in self.constants:
+                return ('const', float(self.constants[n.name]))
             if n.name in self.params:
                 return ('load', n.name)
             if n.name == 'pi':

@@ -7,6 +7,7 @@ import numpy as np
 
 from ..language.names import PRIMITIVES
 from ..trace.transforms import CODES as TRANSFORM_CODES
+from ..trace.transforms import matrix as transform_matrix
 from .model import MATERIAL, PRIMITIVE, SELECT, TRANSFORM, Graph
 from .terminating import terminating_rules
 
@@ -21,6 +22,8 @@ Flat = namedtuple("Flat", [
     "expr_ids",      # int32[k]     selection | arguments | assigned values
     "targets",       # int32[k]     C-nodes: the parameter slot each value goes to
     "term_rule",     # int32[n]     S-nodes: the rule that ends soonest, -1 if none
+    "fixed",         # int8[n]      T-nodes whose arguments are constants: 1, with
+    "fixed_map",     # float64[n,24]  [L (9) | t (3) | L^-1 (9) | unused (3)], row-major
     "box",           # float64[n,6] hyper-bounding box in the node's input frame
     "vm_code",       # int32[q,2]   expression bytecode
     "vm_consts",     # float64[c]
@@ -51,6 +54,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray) -> Flat:
     for s, r in terminating_rules(graph).items():
         term[s] = r
     vm = graph.exprs.arrays()
+    fixed, fixed_map = _fixed_transforms(graph)
     return Flat(
         kind=kind, code=code,
         child_start=_starts(counts), child_count=counts,
@@ -59,7 +63,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray) -> Flat:
         expr_ids=np.array([e for x in nodes for e in x.exprs], dtype=np.int32),
         targets=np.array([t for x in nodes for t in (x.targets or [-1] * len(x.exprs))],
                          dtype=np.int32),
-        term_rule=term,
+        term_rule=term, fixed=fixed, fixed_map=fixed_map,
         box=np.ascontiguousarray(boxes, dtype=np.float64),
         vm_code=np.ascontiguousarray(vm["code"], dtype=np.int32).reshape(-1, 2),
         vm_consts=np.asarray(vm["consts"], dtype=np.float64),
@@ -69,6 +73,31 @@ def flatten_graph(graph: Graph, boxes: np.ndarray) -> Flat:
         max_stack=np.int64(max(1, vm["max_stack"])),
         max_children=np.int64(max(1, counts.max(initial=1))),
     )
+
+
+def _fixed_transforms(graph: Graph):
+    """Matrices and inverses of the T-nodes whose arguments folded to constants,
+    computed once here instead of once per ray and visit. Singular ones stay dynamic
+    so that the walk reports them."""
+    n = len(graph.nodes)
+    fixed = np.zeros(n, dtype=np.int8)
+    maps = np.zeros((n, 24))
+    for i, node in enumerate(graph.nodes):
+        if node.kind != TRANSFORM:
+            continue
+        args = [graph.exprs.constant(e) for e in node.exprs]
+        if any(a is None for a in args):
+            continue
+        m = transform_matrix(node.name, args)
+        lin = m[:3, :3]
+        det = np.linalg.det(lin)
+        if not (np.isfinite(m).all() and det != 0 and np.isfinite(det)):
+            continue
+        fixed[i] = 1
+        maps[i, :9] = lin.ravel()
+        maps[i, 9:12] = m[:3, 3]
+        maps[i, 12:21] = np.linalg.inv(lin).ravel()
+    return fixed, maps
 
 
 def _starts(counts: np.ndarray) -> np.ndarray:

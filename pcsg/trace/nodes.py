@@ -167,26 +167,34 @@ def eval_args(flat, node, params, slot, h, stack, args):
 def enter_transform(flat, node, F, f, params, slot, h, stack, args, m34):
     """Map frame f's ray into the T-node's child frame, in place. Returns 0 if fine,
     1 for non-finite arguments, 2 for a singular map (the instance is then empty)."""
-    if not eval_args(flat, node, params, slot, h, stack, args):
-        return 1
-    affine(flat.code[node], args, m34)
-    a, b, c = m34[0, 0], m34[0, 1], m34[0, 2]
-    d, e, g = m34[1, 0], m34[1, 1], m34[1, 2]
-    p, q, r = m34[2, 0], m34[2, 1], m34[2, 2]
-    c00 = e * r - g * q
-    c01 = g * p - d * r
-    c02 = d * q - e * p
-    det = a * c00 + b * c01 + c * c02
-    if not (det != 0.0 and math.isfinite(det)):
-        return 2
-    inv = 1.0 / det
-    # rows of L^-1 = cofactor(L)^T / det
-    i00, i01, i02 = c00 * inv, (c * q - b * r) * inv, (b * g - c * e) * inv
-    i10, i11, i12 = c01 * inv, (a * r - c * p) * inv, (c * d - a * g) * inv
-    i20, i21, i22 = c02 * inv, (b * p - a * q) * inv, (a * e - b * d) * inv
-    ox = F[f, OX] - m34[0, 3]
-    oy = F[f, OX + 1] - m34[1, 3]
-    oz = F[f, OX + 2] - m34[2, 3]
+    if flat.fixed[node]:
+        fm = flat.fixed_map[node]
+        a, b, c, d, e, g, p, q, r = fm[0], fm[1], fm[2], fm[3], fm[4], fm[5], fm[6], fm[7], fm[8]
+        tx, ty, tz = fm[9], fm[10], fm[11]
+        i00, i01, i02, i10, i11, i12, i20, i21, i22 = (fm[12], fm[13], fm[14], fm[15], fm[16],
+                                                       fm[17], fm[18], fm[19], fm[20])
+    else:
+        if not eval_args(flat, node, params, slot, h, stack, args):
+            return 1
+        affine(flat.code[node], args, m34)
+        a, b, c = m34[0, 0], m34[0, 1], m34[0, 2]
+        d, e, g = m34[1, 0], m34[1, 1], m34[1, 2]
+        p, q, r = m34[2, 0], m34[2, 1], m34[2, 2]
+        tx, ty, tz = m34[0, 3], m34[1, 3], m34[2, 3]
+        c00 = e * r - g * q
+        c01 = g * p - d * r
+        c02 = d * q - e * p
+        det = a * c00 + b * c01 + c * c02
+        if not (det != 0.0 and math.isfinite(det)):
+            return 2
+        inv = 1.0 / det
+        # rows of L^-1 = cofactor(L)^T / det
+        i00, i01, i02 = c00 * inv, (c * q - b * r) * inv, (b * g - c * e) * inv
+        i10, i11, i12 = c01 * inv, (a * r - c * p) * inv, (c * d - a * g) * inv
+        i20, i21, i22 = c02 * inv, (b * p - a * q) * inv, (a * e - b * d) * inv
+    ox = F[f, OX] - tx
+    oy = F[f, OX + 1] - ty
+    oz = F[f, OX + 2] - tz
     dx, dy, dz = F[f, DX], F[f, DX + 1], F[f, DX + 2]
     F[f, OX] = i00 * ox + i01 * oy + i02 * oz
     F[f, OX + 1] = i10 * ox + i11 * oy + i12 * oz

@@ -1,0 +1,1 @@
+"""From traced rays to images: camera, shading, sampling, output."""
