@@ -8,6 +8,7 @@ from ..language import ast
 from ..language.errors import Diagnostic, PcsgError, sort_key
 from ..language.names import PRIMITIVES, RESERVED, TRANSFORMS
 from ..scene import build_scene
+from .derive import names_in
 from .expr import ExprTable
 from .model import (CALC, MATERIAL, OPERATORS, PAINT, PRIMITIVE, SELECT, TRANSFORM, Graph, Node)
 
@@ -202,9 +203,11 @@ class _Builder:
         for a in _assignments(stmts):
             counts[a.name] += 1
         known: dict[str, float] = {}
+        read_before: set[str] = set()        # a read before the assignment must stay an error
         probe = ExprTable(self.params, lambda *_: None, known)
         for a in head:
-            if counts[a.name] != 1:
+            read_before |= names_in(a.value)
+            if counts[a.name] != 1 or a.name in read_before:
                 continue
             value = probe.constant(probe.add(a.value))
             if value is not None:

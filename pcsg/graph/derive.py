@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from ..language import ast
 from ..language.errors import Diagnostic, PcsgError
 from ..trace import vm
 from ..trace.transforms import matrix
@@ -36,6 +37,22 @@ def format_value(v: float) -> str:
     return repr(v)
 
 
+def names_in(node) -> set[str]:
+    """The names an arithmetic AST reads."""
+    found, stack = set(), [node]
+    while stack:
+        n = stack.pop()
+        if isinstance(n, ast.Var):
+            found.add(n.name)
+        elif isinstance(n, ast.Call):
+            stack.extend(n.args)
+        elif isinstance(n, ast.Unary):
+            stack.append(n.operand)
+        elif isinstance(n, ast.Binary):
+            stack.extend([n.left, n.right])
+    return found
+
+
 def _salt(h: int, slot: int) -> int:
     return int(vm.salt(np.uint64(h), slot))
 
@@ -62,7 +79,7 @@ class Deriver:
 
     def selection_error(self, node_id: int, state: State, x: float) -> Diagnostic:
         node = self.g.nodes[node_id]
-        reads = sorted(self.table.reads(node.exprs[0]))
+        reads = names_in(self.g.expr_ast[node.exprs[0]])     # as written, not as folded
         values = ", ".join(f"{k} = {format_value(v)}" for k, v in state.items(self.g) if k in reads)
         what = "is not a finite number" if not math.isfinite(x) else \
             f"names rule {int(vm.round_half_away(x))}, but '{node.name}' has rules 1..{len(node.children)}"

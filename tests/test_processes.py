@@ -1,0 +1,42 @@
+"""Properties only whole processes show: repeatable at any thread count, and a
+second start loads the compiled kernels instead of compiling them."""
+import os
+import subprocess
+import sys
+
+from .conftest import ROOT
+
+PROBE = """
+import hashlib, numpy as np, pcsg
+from pcsg.render.camera import make_camera
+from pcsg.trace.kernel import trace_rays
+obj = pcsg.load("grammars/{name}.pcsg", **{overrides})
+cam = make_camera(obj, 4 / 3)
+ys, xs = np.mgrid[0:48, 0:64]
+o, d = cam.rays(64, 48, xs.ravel() + 0.5, ys.ravel() + 0.5)
+h = obj.trace(o, d)
+digest = hashlib.sha256(h.t.tobytes() + h.normal.tobytes() + h.paint.tobytes()).hexdigest()
+print(digest, sum(trace_rays.stats.cache_hits.values()), sum(trace_rays.stats.cache_misses.values()))
+"""
+
+
+def probe(threads, name="sierpinski", overrides="{'c': 5}"):
+    env = {**os.environ, "NUMBA_NUM_THREADS": str(threads)}
+    r = subprocess.run([sys.executable, "-c", PROBE.format(name=name, overrides=overrides)],
+                       cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    digest, hits, misses = r.stdout.split()
+    return digest, int(hits), int(misses)
+
+
+def test_same_results_at_one_and_two_threads_and_no_compile_on_second_start():
+    probe(2)                                   # may compile and fill the cache
+    two = probe(2)
+    one = probe(1)
+    assert one[0] == two[0]
+    assert two[2] == 0 and two[1] >= 1, f"the second start compiled (hits, misses) = {two[1:]}"
+
+
+def test_tree_with_csg_leaves_is_repeatable_across_threads():
+    assert probe(1, "sympodial_tree", "{'cnt': 4}")[0] == probe(2, "sympodial_tree",
+                                                               "{'cnt': 4}")[0]
