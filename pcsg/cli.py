@@ -56,10 +56,51 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("files", nargs="+", metavar="FILE")
     s.add_argument("--json", action="store_true", help="machine-readable output")
 
+    r = sub.add_parser("render", parents=[common], help="ray trace files to PNG images")
+    r.add_argument("files", nargs="+", metavar="FILE")
+    r.add_argument("-o", "--output", metavar="OUT",
+                   help="the PNG (one file) or a directory (default: NAME.png here)")
+    r.add_argument("--size", type=_size, default=(640, 480), metavar="WxH",
+                   help="image size (default 640x480)")
+    r.add_argument("--samples", type=int, default=1, metavar="N",
+                   help="stratified jittered samples per pixel (default 1, with adaptive "
+                        "oversampling where neighbouring pixels differ)")
+    r.add_argument("--eye", type=_vec, metavar="X,Y,Z", help="camera position")
+    r.add_argument("--at", type=_vec, metavar="X,Y,Z", help="point looked at")
+    r.add_argument("--up", type=_vec, metavar="X,Y,Z", help="up direction (default 0,0,1)")
+    r.add_argument("--fov", type=float, metavar="DEG", help="vertical field of view")
+    r.add_argument("--alpha", action="store_true", help="transparent background")
+    r.add_argument("--depth", metavar="FILE.npy", help="also write float32 hit distances")
+    r.add_argument("--max-depth", type=int, default=64, metavar="N",
+                   help="derivation levels a ray may descend (default 64)")
+    r.add_argument("--no-shadows", action="store_true", help="skip shadow rays")
+    r.add_argument("--bounces", type=int, default=3, metavar="N",
+                   help="reflection and refraction depth (default 3)")
+    r.add_argument("--reference", action="store_true",
+                   help="trace the fully expanded system instead (small orders; for checking)")
+    r.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+
     g = sub.add_parser("graph", parents=[common], help="the cyclic CSG graph as Graphviz dot")
     g.add_argument("file", metavar="FILE")
     g.add_argument("-o", "--output", metavar="OUT", help="write to OUT instead of stdout")
     return p
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = text.lower().split("x")
+        return int(w), int(h)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT, e.g. 640x480, got '{text}'") \
+            from None
+
+
+def _vec(text: str) -> tuple[float, float, float]:
+    try:
+        x, y, z = (float(v) for v in text.split(","))
+        return x, y, z
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected X,Y,Z, e.g. 3,-4,2, got '{text}'") from None
 
 
 def expand_globs(patterns: list[str]) -> list[str]:
@@ -175,7 +216,63 @@ def cmd_graph(args) -> int:
     return EXIT_OK
 
 
-COMMANDS = {"check": cmd_check, "expand": cmd_expand, "stats": cmd_stats, "graph": cmd_graph}
+def cmd_render(args) -> int:
+    import time
+    from .render.job import Options, check_options, render_file
+    files = expand_globs(args.files)
+    opts = Options(size=args.size, samples=args.samples, overrides=dict(args.overrides),
+                   eye=args.eye, at=args.at, up=args.up, fov=args.fov, alpha=args.alpha,
+                   depth=Path(args.depth) if args.depth else None, max_depth=args.max_depth,
+                   shadows=not args.no_shadows, bounces=max(0, args.bounces), quiet=args.quiet,
+                   reference=args.reference)
+    problem = check_options(opts)
+    if problem:
+        raise UsageError(problem)
+    outputs = _outputs(files, args.output)
+    if opts.depth is not None and len(files) > 1:
+        raise UsageError("--depth names one file; render one .pcsg file with it")
+    failed = []
+    start = time.perf_counter()
+    for path, out in zip(files, outputs):
+        try:
+            summary, notes = render_file(Path(path), out, opts)
+        except PcsgError as e:
+            _report(e, [])
+            failed.append(path)
+            continue
+        except OSError as e:
+            print(f"pcsg render: {path}: {e.strerror or e}"
+                  + (f": {e.filename}" if e.filename else ""), file=sys.stderr)
+            failed.append(path)
+            continue
+        for note in notes:
+            print(f"{path}: {note}", file=sys.stderr)
+        print(summary)
+    if len(files) > 1:
+        done = len(files) - len(failed)
+        print(f"rendered {done} of {len(files)} files in {time.perf_counter() - start:.1f} s"
+              + (f"; failed: {', '.join(failed)}" if failed else ""))
+    return EXIT_ERRORS if failed else EXIT_OK
+
+
+def _outputs(files: list[str], output: str | None) -> list[Path]:
+    """NAME.png here; or -o FILE.png for one file; or -o DIR/ (created) for any number."""
+    names = [Path(f).stem + ".png" for f in files]
+    if output is None:
+        return [Path(n) for n in names]
+    out = Path(output)
+    if out.is_dir() or output.endswith(("/", "\\")) or (len(files) > 1 and not out.suffix):
+        out.mkdir(parents=True, exist_ok=True)
+        return [out / n for n in names]
+    if len(files) > 1:
+        raise UsageError(f"-o {output}: several files need a directory, e.g. -o renders/")
+    if not out.parent.exists():
+        raise UsageError(f"-o {output}: the directory {out.parent} does not exist")
+    return [out]
+
+
+COMMANDS = {"check": cmd_check, "expand": cmd_expand, "stats": cmd_stats, "graph": cmd_graph,
+            "render": cmd_render}
 
 
 def main(argv: list[str] | None = None) -> int:

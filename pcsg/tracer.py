@@ -52,6 +52,7 @@ class Traced:
         self.warnings = list(graph.warnings) + problems
         self.boxes = boxes
         self.flat = flatten_graph(graph, _pad(boxes))
+        self.events = np.zeros((N_EVENTS, len(graph.nodes)), dtype=np.int64)   # all traces
         kids = int(self.flat.max_children)
         self.stack_depth = int(stack_depth or kids + (self.max_depth + 2) * min(kids, 16) + 32)
 
@@ -82,6 +83,7 @@ class Traced:
             trace_rays(self.flat, o[s:e], d[s:e], float(tmin), float(tmax), bool(any_hit),
                        float(lod), self.max_depth, self.stack_depth, out[s:e], ev)
             events += ev.sum(axis=0)
+        self.events += events
         return Hits(t=out[:, R_T].copy(), normal=out[:, R_N:R_N + 3].copy(),
                     paint=np.where(out[:, R_HIT:R_HIT + 1] > 0, out[:, R_PAINT:R_PAINT + 3],
                                    np.nan),

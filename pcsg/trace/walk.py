@@ -351,6 +351,7 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                             res[R_PAINT + c] = F[f, PAINT + c]
                         res[R_MAT] = I[f, MAT]
                         if any_hit:
+                            res[R_HIT] = 1.0
                             return True
                 break
             if kind == SELECT:
@@ -367,6 +368,7 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                             res[R_PAINT + c] = F[f, PAINT + c]
                         res[R_MAT] = I[f, MAT]
                         if any_hit:
+                            res[R_HIT] = 1.0
                             return True
                     break
                 if r < 0:
@@ -418,6 +420,7 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                             res[R_PAINT + c] = iv[row, IN_PAINT + 3 * side + c]
                         res[R_MAT] = iv[row, IN_MAT + side]
                         if any_hit:
+                            res[R_HIT] = 1.0
                             return True
                         break
                 break

@@ -1,0 +1,97 @@
+"""`pcsg render`: one .pcsg file to one PNG, with the options of the command line."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..compiler import compile_file
+from ..tracer import Traced
+from .camera import make_camera
+from .image import Progress, render_frame, write_depth, write_png
+from .shade import make_lighting
+
+MAX_PIXELS = 64_000_000
+BYTES_PER_PIXEL = 120        # frame buffers and per-batch ray arrays, measured roughly
+
+
+@dataclass
+class Options:
+    size: tuple[int, int] = (640, 480)
+    samples: int = 1
+    adaptive: bool = True
+    overrides: dict = field(default_factory=dict)
+    eye: tuple | None = None
+    at: tuple | None = None
+    up: tuple | None = None
+    fov: float | None = None
+    alpha: bool = False
+    depth: Path | None = None
+    max_depth: int = 64
+    shadows: bool = True
+    shadow_samples: int = 8
+    bounces: int = 3
+    quiet: bool = False
+    reference: bool = False
+
+
+def check_options(o: Options) -> str | None:
+    """A clear message for options that cannot work, before anything is compiled."""
+    w, h = o.size
+    if w < 1 or h < 1:
+        return f"--size {w}x{h}: width and height must be at least 1"
+    if w * h > MAX_PIXELS:
+        need = w * h * BYTES_PER_PIXEL / 2 ** 30
+        return (f"--size {w}x{h} is {w * h / 1e6:.0f} million pixels (about {need:.0f} GiB of "
+                f"memory); pcsg renders up to {MAX_PIXELS // 1_000_000} million")
+    if not 1 <= o.samples <= 1024:
+        return f"--samples {o.samples}: use 1 to 1024"
+    if not 1 <= o.max_depth <= 10_000:
+        return f"--max-depth {o.max_depth}: use 1 to 10000"
+    if o.fov is not None and not 0 < o.fov < 180:
+        return f"--fov {o.fov}: the vertical field of view is between 0 and 180 degrees"
+    return None
+
+
+def render_file(path: Path, out: Path, opts: Options) -> tuple[str, list[str]]:
+    """Render `path` to `out` (written atomically); returns the summary line and notes."""
+    graph = compile_file(path, opts.overrides)
+    notes = [w.format(show_source=False) for w in graph.warnings]
+    traced = Traced(graph, max_depth=opts.max_depth)
+    notes += [w.format(show_source=False) for w in traced.warnings
+              if w not in graph.warnings]
+    target = traced
+    if opts.reference:
+        target = _ReferenceTarget(traced)
+    w, h = opts.size
+    camera = make_camera(traced, w / h, opts.eye, opts.at, opts.up, opts.fov)
+    light = make_lighting(traced, camera, opts.shadows, opts.shadow_samples, opts.bounces)
+    progress = Progress(Path(path).name, w * h, not opts.quiet)
+    frame = render_frame(target, camera, light, w, h, opts.samples, opts.adaptive, progress)
+    write_png(out, frame, opts.alpha)
+    if opts.depth is not None:
+        write_depth(opts.depth, frame)
+    events = getattr(target, "events", None)
+    if events is not None:
+        notes += traced.describe_events(events)
+    rate = frame.rays / max(frame.seconds, 1e-9)
+    summary = (f"{out}: {w}x{h}, {frame.seconds:.2f} s, {rate / 1e6:.2f} M rays/s"
+               f"{', reference tracer' if opts.reference else ''}")
+    return summary, notes
+
+
+class _ReferenceTarget:
+    """`--reference`: the same picture from the brute-force expansion (small orders)."""
+
+    def __init__(self, traced: Traced):
+        from ..trace.reference import Reference
+        import numpy as np
+        self.np = np
+        self.ref = Reference(traced.graph)
+
+    def trace(self, origins, directions, tmin=1e-9, tmax=math.inf, any_hit=False, lod=0.0):
+        from ..tracer import Hits
+        np = self.np
+        r = self.ref.trace(origins, directions, tmin=tmin, tmax=tmax, exits=True)
+        normal = np.where(r["hit"][:, None], r["normal"], 0.0)
+        return Hits(r["t"], normal, r["paint"], r["material"], r["hit"])

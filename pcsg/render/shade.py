@@ -1,0 +1,174 @@
+"""Shading: Phong with paint colours and #material finishes, hard shadows by
+any-hit rays, soft shadows from area lights, mirror reflection and refraction
+with Fresnel to a bounded depth, a sky. Works on batches of rays (numpy); the
+tracing itself is the numba kernel. Colours are linear; image.py encodes sRGB."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..scene import MATERIAL_DEFAULTS
+
+DEFAULT_COLOR = np.array([0.78, 0.76, 0.72])       # an unpainted object: warm light grey
+DEFAULT_HORIZON = np.array([0.86, 0.90, 0.96])
+DEFAULT_ZENITH = np.array([0.32, 0.52, 0.84])
+AMBIENT = 0.22
+EPS = 1e-6
+
+
+@dataclass
+class Light:
+    position: np.ndarray
+    color: np.ndarray
+    radius: float = 0.0
+
+
+@dataclass
+class Lighting:
+    lights: list[Light]
+    horizon: np.ndarray
+    zenith: np.ndarray
+    materials: np.ndarray            # (k, 9): color(3) diffuse specular shininess reflect ior transmit
+    shadows: bool = True
+    shadow_samples: int = 8
+    max_bounces: int = 3
+    lod: float = 0.0
+    rays: list = field(default_factory=lambda: [0])   # rays traced, for the summary
+
+    def sky(self, d: np.ndarray) -> np.ndarray:
+        s = np.clip(d[:, 2:3] / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300),
+                    0.0, 1.0) ** 0.6
+        return self.horizon * (1 - s) + self.zenith * s
+
+
+def make_lighting(traced, camera, shadows=True, shadow_samples=8, max_bounces=3) -> Lighting:
+    scene = traced.graph.scene
+    sky = scene.sky
+    horizon = np.array(sky.get("horizon", sky.get("color", DEFAULT_HORIZON)), float)
+    zenith = np.array(sky.get("zenith", sky.get("color", DEFAULT_ZENITH)), float)
+    lights = [Light(np.array(l.get("at", (0.0, 0.0, 10.0)), float),
+                    np.array(l.get("color", (1.0, 1.0, 1.0)), float), float(l.get("radius", 0.0)))
+              for l in scene.lights]
+    if not lights:
+        lights = [default_light(camera)]
+    mats = np.array([[*scene.materials[name]["color"],
+                      *(scene.materials[name][k] for k in
+                        ("diffuse", "specular", "shininess", "reflect", "ior", "transmit"))]
+                     for name in traced.material_names] or np.zeros((0, 9)), float).reshape(-1, 9)
+    return Lighting(lights, horizon, zenith, mats, shadows, max(1, shadow_samples), max_bounces)
+
+
+def default_light(camera) -> Light:
+    """A sun above and to the left of the camera, so that the picture has form."""
+    fwd, right, up = camera.basis()
+    dist = np.linalg.norm(camera.at - camera.eye)
+    pos = camera.at + (-0.6 * right + 1.1 * up - 0.4 * fwd) * 10 * max(dist, 1.0)
+    pos[2] = max(pos[2], camera.at[2] + 5 * max(dist, 1.0))
+    return Light(pos, np.array([1.0, 0.97, 0.92]), 0.0)
+
+
+def _finish(light: Lighting, material: np.ndarray, paint: np.ndarray):
+    """Per hit: base colour (paint wins, then the material's colour) and finish columns."""
+    n = len(material)
+    fin = np.tile([*MATERIAL_DEFAULTS["color"], MATERIAL_DEFAULTS["diffuse"],
+                   MATERIAL_DEFAULTS["specular"], MATERIAL_DEFAULTS["shininess"],
+                   MATERIAL_DEFAULTS["reflect"], MATERIAL_DEFAULTS["ior"],
+                   MATERIAL_DEFAULTS["transmit"]], (n, 1)).astype(float)
+    fin[:, :3] = DEFAULT_COLOR
+    has = material >= 0
+    if has.any():
+        fin[has] = light.materials[material[has]]
+    painted = ~np.isnan(paint[:, 0])
+    fin[painted, :3] = np.clip(paint[painted], 0.0, None)
+    return fin
+
+
+def shade(traced, light: Lighting, origins, directions, depth: int = 0):
+    """Linear RGB for each ray, and its first-hit distance (inf for the sky)."""
+    hits = traced.trace(origins, directions, lod=light.lod)
+    light.rays[0] += len(origins)
+    color = light.sky(directions)
+    h = hits.hit
+    if not h.any():
+        return color, hits.t, hits
+    d = directions[h] / np.linalg.norm(directions[h], axis=1, keepdims=True)
+    p = origins[h] + hits.t[h, None] * directions[h]
+    n = hits.normal[h].copy()
+    inside = np.einsum("ij,ij->i", n, d) > 0
+    n[inside] = -n[inside]                         # face the viewer
+    fin = _finish(light, hits.material[h], hits.paint[h])
+    base, kd, ks, shin = fin[:, :3], fin[:, 3:4], fin[:, 4:5], fin[:, 5:6]
+    reflect, ior, transmit = fin[:, 6], fin[:, 7], fin[:, 8]
+    up = np.clip(n[:, 2:3] * 0.5 + 0.5, 0, 1)
+    out = AMBIENT * base * (light.horizon * (1 - up) + light.zenith * up)
+    scale = 1.0 + np.abs(p).max(axis=1, keepdims=True)
+    origin = p + n * EPS * scale
+    for lt in light.lights:
+        vis, ldir = _visibility(traced, light, lt, origin)
+        ndl = np.clip(np.einsum("ij,ij->i", n, ldir), 0, None)[:, None]
+        refl = ldir - 2 * np.einsum("ij,ij->i", ldir, n)[:, None] * n
+        spec = np.clip(np.einsum("ij,ij->i", refl, d), 0, None)[:, None] ** shin
+        out += vis[:, None] * lt.color * (kd * base * ndl + ks * spec * (ndl > 0))
+    if depth < light.max_bounces:
+        out = _bounces(traced, light, out, d, n, p, scale, inside, reflect, ior, transmit,
+                       depth)
+    color[h] = out
+    return color, hits.t, hits
+
+
+def _visibility(traced, light: Lighting, lt: Light, origin: np.ndarray):
+    """Fraction of the light seen from each point, and the unit direction to it."""
+    to = lt.position - origin
+    dist = np.linalg.norm(to, axis=1, keepdims=True)
+    ldir = to / dist
+    if not light.shadows:
+        return np.ones(len(origin)), ldir
+    samples = light.shadow_samples if lt.radius > 0 else 1
+    seen = np.zeros(len(origin))
+    for k in range(samples):
+        target = lt.position + (_disk(k, samples, lt.radius, ldir) if lt.radius > 0 else 0.0)
+        sd = target - origin
+        hit = traced.trace(origin, sd, tmin=1e-9, tmax=1.0 - 1e-9, any_hit=True,
+                           lod=light.lod)
+        light.rays[0] += len(origin)
+        seen += ~hit.hit
+    return seen / samples, ldir
+
+
+def _disk(k: int, n: int, radius: float, normal: np.ndarray) -> np.ndarray:
+    """Sample k of n on a disk of `radius` facing `normal` (a golden-angle spiral, so the
+    same points every render: deterministic soft shadows)."""
+    r = radius * math.sqrt((k + 0.5) / n)
+    a = k * math.pi * (3 - math.sqrt(5))
+    helper = np.where(np.abs(normal[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
+    u = np.cross(normal, helper)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = np.cross(normal, u)
+    return r * (math.cos(a) * u + math.sin(a) * v)
+
+
+def _bounces(traced, light, out, d, n, p, scale, inside, reflect, ior, transmit, depth):
+    """Mirror reflection and refraction (Schlick's Fresnel), traced one level deeper."""
+    cos_i = -np.einsum("ij,ij->i", d, n)
+    eta = np.where(inside, ior, 1.0 / np.maximum(ior, 1e-9))
+    k = 1 - eta ** 2 * (1 - cos_i ** 2)
+    r0 = ((1 - ior) / (1 + ior)) ** 2
+    fresnel = np.where(k < 0, 1.0, r0 + (1 - r0) * (1 - cos_i) ** 5)
+    kr = np.clip(reflect + transmit * fresnel, 0, 1)
+    kt = np.where(k < 0, 0.0, transmit * (1 - fresnel))
+    want_r = kr > 1e-3
+    if want_r.any():
+        rd = d[want_r] + 2 * cos_i[want_r, None] * n[want_r]
+        c, _, _ = shade(traced, light, p[want_r] + n[want_r] * EPS * scale[want_r], rd,
+                        depth + 1)
+        out[want_r] = out[want_r] * (1 - kr[want_r, None]) + kr[want_r, None] * c
+    want_t = kt > 1e-3
+    if want_t.any():
+        e, ci, kk = eta[want_t, None], cos_i[want_t, None], k[want_t, None]
+        td = e * d[want_t] + (e * ci - np.sqrt(np.clip(kk, 0, None))) * n[want_t]
+        c, _, _ = shade(traced, light, p[want_t] - n[want_t] * EPS * scale[want_t], td,
+                        depth + 1)
+        out[want_t] = out[want_t] * (1 - kt[want_t, None]) + kt[want_t, None] * c
+    return out
