@@ -1,0 +1,160 @@
+"""Rendered images have the properties a person would check by eye."""
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from pcsg.cli import main
+from pcsg.render.camera import make_camera
+from pcsg.render.image import render_frame
+from pcsg.render.shade import make_lighting
+from pcsg.tracer import loads
+
+from .conftest import GRAMMARS, ROOT
+
+BALL = """#camera eye=(0,-6,3) at=(0,0,0.6) fov=40
+#light at=(3,-2,8)
+paint(0.9,0.3,0.2) move(0,0,1) sphere ∪ paint(0.8,0.8,0.8) plane"""
+
+
+def frame_of(text, size=(96, 72), **kw):
+    obj = loads(text)
+    cam = make_camera(obj, size[0] / size[1])
+    return obj, cam, render_frame(obj, cam, make_lighting(obj, cam), *size, **kw)
+
+
+def luminance(rgb):
+    return rgb @ np.array([0.2126, 0.7152, 0.0722])
+
+
+def test_lit_sphere_is_brightest_where_it_faces_the_light():
+    obj, cam, fr = frame_of("#camera eye=(0,-5,0) at=(0,0,0) fov=30\n#light at=(4,-3,5)\n"
+                            "paint(0.7,0.7,0.7) material(matte) sphere\n"
+                            "#material matte specular=0", adaptive=False)
+    lum = np.where(fr.coverage > 0, luminance(fr.rgb), -1)
+    y, x = np.unravel_index(np.argmax(lum), lum.shape)
+    # the brightest pixel's ray hits the sphere where the normal points at the light
+    o, d = cam.rays(96, 72, np.array([x + 0.5]), np.array([y + 0.5]))
+    h = obj.trace(o, d)
+    to_light = np.array([4.0, -3, 5]) - (o[0] + h.t[0] * d[0])
+    cos = h.normal[0] @ to_light / np.linalg.norm(to_light)
+    assert cos > 0.97
+
+
+def test_shadowed_ground_is_darker_than_without_the_occluder():
+    _, _, with_ball = frame_of(BALL, adaptive=False)
+    _, _, without = frame_of(BALL.replace("paint(0.9,0.3,0.2) move(0,0,1) sphere ∪ ", ""),
+                             adaptive=False)
+    # pixels that show the ground in both pictures (the same depth): some are much darker
+    # with the ball (its shadow), none brighter
+    ground = np.isfinite(without.depth) & (with_ball.depth == without.depth)
+    darker = luminance(without.rgb) - luminance(with_ball.rgb)
+    assert darker[ground].max() > 0.2
+    assert (darker[ground] > -1e-9).all()
+
+
+def test_terrain_from_above_has_no_sky_inside_its_square(tmp_path):
+    out = tmp_path / "top.png"
+    depth = tmp_path / "top.npy"
+    code = main(["render", str(GRAMMARS / "carpenter_terrain.pcsg"), "--set", "cnt=4",
+                 "--eye", "0.5,0.5,6", "--at", "0.5,0.5,0", "--up", "0,1,0", "--fov", "12",
+                 "--size", "64x64", "-o", str(out), "--depth", str(depth), "--no-shadows",
+                 "--bounces", "0", "-q"])
+    assert code == 0
+    d = np.load(depth)
+    # the unit square spans the middle of the view: every pixel there hits the terrain or sea
+    assert np.isfinite(d[16:48, 16:48]).all()
+
+
+def test_alpha_and_depth_agree_with_the_hit_mask(tmp_path):
+    src = tmp_path / "b.pcsg"
+    src.write_text("#camera eye=(0,-6,2) at=(0,0,0) fov=30\nsphere\n", encoding="utf-8")
+    png, npy = tmp_path / "b.png", tmp_path / "b.npy"
+    assert main(["render", str(src), "-o", str(png), "--alpha", "--depth", str(npy),
+                 "--size", "80x60", "-q"]) == 0
+    img = np.asarray(Image.open(png))
+    d = np.load(npy)
+    assert img.shape == (60, 80, 4) and d.dtype == np.float32 and d.shape == (60, 80)
+    hit = np.isfinite(d)
+    assert 0.1 < hit.mean() < 0.9
+    assert (img[..., 3][hit] > 0).all()            # the pixel centre hit: never transparent
+    assert (img[..., 3][~hit & (img[..., 3] > 0)] < 255).all()   # edges only partly
+    assert (img[..., 3] == 0).sum() > 0
+    # each depth is the analytic distance along that pixel's centre ray to the unit sphere
+    obj = loads(src.read_text(encoding="utf-8"))
+    cam = make_camera(obj, 80 / 60)
+    ys, xs = np.mgrid[0:60, 0:80]
+    o, dirs = cam.rays(80, 60, xs.ravel() + 0.5, ys.ravel() + 0.5)
+    b = np.einsum("ij,ij->i", o, dirs)
+    disc = b * b - (np.einsum("ij,ij->i", o, o) - 1)
+    analytic = np.where(disc >= 0, -b - np.sqrt(np.maximum(disc, 0)), np.inf).reshape(60, 80)
+    assert np.array_equal(np.isfinite(analytic), hit)
+    assert np.allclose(d[hit], analytic[hit], rtol=1e-6)
+
+
+def test_same_png_bytes_every_time(tmp_path):
+    a, b = tmp_path / "a.png", tmp_path / "b.png"
+    args = [str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=3", "--size", "64x48", "-q"]
+    assert main(["render", *args, "-o", str(a)]) == 0
+    assert main(["render", *args, "-o", str(b), "--samples", "1"]) == 0
+    assert a.read_bytes() == b.read_bytes()
+
+
+def test_cli_options(tmp_path, capsys):
+    out = tmp_path / "t.png"
+    code = main(["render", str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=2", "-o", str(out),
+                 "--size", "48x36", "--samples", "4", "--eye", "3,-4,2", "--at", "0,0,0",
+                 "--fov", "35", "--max-depth", "10", "--bounces", "1", "-q"])
+    assert code == 0 and Image.open(out).size == (48, 36)
+    line = capsys.readouterr().out.strip()
+    assert line.startswith(f"{out}: 48x36, ") and line.endswith("M rays/s")
+    assert main(["render", str(GRAMMARS / "sierpinski.pcsg"), "--size", "0x0"]) == 2
+    assert main(["render", str(GRAMMARS / "sierpinski.pcsg"), "--size", "100000x100000"]) == 2
+    err = capsys.readouterr().err
+    assert "width and height must be at least 1" in err and "GiB of memory" in err
+
+
+def test_reference_renders_the_same_picture(tmp_path):
+    a, b = tmp_path / "a.png", tmp_path / "b.png"
+    args = [str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=2", "--size", "40x30", "-q",
+            "--no-shadows", "--bounces", "0"]
+    assert main(["render", *args, "-o", str(a)]) == 0
+    assert main(["render", *args, "-o", str(b), "--reference"]) == 0
+    x = np.asarray(Image.open(a)).astype(int)
+    y = np.asarray(Image.open(b)).astype(int)
+    assert np.abs(x - y).max() <= 2
+
+
+def test_batch_with_a_broken_file(tmp_path, capsys):
+    bad = tmp_path / "broken.pcsg"
+    bad.write_text("{c = 1} S\n1: S → nothing\n", encoding="utf-8")
+    good = tmp_path / "good.pcsg"
+    good.write_text("sphere\n", encoding="utf-8")
+    out = tmp_path / "renders"
+    code = main(["render", str(bad), str(good), "-o", str(out) + "/", "--size", "32x24", "-q"])
+    captured = capsys.readouterr()
+    assert code == 1
+    assert (out / "good.png").exists() and not (out / "broken.png").exists()
+    assert "broken.pcsg:3:8: error: undefined name 'nothing'" in captured.err or \
+        "undefined name 'nothing'" in captured.err
+    assert "rendered 1 of 2 files" in captured.out and "failed: " in captured.out
+
+
+def test_interrupted_render_keeps_the_earlier_png(tmp_path):
+    out = tmp_path / "tree.png"
+    out.write_bytes(b"an earlier good image")
+    proc = subprocess.Popen([sys.executable, "-m", "pcsg", "render",
+                             str(GRAMMARS / "sympodial_tree.pcsg"), "-o", str(out),
+                             "--size", "800x600", "--samples", "16"],
+                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    time.sleep(8)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert out.read_bytes() == b"an earlier good image"
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".part")]
