@@ -48,10 +48,12 @@ class Traced:
     def __init__(self, graph: Graph, max_depth: int = MAX_DEPTH, stack_depth: int | None = None):
         self.graph = graph
         self.max_depth = int(max_depth)
-        boxes, self.bounds_method, problems = hyper_boxes(graph, self.max_depth)
+        boxes, self.bounds_method, problems, table = hyper_boxes(graph, self.max_depth)
         self.warnings = list(graph.warnings) + problems
         self.boxes = boxes
-        self.flat = flatten_graph(graph, _pad(boxes))
+        if table is not None:
+            table = (table[0], table[1], _pad(table[2]))
+        self.flat = flatten_graph(graph, _pad(boxes), table)
         self.events = np.zeros((N_EVENTS, len(graph.nodes)), dtype=np.int64)   # all traces
         kids = int(self.flat.max_children)
         self.stack_depth = int(stack_depth or kids + (self.max_depth + 2) * min(kids, 16) + 32)

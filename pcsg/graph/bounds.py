@@ -191,7 +191,7 @@ def hyper_boxes(graph: Graph, max_depth: int = 64):
     limit = sys.getrecursionlimit()
     sys.setrecursionlimit(max(limit, 20 * MAX_LEVELS))
     try:
-        return _memoised(graph), "memoised", problems
+        return _memoised(graph), "memoised", problems, None
     except TooManyStates:
         pass
     except PcsgError as e:
@@ -200,5 +200,5 @@ def hyper_boxes(graph: Graph, max_depth: int = 64):
     finally:
         sys.setrecursionlimit(limit)
     from ..trace.boxwalk import walk_boxes
-    boxes, complete = walk_boxes(graph, max_depth)
-    return boxes, "every instance" if complete else "unbounded", problems
+    boxes, complete, table = walk_boxes(graph, max_depth, instances=True)
+    return boxes, "every instance" if complete else "unbounded", problems, table

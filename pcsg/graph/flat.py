@@ -25,6 +25,9 @@ Flat = namedtuple("Flat", [
     "fixed",         # int8[n]      T-nodes whose arguments are constants: 1, with
     "fixed_map",     # float64[n,24]  [L (9) | t (3) | L^-1 (9) | unused (3)], row-major
     "box",           # float64[n,6] hyper-bounding box in the node's input frame
+    "inst_keys",     # uint64[s]    instance table: S-node instance hash ->
+    "inst_used",     # int8[s]
+    "inst_boxes",    # float64[s,6]   that instance's own box (top levels only)
     "vm_code",       # int32[q,2]   expression bytecode
     "vm_consts",     # float64[c]
     "vm_start",      # int32[e]     per expression
@@ -36,7 +39,7 @@ Flat = namedtuple("Flat", [
 ])
 
 
-def flatten_graph(graph: Graph, boxes: np.ndarray) -> Flat:
+def flatten_graph(graph: Graph, boxes: np.ndarray, table=None) -> Flat:
     nodes = graph.nodes
     n = len(nodes)
     kind = np.array([x.kind for x in nodes], dtype=np.int8)
@@ -54,6 +57,8 @@ def flatten_graph(graph: Graph, boxes: np.ndarray) -> Flat:
     for s, r in terminating_rules(graph).items():
         term[s] = r
     vm = graph.exprs.arrays()
+    if table is None:
+        table = (np.zeros(2, dtype=np.uint64), np.zeros(2, dtype=np.int8), np.zeros((2, 6)))
     fixed, fixed_map = _fixed_transforms(graph)
     return Flat(
         kind=kind, code=code,
@@ -65,6 +70,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray) -> Flat:
                          dtype=np.int32),
         term_rule=term, fixed=fixed, fixed_map=fixed_map,
         box=np.ascontiguousarray(boxes, dtype=np.float64),
+        inst_keys=table[0], inst_used=table[1], inst_boxes=np.ascontiguousarray(table[2]),
         vm_code=np.ascontiguousarray(vm["code"], dtype=np.int32).reshape(-1, 2),
         vm_consts=np.asarray(vm["consts"], dtype=np.float64),
         vm_start=np.asarray(vm["start"], dtype=np.int32),

@@ -11,7 +11,7 @@ from numba import njit
 from ..graph.model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, PAINT, PRIMITIVE, SELECT,
                            TRANSFORM, UNION)
 from . import vm
-from .nodes import eval_args, pick_rule, run_calc
+from .nodes import eval_args, pick_rule, run_calc, table_slot
 from .primitives import BOXES
 from .transforms import affine
 
@@ -46,8 +46,22 @@ def _unite(acc, b):
 
 
 @njit(cache=True, error_model="numpy")
-def walk(flat, max_depth, budget, capacity, boxes):
-    """Fill boxes[n] (pre-set to empty) with the union of node n's instance boxes.
+def _record(level, node, h, box, table_levels, keys, used, vals, per_level):
+    if level < per_level.shape[0]:
+        per_level[level] += 1
+    if level <= table_levels:
+        key = vm.mix(h, node)
+        slot = table_slot(keys, used, key)
+        used[slot] = 1
+        keys[slot] = key
+        vals[slot, :] = box
+
+
+@njit(cache=True, error_model="numpy")
+def walk(flat, max_depth, budget, capacity, boxes, table_levels, keys, used, vals, per_level):
+    """Fill boxes[n] (pre-set to empty) with the union of node n's instance boxes, and the
+    table (keys, used, vals) with the box of every S-node instance up to table_levels,
+    keyed by its instance hash; per_level counts S-node instances by level.
     Returns 0, or 1 if the visit budget or the stack capacity ran out."""
     fr = np.zeros((capacity, 5), dtype=np.int64)
     hs = np.zeros(capacity, dtype=np.uint64)
@@ -92,6 +106,8 @@ def walk(flat, max_depth, budget, capacity, boxes):
                     fr[f, PHASE] = 1 + r
             else:
                 _unite(acc[f], acc[f + 1])
+                _record(fr[f, LEVEL], node, hs[f], acc[f], table_levels, keys, used, vals,
+                        per_level)
         elif kind == TRANSFORM or kind == CALC or kind == PAINT or kind == MATERIAL:
             if phase == 0:
                 child = 0
@@ -106,6 +122,9 @@ def walk(flat, max_depth, budget, capacity, boxes):
         else:   # UNION, INTERSECTION, DIFFERENCE: children one by one
             if phase > 0:
                 b = acc[f + 1]
+                # the operand's own box, in this operator's frame, for culling it unexpanded
+                _record(fr[f, LEVEL], node, hs[f + 1], b, table_levels, keys, used, vals,
+                        per_level)
                 if phase == 1 or kind == UNION:
                     _unite(acc[f], b)
                 elif kind == INTERSECTION:
@@ -138,16 +157,34 @@ def walk(flat, max_depth, budget, capacity, boxes):
     return 0
 
 
-def walk_boxes(graph, max_depth: int = 64, budget: int = 60_000_000):
+TABLE_SLOTS = 1 << 19      # instance boxes kept: ~30 MB at most, whatever the order
+
+
+def empty_table(slots: int = 2):
+    return (np.zeros(slots, dtype=np.uint64), np.zeros(slots, dtype=np.int8),
+            np.zeros((slots, 6)))
+
+
+def walk_boxes(graph, max_depth: int = 64, budget: int = 60_000_000, instances: bool = False):
     """(n, 6) hyper boxes of every node by visiting every instance; nodes whose instances
-    could not all be visited (budget) are left unbounded, which is always safe."""
+    could not all be visited (budget) are left unbounded, which is always safe. With
+    `instances`, also a table of per-instance boxes of the top derivation levels (as many
+    levels as fit half of TABLE_SLOTS): (keys, used, vals) for the tracer."""
     from ..graph.flat import flatten_graph
     n = len(graph.nodes)
     empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
     flat = flatten_graph(graph, empty)
     boxes = empty.copy()
     capacity = (max_depth + 2) * (n + 2) + 16
-    if walk(flat, max_depth, budget, capacity, boxes) != 0:
+    per_level = np.zeros(max_depth + 2, dtype=np.int64)
+    table = empty_table()
+    if walk(flat, max_depth, budget, capacity, boxes, -1, *table, per_level) != 0:
         boxes[:] = [-np.inf, -np.inf, -np.inf, np.inf, np.inf, np.inf]
-        return boxes, False
-    return boxes, True
+        return boxes, False, table
+    if instances:
+        fits = np.nonzero(np.cumsum(per_level) <= TABLE_SLOTS // 2)[0]
+        if len(fits):
+            table = empty_table(TABLE_SLOTS)
+            boxes = empty.copy()
+            walk(flat, max_depth, budget, capacity, boxes, int(fits[-1]), *table, per_level * 0)
+    return boxes, True, table

@@ -86,6 +86,32 @@ def box_normal(box, F, f, t):
 
 
 @_jit
+def table_slot(keys, used, h):
+    """Open addressing: the slot of hash h, or of the empty place where it would go
+    (the table is at most half full, so the probe ends)."""
+    mask = keys.shape[0] - 1
+    i = np.int64(h & np.uint64(mask))
+    while used[i] and keys[i] != h:
+        i = (i + 1) & mask
+    return i
+
+
+@_jit
+def instance_window(flat, node, h, F, f, t0, t1):
+    """The window [t0, t1] narrowed by one instance's own box where the instance table
+    has it: an S-node instance (node, its hash) in its own frame, or an operand of an
+    operator (the operator, the operand's hash) in the operator's frame. The table holds
+    the top derivation levels of systems whose hyper boxes are loose (the terrain)."""
+    if flat.inst_used.shape[0] > 2:
+        slot = table_slot(flat.inst_keys, flat.inst_used, vm.mix(h, node))
+        if flat.inst_used[slot]:
+            b0, b1 = box_window(flat.inst_boxes[slot], F, f)
+            t0 = max(t0, b0)
+            t1 = min(t1, b1)
+    return t0, t1
+
+
+@_jit
 def world_normal(F, f, nx, ny, nz, out, k):
     """out[k:k+3] = unit world normal: the inverse transpose of M applied to n,
     written as sign(det M) times the cofactor matrix, which needs no division."""

@@ -17,7 +17,8 @@ from ..graph.model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, PAINT as PA
 from . import vm
 from .nodes import (CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_STACK, LEVEL, M0, MAT, NODE, OX, PAINT, PHASE, SLOT, T0, T1,
-                    box_normal, box_window, copy_frame, enter_paint, enter_transform, pick_rule,
+                    box_normal, box_window, copy_frame, enter_paint, enter_transform, instance_window,
+                    pick_rule,
                     run_calc, world_normal, world_size)
 from .primitives import intersect
 
@@ -216,6 +217,13 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, list
                 sp -= 1
                 continue
             if kind == SELECT:
+                t0, t1 = instance_window(flat, node, H[f], F, f, t0, t1)
+                if t0 > t1:
+                    lists[ls, 0] = top
+                    lists[ls, 1] = 0
+                    ls += 1
+                    sp -= 1
+                    continue
                 r = choose_rule(flat, node, F, I, H, f, params, stack, lod, dnorm, max_depth,
                                 t0, ev)
                 if r == -2:         # a graftal below the footprint: its box is the solid
@@ -355,6 +363,9 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                             return True
                 break
             if kind == SELECT:
+                t0, t1 = instance_window(flat, node, H[f], F, f, t0, t1)
+                if t0 > t1:
+                    break
                 r = choose_rule(flat, node, F, I, H, f, params, stack, lod, dnorm, max_depth,
                                 t0, ev)
                 if r == -2:
@@ -386,8 +397,9 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                 for k in range(n):
                     c = flat.children[flat.child_start[node] + k]
                     e0, e1 = box_window(flat.box[c], F, f)
-                    e0 = max(e0, t0)
-                    if e0 <= min(e1, t1):
+                    e0, e1 = instance_window(flat, node, vm.edge_hash(H[f], node, k), F, f,
+                                             max(e0, t0), min(e1, t1))
+                    if e0 <= e1:
                         j = m
                         # descending, so the nearest pops first; on a tie the earlier
                         # operand pops first and keeps the surface (as a union merges)
