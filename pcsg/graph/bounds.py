@@ -17,7 +17,7 @@ import numpy as np
 
 from ..language.errors import Diagnostic, PcsgError
 from ..trace.primitives import BOXES, CODES
-from .dependence import RAND, structural_params
+from .dependence import StateKey
 from .derive import Deriver
 from .model import CALC, DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, UNION, Graph
 from .stats import MAX_LEVELS
@@ -102,11 +102,7 @@ class _Walker:
     def __init__(self, graph: Graph):
         self.g = graph
         self.d = Deriver(graph)
-        rel = structural_params(graph, geometry=True)
-        self.rand = [RAND in r for r in rel]
-        slots = [sorted(graph.params[p] for p in r if p != RAND) for r in rel]
-        self.slots = [np.array(s, dtype=np.int64) for s in slots]
-        self.masks = [sum(1 << i for i in s) for s in slots]
+        self.key = StateKey(graph, geometry=True)
         self.estimate: dict = {}
         self.reset()
 
@@ -122,8 +118,7 @@ class _Walker:
             b = _corners(BOXES[CODES[n.name]])
             self.boxes[i] = union_box(self.boxes[i], as_box(b))
             return b
-        key = (i, state.values[self.slots[i]].tobytes(), state.assigned & self.masks[i],
-               h if self.rand[i] else 0)
+        key = self.key(i, state, h)
         hit = self.memo.get(key)
         if hit is not None:
             return hit

@@ -43,3 +43,20 @@ def structural_params(graph: Graph, geometry: bool = False) -> list[frozenset]:
                 rel[i] = new
                 changed = True
     return rel
+
+
+class StateKey:
+    """Memo keys: a node and the values of only those parameters that can change what it
+    derives (bytes, so that nan equals nan), plus the instance hash if a rand() decides."""
+
+    def __init__(self, graph: Graph, geometry: bool = False):
+        import numpy as np
+        rel = structural_params(graph, geometry)
+        self.rand = [RAND in r for r in rel]
+        slots = [sorted(graph.params[p] for p in r if p != RAND) for r in rel]
+        self.slots = [np.array(x, dtype=np.int64) for x in slots]
+        self.masks = [sum(1 << i for i in x) for x in slots]
+
+    def __call__(self, node: int, state, h: int) -> tuple:
+        return (node, state.values[self.slots[node]].tobytes(), state.assigned & self.masks[node],
+                h if self.rand[node] else 0)

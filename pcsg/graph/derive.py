@@ -37,6 +37,12 @@ def format_value(v: float) -> str:
     return repr(v)
 
 
+def too_deep(graph: Graph, node_id: int, levels: int) -> PcsgError:
+    n = graph.nodes[node_id]
+    return PcsgError([Diagnostic("error", f"the derivation is deeper than {levels} levels at "
+                                 f"'{n.name}'", n.span, graph.source, code="endless")])
+
+
 def names_in(node) -> set[str]:
     """The names an arithmetic AST reads."""
     found, stack = set(), [node]

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..language.errors import Diagnostic, PcsgError
-from .derive import Deriver
+from .derive import Deriver, too_deep
 from .model import CALC, MATERIAL, OPERATORS, PAINT, PRIMITIVE, SELECT, TRANSFORM, Graph
 from .stats import MAX_LEVELS
 
@@ -33,9 +33,7 @@ def flatten(graph: Graph, max_primitives: int = 1_000_000) -> list[Instance]:
         i, state, h, m, paint, material, path, level = stack.pop()
         n = nodes[i]
         if level > MAX_LEVELS:
-            raise PcsgError([Diagnostic("error", f"the derivation is deeper than {MAX_LEVELS} "
-                                        f"levels at '{n.name}'", n.span, graph.source,
-                                        code="endless")])
+            raise too_deep(graph, i, MAX_LEVELS)
         if n.kind == PRIMITIVE:
             out.append(Instance(n.name, m, paint, material, path))
             if len(out) > max_primitives:

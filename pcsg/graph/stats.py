@@ -8,7 +8,7 @@ from collections import Counter
 import numpy as np
 
 from ..language.errors import Diagnostic, PcsgError
-from .dependence import RAND, structural_params
+from .dependence import StateKey
 from .derive import Deriver, format_value
 from .model import CALC, KIND_NAMES, OPERATORS, PRIMITIVE, SELECT, Graph
 
@@ -46,19 +46,11 @@ class _Counter:
     def __init__(self, graph: Graph):
         self.g = graph
         self.d = Deriver(graph)
-        self.rel = structural_params(graph)
-        slots = [sorted(graph.params[p] for p in r if p != RAND) for r in self.rel]
-        self.slots = [np.array(s, dtype=np.int64) for s in slots]
-        self.masks = [sum(1 << i for i in s) for s in slots]
+        self.key = StateKey(graph)
         self.kinds = sorted({n.name for n in graph.nodes if n.kind == PRIMITIVE})
         self.unit = {k: tuple(int(k == j) for j in self.kinds) for k in self.kinds}
         self.memo: dict = {}
         self.active: set = set()
-
-    def key(self, node, state, h):
-        # Bytes, not floats: nan must equal nan here.
-        key = (node, state.values[self.slots[node]].tobytes(), state.assigned & self.masks[node])
-        return key + ((h,) if RAND in self.rel[node] else ())
 
     def count(self, node_id: int, state, h: int, level: int) -> tuple:
         """Counts per primitive kind, in the order of self.kinds."""

@@ -37,7 +37,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..graph.derive import Deriver
+from ..graph.derive import Deriver, too_deep
 from ..graph.model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, OPERATORS, PAINT, PRIMITIVE,
                            SELECT, TRANSFORM, UNION, Graph)
 from ..graph.stats import MAX_LEVELS
@@ -107,9 +107,7 @@ class Reference:
             i, state, h, m, paint, material, level, parent, slot = stack.pop()
             n = gnodes[i]
             if level > MAX_LEVELS:
-                raise PcsgError([Diagnostic("error", f"the derivation is deeper than {MAX_LEVELS} "
-                                            f"levels at '{n.name}'", n.span, graph.source,
-                                            code="endless")])
+                raise too_deep(graph, i, MAX_LEVELS)
             if n.kind == PRIMITIVE:
                 nleaves += 1
                 if nleaves > max_primitives:

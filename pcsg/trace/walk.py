@@ -132,7 +132,6 @@ def combine(iv, a0, na, b0, nb, out0, op):
             src_a = ia
             ina = ia % 2 == 0
             ia += 1
-        was_b = inb
         src_b = -1
         while ib < 2 * nb and iv[b0 + ib // 2, IT_IN + ib % 2] == t:
             src_b = ib
@@ -142,8 +141,8 @@ def combine(iv, a0, na, b0, nb, out0, op):
         if now == inside:
             continue
         inside = now
-        # the surface that made the change: a's if a alone would have made it
-        from_a = src_a >= 0 and (src_b < 0 or _state(op, ina, was_b) == now)
+        # coincident surfaces: the first operand's wins, as in the reference
+        from_a = src_a >= 0
         if from_a:
             src, side = a0 + src_a // 2, src_a % 2
         else:
@@ -294,6 +293,17 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, list
 
 
 @_jit
+def record_hit(res, t, F, I, f, nx, ny, nz):
+    """The best hit so far: its distance, world normal, and the paint and material in force."""
+    res[R_T] = t
+    world_normal(F, f, nx, ny, nz, res, R_N)
+    for c in range(3):
+        res[R_PAINT + c] = F[f, PAINT + c]
+    res[R_MAT] = I[f, MAT]
+    res[R_HIT] = 1.0
+
+
+@_jit
 def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
               params, F, I, H, Fi, Ii, Hi, iv, lists, stack, args, m34, out8, order, keys, ev,
               res):
@@ -348,18 +358,13 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                     if t > tmin and t < best:
                         best = t
                         hit = True
-                        res[R_T] = t
-                        world_normal(F, f, r[2 + 3 * side], r[3 + 3 * side], r[4 + 3 * side],
-                                     res, R_N)
+                        record_hit(res, t, F, I, f, r[2 + 3 * side], r[3 + 3 * side],
+                                   r[4 + 3 * side])
                         if code >= FLAT_MIN and res[R_N] * dx + res[R_N + 1] * dy + \
                                 res[R_N + 2] * dz > 0.0:
                             for c in range(3):
                                 res[R_N + c] = -res[R_N + c]
-                        for c in range(3):
-                            res[R_PAINT + c] = F[f, PAINT + c]
-                        res[R_MAT] = I[f, MAT]
                         if any_hit:
-                            res[R_HIT] = 1.0
                             return True
                 break
             if kind == SELECT:
@@ -372,14 +377,9 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                     if t0 > tmin and t0 < best:
                         best = t0
                         hit = True
-                        res[R_T] = t0
                         nx, ny, nz = box_normal(flat.box[node], F, f, t0)
-                        world_normal(F, f, nx, ny, nz, res, R_N)
-                        for c in range(3):
-                            res[R_PAINT + c] = F[f, PAINT + c]
-                        res[R_MAT] = I[f, MAT]
+                        record_hit(res, t0, F, I, f, nx, ny, nz)
                         if any_hit:
-                            res[R_HIT] = 1.0
                             return True
                     break
                 if r < 0:
