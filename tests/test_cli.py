@@ -122,3 +122,13 @@ def test_console_script_runs_without_traceback(tmp_path):
     r = subprocess.run([exe, "stats", str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=16"],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0 and "4,294,967,29" in r.stdout
+
+
+def test_written_files_get_ordinary_permissions(capsys, sierpinski, tmp_path):
+    import os
+    import stat
+    out = tmp_path / "g.dot"
+    assert run(capsys, "graph", str(sierpinski), "-o", str(out))[0] == 0
+    umask = os.umask(0)
+    os.umask(umask)
+    assert stat.S_IMODE(out.stat().st_mode) == 0o666 & ~umask

@@ -158,3 +158,31 @@ def test_interrupted_render_keeps_the_earlier_png(tmp_path):
     assert proc.returncode == 130, err
     assert out.read_bytes() == b"an earlier good image"
     assert not [p for p in tmp_path.iterdir() if p.name.endswith(".part")]
+
+
+def test_a_mirror_shows_what_is_in_front_of_it():
+    # looking down at a mirror floor: the red ball appears below the horizon in it
+    scene = """#camera eye=(0,-6,1.2) at=(0,0,0) fov=40
+#light at=(0,-4,6)
+#material mirror reflect=1 diffuse=0 specular=0
+paint(1,0,0) move(0,2,1.2) sphere ∪ material(mirror) plane"""
+    obj, cam, fr = frame_of(scene, adaptive=False)
+    matte, _, plain = frame_of(scene.replace("reflect=1 diffuse=0", "reflect=0 diffuse=0.7"),
+                               adaptive=False)
+    ys, xs = np.mgrid[0:72, 0:96]
+    o, d = cam.rays(96, 72, xs.ravel() + 0.5, ys.ravel() + 0.5)
+    z = (o[:, 2] + fr.depth.ravel() * d[:, 2]).reshape(72, 96)
+    floor = np.isfinite(fr.depth) & (np.abs(z) < 1e-6)      # pixels that see the floor
+    redness = fr.rgb[..., 0] - fr.rgb[..., 1]
+    assert redness[floor].max() > 0.3             # the ball, seen in the mirror
+    assert (plain.rgb[..., 0] - plain.rgb[..., 1])[floor].max() < 0.3
+
+
+def test_glass_lets_the_wall_behind_show_through():
+    scene = """#camera eye=(0,-6,0) at=(0,0,0) fov=30
+#light at=(0,-6,4)
+#material glass transmit=1 ior=1 diffuse=0 specular=0
+material(glass) sphere ∪ paint(0,0.8,0) move(0,3,0) scale(5,0.1,5) cube"""
+    _, _, fr = frame_of(scene, adaptive=False)
+    centre = fr.rgb[36, 48]
+    assert centre[1] > 2 * centre[0] and centre[1] > 0.2   # the green wall, through the glass

@@ -309,6 +309,7 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
               res):
     """Trace one ray from the root; writes res (R_* columns). Returns True on a hit."""
     cap = F.shape[0]
+    has_table = flat.inst_used.shape[0] > 2
     dnorm = math.sqrt(dx * dx + dy * dy + dz * dz)
     F[0, OX] = ox
     F[0, OX + 1] = oy
@@ -397,8 +398,11 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                 for k in range(n):
                     c = flat.children[flat.child_start[node] + k]
                     e0, e1 = box_window(flat.box[c], F, f)
-                    e0, e1 = instance_window(flat, node, vm.edge_hash(H[f], node, k), F, f,
-                                             max(e0, t0), min(e1, t1))
+                    e0 = max(e0, t0)
+                    e1 = min(e1, t1)
+                    if has_table and e0 <= e1:
+                        e0, e1 = instance_window(flat, node, vm.edge_hash(H[f], node, k), F, f,
+                                                 e0, e1)
                     if e0 <= e1:
                         j = m
                         # descending, so the nearest pops first; on a tie the earlier
