@@ -127,6 +127,19 @@ def _halfspace(out, nx, ny, nz, h, ox, oy, oz, dx, dy, dz):
 # ---- the primitives ------------------------------------------------------------
 
 @_jit
+def _roots(a, b, c, disc):
+    """Sorted roots of a t^2 + 2 b t + c with disc = b^2 - a c >= 0, without cancellation."""
+    q = -(b + math.copysign(math.sqrt(disc), b))
+    if q == 0.0:
+        return True, 0.0, 0.0
+    r1 = q / a
+    r2 = c / q
+    if r1 > r2:
+        r1, r2 = r2, r1
+    return r1 <= r2, r1, r2                      # False for nan
+
+
+@_jit
 def _sphere(out, ox, oy, oz, dx, dy, dz):
     a = dx * dx + dy * dy + dz * dz
     c = ox * ox + oy * oy + oz * oz - 1.0
@@ -140,18 +153,9 @@ def _sphere(out, ox, oy, oz, dx, dy, dz):
     disc = a - (cx * cx + cy * cy + cz * cz)
     if not (disc >= 0.0):                        # also nan (overflow far away)
         return False
-    sq = math.sqrt(disc)
-    q = -(b + math.copysign(sq, b))
-    if q == 0.0:
-        r1 = 0.0
-        r2 = 0.0
-    else:
-        r1 = q / a
-        r2 = c / q
-        if r1 > r2:
-            r1, r2 = r2, r1
-        if not (r1 <= r2):                       # nan
-            return False
+    ok, r1, r2 = _roots(a, b, c, disc)
+    if not ok:
+        return False
     _enter(out, r1, ox + r1 * dx, oy + r1 * dy, oz + r1 * dz)
     _leave(out, r2, ox + r2 * dx, oy + r2 * dy, oz + r2 * dz)
     return True
@@ -205,18 +209,9 @@ def _cylinder(out, ox, oy, oz, dx, dy, dz):
         disc = a - cr * cr                       # = b^2 - a c
         if not (disc >= 0.0):
             return False
-        sq = math.sqrt(disc)
-        q = -(b + math.copysign(sq, b))
-        if q == 0.0:
-            r1 = 0.0
-            r2 = 0.0
-        else:
-            r1 = q / a
-            r2 = c / q
-            if r1 > r2:
-                r1, r2 = r2, r1
-            if not (r1 <= r2):                   # nan
-                return False
+        ok, r1, r2 = _roots(a, b, c, disc)
+        if not ok:
+            return False
         _enter(out, r1, ox + r1 * dx, oy + r1 * dy, 0.0)
         _leave(out, r2, ox + r2 * dx, oy + r2 * dy, 0.0)
     return out[0] <= out[1]

@@ -163,6 +163,14 @@ def combine(iv, a0, na, b0, nb, out0, op):
 
 
 @_jit
+def push_list(lists, ls, start, count):
+    """Put a finished subtree's interval list (rows start..start+count) on the list stack."""
+    lists[ls, 0] = start
+    lists[ls, 1] = count
+    return ls + 1
+
+
+@_jit
 def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, lists, stack,
               args, m34, out8, lod, dnorm, max_depth, ev):
     """The interval list of frame f0's subtree within [w0, w1], computed bottom-up with
@@ -189,9 +197,7 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, list
             t0 = max(F[f, T0], b0)
             t1 = min(F[f, T1], b1)
             if t0 > t1:
-                lists[ls, 0] = top
-                lists[ls, 1] = 0
-                ls += 1
+                ls = push_list(lists, ls, top, 0)
                 sp -= 1
                 continue
             F[f, T0] = t0
@@ -209,18 +215,14 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, list
                         n = 1
                     elif a <= b:
                         ev[EV_INTERVALS, node] += 1
-                lists[ls, 0] = top
-                lists[ls, 1] = n
-                ls += 1
+                ls = push_list(lists, ls, top, n)
                 top += n
                 sp -= 1
                 continue
             if kind == SELECT:
                 t0, t1 = instance_window(flat, node, H[f], F, f, t0, t1)
                 if t0 > t1:
-                    lists[ls, 0] = top
-                    lists[ls, 1] = 0
-                    ls += 1
+                    ls = push_list(lists, ls, top, 0)
                     sp -= 1
                     continue
                 r = choose_rule(flat, node, F, I, H, f, params, stack, lod, dnorm, max_depth,
@@ -233,15 +235,11 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, list
                         nx, ny, nz = box_normal(flat.box[node], F, f, t1)
                         set_end(iv, top, 1, t1, F, I, f, nx, ny, nz)
                         n = 1
-                    lists[ls, 0] = top
-                    lists[ls, 1] = n
-                    ls += 1
+                    ls = push_list(lists, ls, top, n)
                     top += n
                     sp -= 1
                 elif r == -1:
-                    lists[ls, 0] = top
-                    lists[ls, 1] = 0
-                    ls += 1
+                    ls = push_list(lists, ls, top, 0)
                     sp -= 1
                 else:
                     H[f] = vm.edge_hash(H[f], node, r)
@@ -250,9 +248,7 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, list
             if kind == UNION or kind == INTERSECTION or kind == DIFFERENCE:
                 if sp >= cap_f:
                     ev[EV_STACK, node] += 1
-                    lists[ls, 0] = top
-                    lists[ls, 1] = 0
-                    ls += 1
+                    ls = push_list(lists, ls, top, 0)
                     sp -= 1
                     continue
                 I[f, PHASE] = 1
@@ -261,9 +257,7 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, list
                 continue
             if not step_unary(flat, node, kind, F, I, H, f, slot_base, params, stack, args,
                               m34, ev):
-                lists[ls, 0] = top
-                lists[ls, 1] = 0
-                ls += 1
+                ls = push_list(lists, ls, top, 0)
                 sp -= 1
             continue
         # an operator whose child number phase-1 has just left its list on top
