@@ -60,10 +60,13 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None) -> Flat:
     if table is None:
         table = (np.zeros(2, dtype=np.uint64), np.zeros(2, dtype=np.int8), np.zeros((2, 6)))
     fixed, fixed_map = _fixed_transforms(graph)
+    children = np.array([c for x in nodes for c in x.children], dtype=np.int32)
+    starts = _starts(counts)
+    _compose_fixed_chains(kind, fixed, fixed_map, starts, children)
     return Flat(
         kind=kind, code=code,
-        child_start=_starts(counts), child_count=counts,
-        children=np.array([c for x in nodes for c in x.children], dtype=np.int32),
+        child_start=starts, child_count=counts,
+        children=children,
         expr_start=_starts(ecounts), expr_count=ecounts,
         expr_ids=np.array([e for x in nodes for e in x.exprs], dtype=np.int32),
         targets=np.array([t for x in nodes for t in (x.targets or [-1] * len(x.exprs))],
@@ -104,6 +107,34 @@ def _fixed_transforms(graph: Graph):
         maps[i, 9:12] = m[:3, 3]
         maps[i, 12:21] = np.linalg.inv(lin).ravel()
     return fixed, maps
+
+
+def _compose_fixed_chains(kind, fixed, maps, starts, children):
+    """A fixed T-node whose child is a fixed T-node takes the composed map and points past
+    it (move(...) uscale(0.5) S: one map, one box test and one ray transform per visit).
+    The skipped node stays in place for any other parent."""
+    changed = True
+    while changed:
+        changed = False
+        for i in np.nonzero(fixed)[0]:
+            c = children[starts[i]]
+            if kind[c] != TRANSFORM or not fixed[c]:
+                continue
+            a = _affine4(maps[i])
+            b = _affine4(maps[c])
+            m = a @ b
+            maps[i, :9] = m[:3, :3].ravel()
+            maps[i, 9:12] = m[:3, 3]
+            maps[i, 12:21] = np.linalg.inv(m[:3, :3]).ravel()
+            children[starts[i]] = children[starts[c]]
+            changed = True
+
+
+def _affine4(row):
+    m = np.eye(4)
+    m[:3, :3] = row[:9].reshape(3, 3)
+    m[:3, 3] = row[9:12]
+    return m
 
 
 def _starts(counts: np.ndarray) -> np.ndarray:

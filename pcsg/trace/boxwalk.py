@@ -11,9 +11,8 @@ from numba import njit
 from ..graph.model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, PAINT, PRIMITIVE, SELECT,
                            TRANSFORM, UNION)
 from . import vm
-from .nodes import eval_args, pick_rule, run_calc, table_slot
+from .nodes import node_affine, pick_rule, run_calc, table_slot
 from .primitives import BOXES
-from .transforms import affine
 
 NODE, SLOT, LEVEL, PHASE, CUT = range(5)
 
@@ -113,8 +112,7 @@ def walk(flat, max_depth, budget, capacity, boxes, table_levels, keys, used, val
                 child = 0
                 fr[f, PHASE] = 1
             elif kind == TRANSFORM:
-                eval_args(flat, node, params, fr[f, SLOT], hs[f], stack, args)
-                affine(flat.code[node], args, m34)
+                node_affine(flat, node, params, fr[f, SLOT], hs[f], stack, args, m34)
                 _transform_box(m34, acc[f + 1], tmp)
                 acc[f, :] = tmp
             else:

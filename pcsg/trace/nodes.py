@@ -190,6 +190,21 @@ def eval_args(flat, node, params, slot, h, stack, args):
 
 
 @_jit
+def node_affine(flat, node, params, slot, h, stack, args, m34):
+    """The T-node's 3x4 map into m34 (precomputed where fixed). False for bad arguments."""
+    if flat.fixed[node]:
+        fm = flat.fixed_map[node]
+        for i in range(3):
+            for j in range(3):
+                m34[i, j] = fm[3 * i + j]
+            m34[i, 3] = fm[9 + i]
+        return True
+    ok = eval_args(flat, node, params, slot, h, stack, args)
+    affine(flat.code[node], args, m34)
+    return ok
+
+
+@_jit
 def enter_transform(flat, node, F, f, params, slot, h, stack, args, m34):
     """Map frame f's ray into the T-node's child frame, in place. Returns 0 if fine,
     1 for non-finite arguments, 2 for a singular map (the instance is then empty)."""
