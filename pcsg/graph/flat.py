@@ -8,7 +8,7 @@ import numpy as np
 from ..language.names import PRIMITIVES
 from ..trace.transforms import CODES as TRANSFORM_CODES
 from ..trace.transforms import matrix as transform_matrix
-from .model import MATERIAL, PRIMITIVE, SELECT, TRANSFORM, Graph
+from .model import MATERIAL, PRIMITIVE, TRANSFORM, Graph
 from .terminating import terminating_rules
 
 Flat = namedtuple("Flat", [
@@ -143,5 +143,3 @@ def _starts(counts: np.ndarray) -> np.ndarray:
         out[1:] = np.cumsum(counts[:-1])
     return out
 
-
-__all__ = ["Flat", "flatten_graph", "SELECT"]

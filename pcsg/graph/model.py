@@ -54,7 +54,3 @@ class Graph:
     @property
     def param_names(self) -> list[str]:
         return sorted(self.params, key=self.params.get)
-
-    def module_of(self, node_id: int) -> str | None:
-        n = self.nodes[node_id]
-        return n.name if n.kind == SELECT else None

@@ -5,8 +5,10 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from ..compiler import compile_file
-from ..tracer import Traced
+from ..tracer import Hits, Traced
 from .camera import make_camera
 from .image import Progress, render_frame, write_depth, write_png
 from .shade import make_lighting
@@ -85,13 +87,9 @@ class _ReferenceTarget:
 
     def __init__(self, traced: Traced):
         from ..trace.reference import Reference
-        import numpy as np
-        self.np = np
         self.ref = Reference(traced.graph)
 
     def trace(self, origins, directions, tmin=1e-9, tmax=math.inf, any_hit=False, lod=0.0):
-        from ..tracer import Hits
-        np = self.np
         r = self.ref.trace(origins, directions, tmin=tmin, tmax=tmax, exits=True)
         normal = np.where(r["hit"][:, None], r["normal"], 0.0)
         return Hits(r["t"], normal, r["paint"], r["material"], r["hit"])

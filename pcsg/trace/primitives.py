@@ -41,7 +41,6 @@ CODES = {name: i for i, name in enumerate(PRIMITIVES)}
 SPHERE, CUBE, CYLINDER, CONE, TETRAHEDRON, PLANE, TRI1, TRI2 = (CODES[n] for n in (
     "sphere", "cube", "cylinder", "cone", "tetrahedron", "plane", "tri1", "tri2"))
 FLAT = frozenset(CODES[n] for n in FLAT_PRIMITIVES)      # {TRI1, TRI2}
-IS_FLAT = np.array([name in FLAT_PRIMITIVES for name in PRIMITIVES])   # by code, for njit
 
 EDGE_EPS = 1e-12     # inclusive tolerance of the triangle edge tests (object frame)
 
