@@ -349,14 +349,9 @@ def _triangle(out, code, ox, oy, oz, dx, dy, dz):
     # tri1: x >= 0, y >= 0, x + y <= 1 (tri2 is tri1 turned by 180 degrees about z)
     if not (x >= -EDGE_EPS and y >= -EDGE_EPS and 1.0 - x - y >= -EDGE_EPS):
         return False
+    _start(out)                 # both normals (0, 0, 1)
     out[0] = t
     out[1] = t
-    out[2] = 0.0
-    out[3] = 0.0
-    out[4] = 1.0
-    out[5] = 0.0
-    out[6] = 0.0
-    out[7] = 1.0
     return True
 
 
