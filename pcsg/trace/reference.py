@@ -37,11 +37,8 @@ import math
 import numpy as np
 from numba import njit
 
-from ..graph.derive import Deriver, too_deep
-from ..graph.model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, OPERATORS, PAINT, PRIMITIVE,
-                           SELECT, TRANSFORM, UNION, Graph)
-from ..graph.stats import MAX_LEVELS
-from ..language.errors import Diagnostic, PcsgError
+from ..graph.flatten import flatten
+from ..graph.model import DIFFERENCE, INTERSECTION, UNION, Graph
 from . import primitives
 
 LEAF = -1            # tree node kind of a primitive; operators use the graph's kinds
@@ -94,52 +91,27 @@ class Reference:
     # ---- the expanded tree ------------------------------------------------------
 
     def _build(self, graph: Graph, max_primitives: int) -> int:
-        """Walk the derivation as pcsg.graph.flatten does, keeping the operators."""
-        d = Deriver(graph)
-        gnodes = graph.nodes
+        """The derivation from pcsg.graph.flatten, regrouped into its operators: every
+        primitive's path names the operator instances above it, so a path prefix is one
+        operator instance of the tree."""
         tree = self.nodes
-        nleaves = 0
-        state, h = d.initial()
         holder = [None]
-        # (graph node, state, hash, matrix, paint, material, level, parent slots, slot)
-        stack = [(graph.root, state, h, np.eye(4), None, -1, 0, holder, 0)]
-        while stack:
-            i, state, h, m, paint, material, level, parent, slot = stack.pop()
-            n = gnodes[i]
-            if level > MAX_LEVELS:
-                raise too_deep(graph, i, MAX_LEVELS)
-            if n.kind == PRIMITIVE:
-                nleaves += 1
-                if nleaves > max_primitives:
-                    raise PcsgError([Diagnostic("error", f"the derivation has more than "
-                                                f"{max_primitives:,} primitives; the reference "
-                                                f"tracer is for small orders", None, graph.source,
-                                                code="too-large")])
-                parent[slot] = len(tree)
-                tree.append(Leaf(primitives.CODES[n.name], n.name, m, paint, material))
-                continue
-            if n.kind == SELECT:
-                r = d.select(i, state, h)
-                stack.append((n.children[r], state, d.edge(h, i, r), m, paint, material,
-                              level + 1, parent, slot))
-                continue
-            if n.kind in OPERATORS.values():
-                op = Op(n.kind, len(n.children))
-                parent[slot] = len(tree)
-                tree.append(op)
-                for k in reversed(range(len(n.children))):
-                    stack.append((n.children[k], state, d.edge(h, i, k), m, paint, material,
-                                  level, op.children, k))
-                continue
-            if n.kind == CALC:
-                state = d.calc(i, state, h)
-            elif n.kind == TRANSFORM:
-                m = m @ d.matrix(i, state, h)
-            elif n.kind == PAINT:
-                paint = tuple(float(v) for v in d.args(i, state, h))
-            elif n.kind == MATERIAL:
-                material = graph.material_names.index(n.name)
-            stack.append((n.children[0], state, h, m, paint, material, level, parent, slot))
+        ops: dict[tuple, Op] = {}
+        for inst in flatten(graph, max_primitives):
+            parent, slot = holder, 0
+            for j, (node, k) in enumerate(inst.path):
+                op = ops.get(inst.path[:j])
+                if op is None:
+                    g = graph.nodes[node]
+                    op = ops[inst.path[:j]] = Op(g.kind, len(g.children))
+                    parent[slot] = len(tree)
+                    tree.append(op)
+                parent, slot = op.children, k
+            material = graph.material_names.index(inst.material) if inst.material else -1
+            paint = None if inst.paint is None else tuple(float(v) for v in inst.paint)
+            parent[slot] = len(tree)
+            tree.append(Leaf(primitives.CODES[inst.primitive], inst.primitive, inst.matrix,
+                             paint, material))
         return holder[0]
 
     @property
