@@ -8,7 +8,8 @@ import numpy as np
 from ..language.names import PRIMITIVES
 from ..trace.transforms import CODES as TRANSFORM_CODES
 from ..trace.transforms import matrix as transform_matrix
-from .model import MATERIAL, PRIMITIVE, TRANSFORM, Graph
+from ..trace.vm import RAND
+from .model import MATERIAL, PAINT, PRIMITIVE, TRANSFORM, Graph
 from .terminating import terminating_rules
 
 Flat = namedtuple("Flat", [
@@ -22,8 +23,9 @@ Flat = namedtuple("Flat", [
     "expr_ids",      # int32[k]     selection | arguments | assigned values
     "targets",       # int32[k]     C-nodes: the parameter slot each value goes to
     "term_rule",     # int32[n]     S-nodes: the rule that ends soonest, -1 if none
-    "fixed",         # int8[n]      T-nodes whose arguments are constants: 1, with
-    "fixed_map",     # float64[n,24]  [L (9) | t (3) | L^-1 (9) | unused (3)], row-major
+    "fixed",         # int8[n]      T- and paint nodes whose arguments are constants: 1, with
+    "fixed_map",     # float64[n,24]  [L (9) | t (3) | L^-1 (9) | unused (3)], row-major;
+                     #                paint: [r, g, b | unused]
     "box",           # float64[n,6] hyper-bounding box in the node's input frame
     "inst_keys",     # uint64[s]    instance table: S-node instance hash ->
     "inst_used",     # int8[s]
@@ -36,6 +38,7 @@ Flat = namedtuple("Flat", [
     "n_params",      # int64
     "max_stack",     # int64        expression stack depth
     "max_children",  # int64
+    "hashed",        # int64        1 if anything reads instance hashes (rand(), the table)
 ])
 
 
@@ -59,7 +62,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None) -> Flat:
     vm = graph.exprs.arrays()
     if table is None:
         table = (np.zeros(2, dtype=np.uint64), np.zeros(2, dtype=np.int8), np.zeros((2, 6)))
-    fixed, fixed_map = _fixed_transforms(graph)
+    fixed, fixed_map = _fixed_nodes(graph)
     children = np.array([c for x in nodes for c in x.children], dtype=np.int32)
     starts = _starts(counts)
     _compose_fixed_chains(kind, fixed, fixed_map, starts, children)
@@ -81,21 +84,27 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None) -> Flat:
         root=np.int64(graph.root), n_params=np.int64(max(1, len(graph.params))),
         max_stack=np.int64(max(1, vm["max_stack"])),
         max_children=np.int64(max(1, counts.max(initial=1))),
+        hashed=np.int64(len(table[0]) > 2 or bool(np.any(vm["code"][:, 0] == RAND))),
     )
 
 
-def _fixed_transforms(graph: Graph):
-    """Matrices and inverses of the T-nodes whose arguments folded to constants,
-    computed once here instead of once per ray and visit. Singular ones stay dynamic
-    so that the walk reports them."""
+def _fixed_nodes(graph: Graph):
+    """Matrices and inverses of the T-nodes whose arguments folded to constants, and
+    the colours of such paint nodes, computed once here instead of once per ray and
+    visit. Singular or non-finite ones stay dynamic so that the walk reports them."""
     n = len(graph.nodes)
     fixed = np.zeros(n, dtype=np.int8)
     maps = np.zeros((n, 24))
     for i, node in enumerate(graph.nodes):
-        if node.kind != TRANSFORM:
+        if node.kind not in (TRANSFORM, PAINT):
             continue
         args = [graph.exprs.constant(e) for e in node.exprs]
         if any(a is None for a in args):
+            continue
+        if node.kind == PAINT:
+            if np.isfinite(args).all():
+                fixed[i] = 1
+                maps[i, :3] = args
             continue
         m = transform_matrix(node.name, args)
         lin = m[:3, :3]
@@ -117,6 +126,8 @@ def _compose_fixed_chains(kind, fixed, maps, starts, children):
     while changed:
         changed = False
         for i in np.nonzero(fixed)[0]:
+            if kind[i] != TRANSFORM:
+                continue
             c = children[starts[i]]
             if kind[c] != TRANSFORM or not fixed[c]:
                 continue

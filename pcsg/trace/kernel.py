@@ -40,5 +40,5 @@ def trace_rays(flat, origins, directions, tmin, tmax, any_hit, lod, max_depth, s
             first_hit(flat, origins[i, 0], origins[i, 1], origins[i, 2],
                       directions[i, 0], directions[i, 1], directions[i, 2],
                       tmin, tmax, any_hit, lod, max_depth, params, F, I, H, Fi, Ii, Hi,
-                      iv, lists, vstack, args, m34, out8, order, keys, ev, out[i])
+                      iv, lists, vstack, args, m34, out8, order, keys, ev, out, i)
         events[c] = ev

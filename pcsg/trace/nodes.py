@@ -11,12 +11,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from . import vm
+from .jit import inline, kernel
 from .transforms import affine
-
-_jit = njit(cache=True, error_model="numpy", nogil=True)
 
 # F columns
 OX, DX, M0, T0, T1, PAINT = 0, 3, 6, 15, 16, 17
@@ -30,24 +28,26 @@ EV_LOD, EV_DEPTH, EV_STACK, EV_INTERVALS, EV_SINGULAR, EV_SELECTION, EV_NONFINIT
 N_EVENTS = 7
 
 
-@_jit
+@inline
 def copy_frame(F, I, H, src, dst):
     if src != dst:
-        F[dst, :] = F[src, :]
-        I[dst, :] = I[src, :]
+        for k in range(F_WIDTH):
+            F[dst, k] = F[src, k]
+        for k in range(I_WIDTH):
+            I[dst, k] = I[src, k]
         H[dst] = H[src]
 
 
-@_jit
-def box_window(box, F, f):
-    """Where the frame's ray is inside `box`: (t_enter, t_exit), empty if enter > exit."""
+@inline
+def box_window(boxes, b, F, f):
+    """Where the frame's ray is inside boxes[b]: (t_enter, t_exit), empty if enter > exit."""
     t0 = -np.inf
     t1 = np.inf
     for a in range(3):
         o = F[f, OX + a]
         d = F[f, DX + a]
-        lo = box[a]
-        hi = box[a + 3]
+        lo = boxes[b, a]
+        hi = boxes[b, a + 3]
         if d == 0.0:
             if o < lo or o > hi:
                 return np.inf, -np.inf
@@ -64,8 +64,8 @@ def box_window(box, F, f):
     return t0, t1
 
 
-@_jit
-def box_normal(box, F, f, t):
+@kernel
+def box_normal(boxes, b, F, f, t):
     """Outward local normal of the box face the ray crosses at t."""
     best = np.inf
     axis = 0
@@ -73,7 +73,7 @@ def box_normal(box, F, f, t):
     for a in range(3):
         p = F[f, OX + a] + t * F[f, DX + a]
         for side in range(2):
-            plane = box[a + 3 * side]
+            plane = boxes[b, a + 3 * side]
             if math.isfinite(plane) and abs(p - plane) < best:
                 best = abs(p - plane)
                 axis = a
@@ -85,7 +85,7 @@ def box_normal(box, F, f, t):
     return 0.0, 0.0, sign
 
 
-@_jit
+@inline
 def table_slot(keys, used, h):
     """Open addressing: the slot of hash h, or of the empty place where it would go
     (the table is at most half full, so the probe ends)."""
@@ -96,7 +96,7 @@ def table_slot(keys, used, h):
     return i
 
 
-@_jit
+@inline
 def instance_window(flat, node, h, F, f, t0, t1):
     """The window [t0, t1] narrowed by one instance's own box where the instance table
     has it: an S-node instance (node, its hash) in its own frame, or an operand of an
@@ -105,27 +105,29 @@ def instance_window(flat, node, h, F, f, t0, t1):
     if flat.inst_used.shape[0] > 2:
         slot = table_slot(flat.inst_keys, flat.inst_used, vm.mix(h, node))
         if flat.inst_used[slot]:
-            b0, b1 = box_window(flat.inst_boxes[slot], F, f)
+            b0, b1 = box_window(flat.inst_boxes, slot, F, f)
             t0 = max(t0, b0)
             t1 = min(t1, b1)
     return t0, t1
 
 
-@_jit
-def world_normal(F, f, nx, ny, nz, out, k):
-    """out[k:k+3] = unit world normal: the inverse transpose of M applied to n,
+@kernel
+def world_normal(F, f, nx, ny, nz, out, row, k):
+    """out[row, k:k+3] = unit world normal: the inverse transpose of M applied to n,
     written as sign(det M) times the cofactor matrix, which needs no division."""
-    m = F[f, M0:M0 + 9]
-    c00 = m[4] * m[8] - m[5] * m[7]
-    c01 = m[5] * m[6] - m[3] * m[8]
-    c02 = m[3] * m[7] - m[4] * m[6]
-    c10 = m[2] * m[7] - m[1] * m[8]
-    c11 = m[0] * m[8] - m[2] * m[6]
-    c12 = m[1] * m[6] - m[0] * m[7]
-    c20 = m[1] * m[5] - m[2] * m[4]
-    c21 = m[2] * m[3] - m[0] * m[5]
-    c22 = m[0] * m[4] - m[1] * m[3]
-    det = m[0] * c00 + m[1] * c01 + m[2] * c02
+    m0, m1, m2 = F[f, M0], F[f, M0 + 1], F[f, M0 + 2]
+    m3, m4, m5 = F[f, M0 + 3], F[f, M0 + 4], F[f, M0 + 5]
+    m6, m7, m8 = F[f, M0 + 6], F[f, M0 + 7], F[f, M0 + 8]
+    c00 = m4 * m8 - m5 * m7
+    c01 = m5 * m6 - m3 * m8
+    c02 = m3 * m7 - m4 * m6
+    c10 = m2 * m7 - m1 * m8
+    c11 = m0 * m8 - m2 * m6
+    c12 = m1 * m6 - m0 * m7
+    c20 = m1 * m5 - m2 * m4
+    c21 = m2 * m3 - m0 * m5
+    c22 = m0 * m4 - m1 * m3
+    det = m0 * c00 + m1 * c01 + m2 * c02
     s = 1.0 if det >= 0.0 else -1.0
     x = s * (c00 * nx + c01 * ny + c02 * nz)
     y = s * (c10 * nx + c11 * ny + c12 * nz)
@@ -135,17 +137,17 @@ def world_normal(F, f, nx, ny, nz, out, k):
         x /= length
         y /= length
         z /= length
-    out[k] = x
-    out[k + 1] = y
-    out[k + 2] = z
+    out[row, k] = x
+    out[row, k + 1] = y
+    out[row, k + 2] = z
 
 
-@_jit
-def world_size(box, F, f):
-    """An upper bound of the world extent of this instance of `box`."""
+@inline
+def world_size(boxes, b, F, f):
+    """An upper bound of the world extent of this instance of boxes[b]."""
     size = 0.0
     for a in range(3):
-        e = box[a + 3] - box[a]
+        e = boxes[b, a + 3] - boxes[b, a]
         if not math.isfinite(e):
             return np.inf
         col = math.sqrt(F[f, M0 + a] ** 2 + F[f, M0 + 3 + a] ** 2 + F[f, M0 + 6 + a] ** 2)
@@ -153,43 +155,45 @@ def world_size(box, F, f):
     return size
 
 
-@_jit
-def expr(flat, params, slot, k, inst_hash, stack):
-    """Evaluate expression number k of the flat table with the parameters of `slot`."""
-    return vm.eval_expr(flat.vm_code, flat.vm_consts, flat.vm_start[k], flat.vm_end[k],
-                        params[slot], inst_hash, stack)
+@inline
+def expr(flat, params, slot, k, h, salt_slot, stack):
+    """Evaluate expression number k of the flat table with the parameters of `slot`;
+    rand() draws from the instance hash h salted with salt_slot."""
+    return vm.eval_row(flat.vm_code, flat.vm_consts, flat.vm_start[k], flat.vm_end[k],
+                       params, slot, h, salt_slot, stack)
 
 
-@_jit
+@inline
 def run_calc(flat, node, params, src, dst, h, stack):
     """A C-node: copy the parameter state into slot dst, then assign in order."""
     if src != dst:
-        params[dst, :] = params[src, :]
+        for p in range(params.shape[1]):
+            params[dst, p] = params[src, p]
     e0 = flat.expr_start[node]
     for k in range(flat.expr_count[node]):
-        v = expr(flat, params, dst, flat.expr_ids[e0 + k], vm.salt(h, k + 1), stack)
+        v = expr(flat, params, dst, flat.expr_ids[e0 + k], h, k + 1, stack)
         params[dst, flat.targets[e0 + k]] = v
 
 
-@_jit
+@inline
 def pick_rule(flat, node, params, slot, h, stack):
     """The 0-based rule an S-node selects, or -1 if its selection is invalid."""
-    x = expr(flat, params, slot, flat.expr_ids[flat.expr_start[node]], vm.salt(h, 0), stack)
+    x = expr(flat, params, slot, flat.expr_ids[flat.expr_start[node]], h, 0, stack)
     return vm.select_rule(x, flat.child_count[node]) - 1
 
 
-@_jit
+@inline
 def eval_args(flat, node, params, slot, h, stack, args):
     e0 = flat.expr_start[node]
     ok = True
     for k in range(flat.expr_count[node]):
-        args[k] = expr(flat, params, slot, flat.expr_ids[e0 + k], vm.salt(h, k + 1), stack)
+        args[k] = expr(flat, params, slot, flat.expr_ids[e0 + k], h, k + 1, stack)
         if not math.isfinite(args[k]):
             ok = False
     return ok
 
 
-@_jit
+@kernel
 def node_affine(flat, node, params, slot, h, stack, args, m34):
     """The T-node's 3x4 map into m34 (precomputed where fixed). False for bad arguments."""
     if flat.fixed[node]:
@@ -204,16 +208,19 @@ def node_affine(flat, node, params, slot, h, stack, args, m34):
     return ok
 
 
-@_jit
+@inline
 def enter_transform(flat, node, F, f, params, slot, h, stack, args, m34):
     """Map frame f's ray into the T-node's child frame, in place. Returns 0 if fine,
     1 for non-finite arguments, 2 for a singular map (the instance is then empty)."""
     if flat.fixed[node]:
-        fm = flat.fixed_map[node]
-        a, b, c, d, e, g, p, q, r = fm[0], fm[1], fm[2], fm[3], fm[4], fm[5], fm[6], fm[7], fm[8]
-        tx, ty, tz = fm[9], fm[10], fm[11]
-        i00, i01, i02, i10, i11, i12, i20, i21, i22 = (fm[12], fm[13], fm[14], fm[15], fm[16],
-                                                       fm[17], fm[18], fm[19], fm[20])
+        fm = flat.fixed_map
+        a, b, c = fm[node, 0], fm[node, 1], fm[node, 2]
+        d, e, g = fm[node, 3], fm[node, 4], fm[node, 5]
+        p, q, r = fm[node, 6], fm[node, 7], fm[node, 8]
+        tx, ty, tz = fm[node, 9], fm[node, 10], fm[node, 11]
+        i00, i01, i02 = fm[node, 12], fm[node, 13], fm[node, 14]
+        i10, i11, i12 = fm[node, 15], fm[node, 16], fm[node, 17]
+        i20, i21, i22 = fm[node, 18], fm[node, 19], fm[node, 20]
     else:
         if not eval_args(flat, node, params, slot, h, stack, args):
             return 1
@@ -254,8 +261,12 @@ def enter_transform(flat, node, F, f, params, slot, h, stack, args, m34):
     return 0
 
 
-@_jit
+@inline
 def enter_paint(flat, node, F, f, params, slot, h, stack, args):
+    if flat.fixed[node]:                # constant colour, stored like a fixed map
+        for k in range(3):
+            F[f, PAINT + k] = flat.fixed_map[node, k]
+        return True
     if not eval_args(flat, node, params, slot, h, stack, args):
         return False
     for k in range(3):

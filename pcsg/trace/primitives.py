@@ -33,9 +33,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from ..language.names import FLAT_PRIMITIVES, PRIMITIVES
+from .jit import kernel as _jit
 
 CODES = {name: i for i, name in enumerate(PRIMITIVES)}
 SPHERE, CUBE, CYLINDER, CONE, TETRAHEDRON, PLANE, TRI1, TRI2 = (CODES[n] for n in (
@@ -64,8 +64,6 @@ BOXES.setflags(write=False)
 TETRA_CORNERS = np.array([[1.0, 1.0, 1.0], [-1.0, -1.0, 1.0], [1.0, -1.0, -1.0],
                           [-1.0, 1.0, -1.0]])
 TETRA_CORNERS.setflags(write=False)
-
-_jit = njit(cache=True, error_model='numpy', nogil=True)
 
 
 def box(code: int) -> np.ndarray:

@@ -5,20 +5,27 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from ..language.names import TRANSFORMS
+from .jit import kernel
 
 CODES = {name: i for i, name in enumerate(TRANSFORMS)}
 (MOVE, SCALE, USCALE, ROTX, ROTY, ROTZ, ROT, ZSHEAR, XSHEAR, YSHEAR,
  FLIPXY, FLIPXZ, FLIPYZ, MIRROR, MATRIX) = range(len(TRANSFORMS))
 
 
-@njit(cache=True)
+@kernel
+def _fill(m, v):
+    for i in range(m.shape[0]):
+        for j in range(m.shape[1]):
+            m[i, j] = v
+
+
+@kernel
 def _rotation(m, deg, ax, ay, az):
     n = math.sqrt(ax * ax + ay * ay + az * az)
     if not (n > 0.0):
-        m[:, :] = np.nan
+        _fill(m, np.nan)
         return
     ax, ay, az = ax / n, ay / n, az / n
     a = deg * math.pi / 180.0
@@ -35,11 +42,11 @@ def _rotation(m, deg, ax, ay, az):
     m[2, 2] = t * az * az + c
 
 
-@njit(cache=True)
+@kernel
 def affine(code, a, m):
     """Write the 3x4 matrix [L | t] of transformation `code` with arguments `a` into `m`.
     A point p maps to L p + t. Invalid input (a zero rotation axis) gives nan."""
-    m[:, :] = 0.0
+    _fill(m, 0.0)
     m[0, 0] = 1.0
     m[1, 1] = 1.0
     m[2, 2] = 1.0
@@ -84,7 +91,7 @@ def affine(code, a, m):
     elif code == MIRROR:
         n2 = a[0] * a[0] + a[1] * a[1] + a[2] * a[2]
         if not (n2 > 0.0):
-            m[:, :] = np.nan
+            _fill(m, np.nan)
             return
         for i in range(3):
             for j in range(3):

@@ -47,6 +47,8 @@ import math
 import numpy as np
 from numba import njit
 
+from .jit import kernel
+
 # ---- opcodes -------------------------------------------------------------
 # Stack effects in brackets: [a b -> r] pops b (top) then a and pushes r.
 CONST = 0          # [-> consts[arg]]
@@ -216,6 +218,15 @@ def eval_expr(code, consts, start, end, params, inst_hash, stack):
     for rand(), already salted; stack: float64 scratch of the expression's depth.
     Allocates nothing and never raises on any input value.
     """
+    return eval_row(code, consts, start, end, params.reshape((1, params.shape[0])), 0,
+                    inst_hash, -1, stack)
+
+
+@kernel
+def eval_row(code, consts, start, end, params, row, inst_hash, salt_slot, stack):
+    """eval_expr with the parameters in params[row], and inst_hash salted with
+    salt_slot at the first rand() (salt_slot < 0: already salted). The tracer calls
+    this: a 2-D table needs no view, and expressions without rand() skip the hash."""
     sp = 0            # number of values on the stack
     nrand = 0         # rand() calls made so far
     pc = start
@@ -227,9 +238,11 @@ def eval_expr(code, consts, start, end, params, inst_hash, stack):
             stack[sp] = consts[arg]
             sp += 1
         elif op == LOAD:
-            stack[sp] = params[arg]
+            stack[sp] = params[row, arg]
             sp += 1
         elif op == RAND:
+            if nrand == 0 and salt_slot >= 0:
+                inst_hash = salt(inst_hash, salt_slot)
             stack[sp] = hash_to_unit(mix(inst_hash, nrand))
             nrand += 1
             sp += 1

@@ -10,19 +10,17 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from ..graph.model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, PAINT as PAINT_NODE,
                            PRIMITIVE, SELECT, TRANSFORM, UNION)
 from . import vm
+from .jit import inline, kernel
 from .nodes import (CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
-                    EV_SINGULAR, EV_STACK, LEVEL, M0, MAT, NODE, OX, PAINT, PHASE, SLOT, T0, T1,
-                    box_normal, box_window, copy_frame, enter_paint, enter_transform, instance_window,
-                    pick_rule,
-                    run_calc, world_normal, world_size)
+                    EV_SINGULAR, EV_STACK, F_WIDTH, I_WIDTH, LEVEL, M0, MAT, NODE, OX, PAINT,
+                    PHASE, SLOT, T0, T1, box_normal, box_window, copy_frame, enter_paint, enter_transform,
+                    instance_window, pick_rule, run_calc, world_normal, world_size)
 from .primitives import intersect
 
-_jit = njit(cache=True, error_model="numpy", nogil=True)
 
 SLIVER = 1e-9           # relative thickness below which ∩ and \ pieces are slivers
 FLAT_MIN = 6            # primitive codes >= this are the flat triangles
@@ -34,7 +32,7 @@ R_T, R_N, R_PAINT, R_MAT, R_HIT = 0, 1, 4, 7, 8
 R_WIDTH = 9
 
 
-@_jit
+@inline
 def choose_rule(flat, node, F, I, H, f, params, stack, lod, dnorm, max_depth, t_enter, ev):
     """The S-node's rule for frame f: >= 0 a rule, -1 the instance is empty, -2 hit its box.
     Past the depth bound or below the pixel footprint the walk stops refining and
@@ -45,7 +43,7 @@ def choose_rule(flat, node, F, I, H, f, params, stack, lod, dnorm, max_depth, t_
         if level > max_depth:
             I[f, CUT] = 1
             ev[EV_DEPTH, node] += 1
-        elif lod > 0.0 and world_size(flat.box[node], F, f) < lod * dnorm * max(t_enter, 0.0):
+        elif lod > 0.0 and world_size(flat.box, node, F, f) < lod * dnorm * max(t_enter, 0.0):
             I[f, CUT] = 1
             ev[EV_LOD, node] += 1
     if I[f, CUT] == 1:
@@ -62,16 +60,16 @@ def choose_rule(flat, node, F, I, H, f, params, stack, lod, dnorm, max_depth, t_
     return r
 
 
-@_jit
+@inline
 def enter_child(flat, node, k, F, I, H, src, dst):
     copy_frame(F, I, H, src, dst)
     I[dst, NODE] = flat.children[flat.child_start[node] + k]
     I[dst, PHASE] = 0
-    if flat.child_count[node] > 1:
+    if flat.hashed and flat.child_count[node] > 1:
         H[dst] = vm.edge_hash(H[src], node, k)
 
 
-@_jit
+@inline
 def step_unary(flat, node, kind, F, I, H, f, slot_base, params, stack, args, m34, ev):
     """S-free single-child nodes, in place on frame f: True if the walk goes on."""
     if kind == TRANSFORM:
@@ -92,17 +90,17 @@ def step_unary(flat, node, kind, F, I, H, f, slot_base, params, stack, args, m34
     return True
 
 
-@_jit
+@inline
 def set_end(iv, row, side, t, F, I, f, nx, ny, nz):
     """Fill one end (0 = in, 1 = out) of interval `row` with t, world normal, paint, material."""
     iv[row, IT_IN + side] = t
-    world_normal(F, f, nx, ny, nz, iv[row], IN_N + 3 * side)
+    world_normal(F, f, nx, ny, nz, iv, row, IN_N + 3 * side)
     for c in range(3):
         iv[row, IN_PAINT + 3 * side + c] = F[f, PAINT + c]
     iv[row, IN_MAT + side] = I[f, MAT]
 
 
-@_jit
+@kernel
 def _state(op, ina, inb):
     if op == 0:
         return ina or inb
@@ -111,7 +109,7 @@ def _state(op, ina, inb):
     return ina and not inb
 
 
-@_jit
+@kernel
 def combine(iv, a0, na, b0, nb, out0, op):
     """Roth's interval CSG of the lists at a0 (na) and b0 (nb) into out0; returns the count.
     op: 0 union, 1 intersection, 2 difference (the ends taken from b show its inside).
@@ -162,7 +160,7 @@ def combine(iv, a0, na, b0, nb, out0, op):
     return n
 
 
-@_jit
+@kernel
 def push_list(lists, ls, start, count):
     """Put a finished subtree's interval list (rows start..start+count) on the list stack."""
     lists[ls, 0] = start
@@ -170,7 +168,7 @@ def push_list(lists, ls, start, count):
     return ls + 1
 
 
-@_jit
+@kernel
 def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, lists, stack,
               args, m34, out8, lod, dnorm, max_depth, ev):
     """The interval list of frame f0's subtree within [w0, w1], computed bottom-up with
@@ -178,8 +176,10 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, list
     Returns (start row in iv, count)."""
     cap_f = F.shape[0]
     cap_iv = iv.shape[0]
-    F[0, :] = F0[f0, :]
-    I[0, :] = I0[f0, :]
+    for k in range(F_WIDTH):
+        F[0, k] = F0[f0, k]
+    for k in range(I_WIDTH):
+        I[0, k] = I0[f0, k]
     H[0] = H0[f0]
     F[0, T0] = w0
     F[0, T1] = w1
@@ -193,7 +193,7 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, list
         kind = flat.kind[node]
         phase = I[f, PHASE]
         if phase == 0:
-            b0, b1 = box_window(flat.box[node], F, f)
+            b0, b1 = box_window(flat.box, node, F, f)
             t0 = max(F[f, T0], b0)
             t1 = min(F[f, T1], b1)
             if t0 > t1:
@@ -230,9 +230,9 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, list
                 if r == -2:         # a graftal below the footprint: its box is the solid
                     n = 0
                     if top < cap_iv:
-                        nx, ny, nz = box_normal(flat.box[node], F, f, t0)
+                        nx, ny, nz = box_normal(flat.box, node, F, f, t0)
                         set_end(iv, top, 0, t0, F, I, f, nx, ny, nz)
-                        nx, ny, nz = box_normal(flat.box[node], F, f, t1)
+                        nx, ny, nz = box_normal(flat.box, node, F, f, t1)
                         set_end(iv, top, 1, t1, F, I, f, nx, ny, nz)
                         n = 1
                     ls = push_list(lists, ls, top, n)
@@ -242,7 +242,8 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, list
                     ls = push_list(lists, ls, top, 0)
                     sp -= 1
                 else:
-                    H[f] = vm.edge_hash(H[f], node, r)
+                    if flat.hashed:
+                        H[f] = vm.edge_hash(H[f], node, r)
                     I[f, NODE] = flat.children[flat.child_start[node] + r]
                 continue
             if kind == UNION or kind == INTERSECTION or kind == DIFFERENCE:
@@ -271,7 +272,8 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, list
             else:
                 n = combine(iv, a0, na, b0, nb, top, op)
                 for row in range(n):
-                    iv[a0 + row, :] = iv[top + row, :]
+                    for k in range(IV_WIDTH):
+                        iv[a0 + row, k] = iv[top + row, k]
             ls -= 1
             lists[ls - 1, 1] = n
             top = a0 + n
@@ -286,22 +288,22 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, list
     return lists[0, 0], lists[0, 1]
 
 
-@_jit
-def record_hit(res, t, F, I, f, nx, ny, nz):
+@inline
+def record_hit(res, ri, t, F, I, f, nx, ny, nz):
     """The best hit so far: its distance, world normal, and the paint and material in force."""
-    res[R_T] = t
-    world_normal(F, f, nx, ny, nz, res, R_N)
+    res[ri, R_T] = t
+    world_normal(F, f, nx, ny, nz, res, ri, R_N)
     for c in range(3):
-        res[R_PAINT + c] = F[f, PAINT + c]
-    res[R_MAT] = I[f, MAT]
-    res[R_HIT] = 1.0
+        res[ri, R_PAINT + c] = F[f, PAINT + c]
+    res[ri, R_MAT] = I[f, MAT]
+    res[ri, R_HIT] = 1.0
 
 
-@_jit
+@kernel
 def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
               params, F, I, H, Fi, Ii, Hi, iv, lists, stack, args, m34, out8, order, keys, ev,
-              res):
-    """Trace one ray from the root; writes res (R_* columns). Returns True on a hit."""
+              res, ri):
+    """Trace one ray from the root; writes res[ri] (R_* columns). Returns True on a hit."""
     cap = F.shape[0]
     has_table = flat.inst_used.shape[0] > 2
     dnorm = math.sqrt(dx * dx + dy * dy + dz * dz)
@@ -324,7 +326,8 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
     I[0, CUT] = 0
     I[0, PHASE] = 0
     H[0] = vm.ROOT_HASH
-    params[0, :] = np.nan
+    for k in range(params.shape[1]):
+        params[0, k] = np.nan
     best = tmax
     hit = False
     sp = 1
@@ -334,7 +337,7 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
         while True:         # follow single-child nodes in place
             node = I[f, NODE]
             kind = flat.kind[node]
-            b0, b1 = box_window(flat.box[node], F, f)
+            b0, b1 = box_window(flat.box, node, F, f)
             t0 = max(F[f, T0], b0)
             t1 = min(F[f, T1], b1, best)
             if t0 > t1:
@@ -353,12 +356,12 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                     if t > tmin and t < best:
                         best = t
                         hit = True
-                        record_hit(res, t, F, I, f, r[2 + 3 * side], r[3 + 3 * side],
+                        record_hit(res, ri, t, F, I, f, r[2 + 3 * side], r[3 + 3 * side],
                                    r[4 + 3 * side])
-                        if code >= FLAT_MIN and res[R_N] * dx + res[R_N + 1] * dy + \
-                                res[R_N + 2] * dz > 0.0:
+                        if code >= FLAT_MIN and res[ri, R_N] * dx + res[ri, R_N + 1] * dy + \
+                                res[ri, R_N + 2] * dz > 0.0:
                             for c in range(3):
-                                res[R_N + c] = -res[R_N + c]
+                                res[ri, R_N + c] = -res[ri, R_N + c]
                         if any_hit:
                             return True
                 break
@@ -372,14 +375,15 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                     if t0 > tmin and t0 < best:
                         best = t0
                         hit = True
-                        nx, ny, nz = box_normal(flat.box[node], F, f, t0)
-                        record_hit(res, t0, F, I, f, nx, ny, nz)
+                        nx, ny, nz = box_normal(flat.box, node, F, f, t0)
+                        record_hit(res, ri, t0, F, I, f, nx, ny, nz)
                         if any_hit:
                             return True
                     break
                 if r < 0:
                     break
-                H[f] = vm.edge_hash(H[f], node, r)
+                if flat.hashed:
+                    H[f] = vm.edge_hash(H[f], node, r)
                 I[f, NODE] = flat.children[flat.child_start[node] + r]
                 continue
             if kind == UNION:
@@ -391,7 +395,7 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                 m = 0
                 for k in range(n):
                     c = flat.children[flat.child_start[node] + k]
-                    e0, e1 = box_window(flat.box[c], F, f)
+                    e0, e1 = box_window(flat.box, c, F, f)
                     e0 = max(e0, t0)
                     e1 = min(e1, t1)
                     if has_table and e0 <= e1:
@@ -424,19 +428,19 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                     if t > tmin and t < best:
                         best = t
                         hit = True
-                        res[R_T] = t
+                        res[ri, R_T] = t
                         for c in range(3):
-                            res[R_N + c] = iv[row, IN_N + 3 * side + c]
-                            res[R_PAINT + c] = iv[row, IN_PAINT + 3 * side + c]
-                        res[R_MAT] = iv[row, IN_MAT + side]
+                            res[ri, R_N + c] = iv[row, IN_N + 3 * side + c]
+                            res[ri, R_PAINT + c] = iv[row, IN_PAINT + 3 * side + c]
+                        res[ri, R_MAT] = iv[row, IN_MAT + side]
                         if any_hit:
-                            res[R_HIT] = 1.0
+                            res[ri, R_HIT] = 1.0
                             return True
                         break
                 break
             if not step_unary(flat, node, kind, F, I, H, f, 0, params, stack, args, m34, ev):
                 break
-    res[R_HIT] = 1.0 if hit else 0.0
+    res[ri, R_HIT] = 1.0 if hit else 0.0
     if not hit:
-        res[R_T] = np.inf
+        res[ri, R_T] = np.inf
     return hit
