@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numba
 import numpy as np
 
 from .compiler import compile_file, compile_text
@@ -83,7 +84,8 @@ class Traced:
             ev = np.zeros(((e - s + CHUNK - 1) // CHUNK, N_EVENTS, len(self.graph.nodes)),
                           dtype=np.int64)
             trace_rays(self.flat, o[s:e], d[s:e], float(tmin), float(tmax), bool(any_hit),
-                       float(lod), self.max_depth, self.stack_depth, out[s:e], ev)
+                       float(lod), self.max_depth, self.stack_depth, numba.get_num_threads(),
+                       out[s:e], ev)
             events += ev.sum(axis=0)
         self.events += events
         return Hits(t=out[:, R_T].copy(), normal=out[:, R_N:R_N + 3].copy(),

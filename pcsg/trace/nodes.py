@@ -16,9 +16,9 @@ from . import vm
 from .jit import inline, kernel
 from .transforms import affine
 
-# F columns
-OX, DX, M0, T0, T1, PAINT = 0, 3, 6, 15, 16, 17
-F_WIDTH = 20
+# F columns; INV is 1/DX, kept so that box tests multiply instead of divide
+OX, DX, M0, T0, T1, PAINT, INV = 0, 3, 6, 15, 16, 17, 20
+F_WIDTH = 23
 # I columns
 NODE, SLOT, LEVEL, MAT, CUT, PHASE = 0, 1, 2, 3, 4, 5
 I_WIDTH = 6
@@ -39,6 +39,12 @@ def copy_frame(F, I, H, src, dst):
 
 
 @inline
+def set_inverse(F, f):
+    for a in range(3):
+        F[f, INV + a] = 1.0 / F[f, DX + a]
+
+
+@inline
 def box_window(boxes, b, F, f):
     """Where the frame's ray is inside boxes[b]: (t_enter, t_exit), empty if enter > exit."""
     t0 = -np.inf
@@ -52,7 +58,7 @@ def box_window(boxes, b, F, f):
             if o < lo or o > hi:
                 return np.inf, -np.inf
             continue
-        inv = 1.0 / d
+        inv = F[f, INV + a]
         ta = (lo - o) * inv
         tb = (hi - o) * inv
         if ta > tb:
@@ -250,6 +256,7 @@ def enter_transform(flat, node, F, f, params, slot, h, stack, args, m34):
     F[f, DX] = i00 * dx + i01 * dy + i02 * dz
     F[f, DX + 1] = i10 * dx + i11 * dy + i12 * dz
     F[f, DX + 2] = i20 * dx + i21 * dy + i22 * dz
+    set_inverse(F, f)
     # M <- M L
     for row in range(3):
         m0 = F[f, M0 + 3 * row]

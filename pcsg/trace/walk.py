@@ -17,8 +17,9 @@ from . import vm
 from .jit import inline, kernel
 from .nodes import (CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_STACK, F_WIDTH, I_WIDTH, LEVEL, M0, MAT, NODE, OX, PAINT,
-                    PHASE, SLOT, T0, T1, box_normal, box_window, copy_frame, enter_paint, enter_transform,
-                    instance_window, pick_rule, run_calc, world_normal, world_size)
+                    PHASE, SLOT, T0, T1, box_normal, box_window, copy_frame, enter_paint,
+                    enter_transform, instance_window, pick_rule, run_calc, set_inverse,
+                    world_normal, world_size)
 from .primitives import intersect
 
 
@@ -313,6 +314,7 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
     F[0, DX] = dx
     F[0, DX + 1] = dy
     F[0, DX + 2] = dz
+    set_inverse(F, 0)
     for k in range(9):
         F[0, M0 + k] = 1.0 if k % 4 == 0 else 0.0
     F[0, T0] = tmin
