@@ -6,7 +6,7 @@ import numpy as np
 from numba import njit, prange
 
 from .nodes import F_WIDTH, I_WIDTH
-from .walk import IV_WIDTH, first_hit
+from .walk import IV_WIDTH, trace_chunk
 
 CHUNK = 256
 INTERVAL_ROWS = 4096
@@ -36,10 +36,8 @@ def trace_rays(flat, origins, directions, tmin, tmax, any_hit, lod, max_depth, s
         m34 = np.empty((3, 4))
         out8 = np.empty(8)
         order = np.empty(flat.max_children, dtype=np.int64)
-        keys = np.empty(flat.max_children)
+        keys = np.empty((flat.max_children, 2))     # each child's window
         for c in range(w, chunks, workers):
-            for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-                first_hit(flat, origins[i, 0], origins[i, 1], origins[i, 2],
-                          directions[i, 0], directions[i, 1], directions[i, 2],
-                          tmin, tmax, any_hit, lod, max_depth, params, F, I, H, Fi, Ii, Hi,
-                          iv, lists, vstack, args, m34, out8, order, keys, events[c], out, i)
+            trace_chunk(flat, origins, directions, c * CHUNK, min(n, (c + 1) * CHUNK),
+                        tmin, tmax, any_hit, lod, max_depth, params, F, I, H, Fi, Ii, Hi,
+                        iv, lists, vstack, args, m34, out8, order, keys, events[c], out)

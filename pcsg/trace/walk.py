@@ -301,10 +301,24 @@ def record_hit(res, ri, t, F, I, f, nx, ny, nz):
 
 
 @kernel
+def trace_chunk(flat, origins, directions, i0, i1, tmin, tmax, any_hit, lod, max_depth,
+                params, F, I, H, Fi, Ii, Hi, iv, lists, stack, args, m34, out8, order, keys, ev,
+                res):
+    """first_hit for rays i0..i1-1: one call per chunk, not per ray, as the call
+    passes some thirty arrays."""
+    for i in range(i0, i1):
+        first_hit(flat, origins[i, 0], origins[i, 1], origins[i, 2],
+                  directions[i, 0], directions[i, 1], directions[i, 2],
+                  tmin, tmax, any_hit, lod, max_depth, params, F, I, H, Fi, Ii, Hi,
+                  iv, lists, stack, args, m34, out8, order, keys, ev, res, i)
+
+
+@inline
 def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
               params, F, I, H, Fi, Ii, Hi, iv, lists, stack, args, m34, out8, order, keys, ev,
               res, ri):
-    """Trace one ray from the root; writes res[ri] (R_* columns). Returns True on a hit."""
+    """Trace one ray from the root; writes res[ri] (R_* columns). Returns True on a hit.
+    A frame pushed by a union has PHASE 1: its window is already inside its box."""
     cap = F.shape[0]
     has_table = flat.inst_used.shape[0] > 2
     dnorm = math.sqrt(dx * dx + dy * dy + dz * dz)
@@ -339,9 +353,14 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
         while True:         # follow single-child nodes in place
             node = I[f, NODE]
             kind = flat.kind[node]
-            b0, b1 = box_window(flat.box, node, F, f)
-            t0 = max(F[f, T0], b0)
-            t1 = min(F[f, T1], b1, best)
+            if I[f, PHASE] == 1:
+                I[f, PHASE] = 0
+                t0 = F[f, T0]
+                t1 = min(F[f, T1], best)
+            else:
+                b0, b1 = box_window(flat.box, node, F, f)
+                t0 = max(F[f, T0], b0)
+                t1 = min(F[f, T1], b1, best)
             if t0 > t1:
                 break
             F[f, T0] = t0
@@ -407,16 +426,20 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                         j = m
                         # descending, so the nearest pops first; on a tie the earlier
                         # operand pops first and keeps the surface (as a union merges)
-                        while j > 0 and keys[j - 1] <= e0:
-                            keys[j] = keys[j - 1]
+                        while j > 0 and keys[j - 1, 0] <= e0:
+                            keys[j, 0] = keys[j - 1, 0]
+                            keys[j, 1] = keys[j - 1, 1]
                             order[j] = order[j - 1]
                             j -= 1
-                        keys[j] = e0
+                        keys[j, 0] = e0
+                        keys[j, 1] = e1
                         order[j] = k
                         m += 1
                 for j in range(m - 1, -1, -1):     # the source frame f is overwritten last
                     enter_child(flat, node, order[j], F, I, H, f, sp + j)
-                    F[sp + j, T0] = keys[j]
+                    F[sp + j, T0] = keys[j, 0]
+                    F[sp + j, T1] = keys[j, 1]
+                    I[sp + j, PHASE] = 1
                 sp += m
                 break
             if kind == INTERSECTION or kind == DIFFERENCE:
