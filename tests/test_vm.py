@@ -261,3 +261,24 @@ def test_edge_and_salt_hashes_are_distinct():
 ])
 def test_select_rule(x, n, want):
     assert vm.select_rule(x, n) == want
+
+
+# ---- calculation blocks as one program ---------------------------------------------
+
+def test_store_and_salt_run_a_block_like_its_assignments_one_by_one():
+    """x = rand(); y = x + rand(); z = 2*y, run as one program (SALT, STORE), equals
+    each assignment evaluated on its own with the instance hash salted by its slot."""
+    h = 0x1234ABCD
+    block = [(vm.SALT, 1), (vm.RAND, 0), (vm.STORE, 0),
+             (vm.SALT, 2), (vm.LOAD, 0), (vm.RAND, 0), (vm.ADD, 0), (vm.STORE, 1),
+             (vm.CONST, 0), (vm.LOAD, 1), (vm.MUL, 0), (vm.STORE, 2)]
+    params = np.full((3, 3), NAN)
+    code = np.array(block, dtype=np.int32)
+    left = vm.eval_row(code, np.array([2.0]), 0, len(code), params, 1, np.uint64(h), -1,
+                       np.empty(4))
+    assert math.isnan(left)                      # a block leaves nothing on the stack
+    x = ref_unit(ref_mix(ref_mix(h ^ int(vm.SALT_KEY), 1), 0))
+    y = x + ref_unit(ref_mix(ref_mix(h ^ int(vm.SALT_KEY), 2), 0))
+    assert params[1].tolist() == [x, y, 2.0 * y]
+    assert np.isnan(params[[0, 2]]).all()        # only the given row is written
+    assert x != y - x

@@ -8,8 +8,8 @@ import numpy as np
 from ..language.names import PRIMITIVES
 from ..trace.transforms import CODES as TRANSFORM_CODES
 from ..trace.transforms import matrix as transform_matrix
-from ..trace.vm import RAND
-from .model import MATERIAL, PAINT, PRIMITIVE, TRANSFORM, Graph
+from ..trace.vm import RAND, SALT, STORE
+from .model import CALC, MATERIAL, PAINT, PRIMITIVE, TRANSFORM, Graph
 from .terminating import terminating_rules
 
 Flat = namedtuple("Flat", [
@@ -18,10 +18,9 @@ Flat = namedtuple("Flat", [
     "child_start",   # int32[n]     into `children`
     "child_count",   # int32[n]
     "children",      # int32[m]
-    "expr_start",    # int32[n]     into `expr_ids` / `targets`
+    "expr_start",    # int32[n]     into `expr_ids`
     "expr_count",    # int32[n]
     "expr_ids",      # int32[k]     selection | arguments | assigned values
-    "targets",       # int32[k]     C-nodes: the parameter slot each value goes to
     "term_rule",     # int32[n]     S-nodes: the rule that ends soonest, -1 if none
     "fixed",         # int8[n]      T- and paint nodes whose arguments are constants: 1, with
     "fixed_map",     # float64[n,24]  [L (9) | t (3) | L^-1 (9) | unused (3)], row-major;
@@ -34,6 +33,8 @@ Flat = namedtuple("Flat", [
     "vm_consts",     # float64[c]
     "vm_start",      # int32[e]     per expression
     "vm_end",        # int32[e]
+    "calc_start",    # int32[n]     C-nodes: their block as one program in vm_code
+    "calc_end",      # int32[n]
     "root",          # int64
     "n_params",      # int64
     "max_stack",     # int64        expression stack depth
@@ -60,6 +61,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None) -> Flat:
     for s, r in terminating_rules(graph).items():
         term[s] = r
     vm = graph.exprs.arrays()
+    vm_code, calc_start, calc_end = _calc_programs(graph, vm)
     if table is None:
         table = (np.zeros(2, dtype=np.uint64), np.zeros(2, dtype=np.int8), np.zeros((2, 6)))
     fixed, fixed_map = _fixed_nodes(graph)
@@ -72,12 +74,10 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None) -> Flat:
         children=children,
         expr_start=_starts(ecounts), expr_count=ecounts,
         expr_ids=np.array([e for x in nodes for e in x.exprs], dtype=np.int32),
-        targets=np.array([t for x in nodes for t in (x.targets or [-1] * len(x.exprs))],
-                         dtype=np.int32),
         term_rule=term, fixed=fixed, fixed_map=fixed_map,
         box=np.ascontiguousarray(boxes, dtype=np.float64),
         inst_keys=table[0], inst_used=table[1], inst_boxes=np.ascontiguousarray(table[2]),
-        vm_code=np.ascontiguousarray(vm["code"], dtype=np.int32).reshape(-1, 2),
+        vm_code=vm_code, calc_start=calc_start, calc_end=calc_end,
         vm_consts=np.asarray(vm["consts"], dtype=np.float64),
         vm_start=np.asarray(vm["start"], dtype=np.int32),
         vm_end=np.asarray(vm["end"], dtype=np.int32),
@@ -86,6 +86,29 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None) -> Flat:
         max_children=np.int64(max(1, counts.max(initial=1))),
         hashed=np.int64(len(table[0]) > 2 or bool(np.any(vm["code"][:, 0] == RAND))),
     )
+
+
+def _calc_programs(graph: Graph, vm: dict):
+    """vm's code with every C-node's assignments appended as one program (see vm.py);
+    returns the code and each node's program rows (empty for other nodes)."""
+    code = np.asarray(vm["code"], dtype=np.int32).reshape(-1, 2)
+    n = len(graph.nodes)
+    start = np.zeros(n, dtype=np.int32)
+    end = np.zeros(n, dtype=np.int32)
+    rows = [code]
+    top = len(code)
+    for i, node in enumerate(graph.nodes):
+        if node.kind != CALC:
+            continue
+        start[i] = top
+        for k, (e, target) in enumerate(zip(node.exprs, node.targets)):
+            body = code[vm["start"][e]:vm["end"][e]]
+            if np.any(body[:, 0] == RAND):
+                rows.append(np.array([[SALT, k + 1]], dtype=np.int32))
+            rows += [body, np.array([[STORE, target]], dtype=np.int32)]
+        top = sum(len(r) for r in rows)
+        end[i] = top
+    return np.ascontiguousarray(np.concatenate(rows)), start, end
 
 
 def _fixed_nodes(graph: Graph):

@@ -171,14 +171,12 @@ def expr(flat, params, slot, k, h, salt_slot, stack):
 
 @inline
 def run_calc(flat, node, params, src, dst, h, stack):
-    """A C-node: copy the parameter state into slot dst, then assign in order."""
+    """A C-node: copy the parameter state into slot dst, then run its block."""
     if src != dst:
         for p in range(params.shape[1]):
             params[dst, p] = params[src, p]
-    e0 = flat.expr_start[node]
-    for k in range(flat.expr_count[node]):
-        v = expr(flat, params, dst, flat.expr_ids[e0 + k], h, k + 1, stack)
-        params[dst, flat.targets[e0 + k]] = v
+    vm.eval_row(flat.vm_code, flat.vm_consts, flat.calc_start[node], flat.calc_end[node],
+                params, dst, h, -1, stack)
 
 
 @inline

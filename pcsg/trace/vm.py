@@ -8,9 +8,12 @@ argument), and one ``consts`` pool of float64. An expression is the row range
 ``[start, end)``; evaluation runs a value stack (the caller's ``stack``, at
 least the expression's max depth long) and returns the single value left on it.
 
-The argument is a constant index (CONST), a parameter slot (LOAD) or a jump
-distance *relative to the jump's own row* (so code can be moved without
-relocation); it is 0 for every other opcode. See ``OPCODE_NAMES``.
+The argument is a constant index (CONST), a parameter slot (LOAD, STORE), a
+salt slot (SALT) or a jump distance *relative to the jump's own row* (so code
+can be moved without relocation); it is 0 for every other opcode. See
+``OPCODE_NAMES``. A calculation block runs as one program: each assignment's
+rows, preceded by SALT when they draw rand() and followed by STORE, so that the
+block costs one call of the machine instead of one per assignment.
 
 Truth: a value is true when it is non-zero and not nan. ``if``, ``&&``, ``||``
 and ``!`` all use this one test, so ``if(nan, a, b)`` = b, ``nan && 1`` = 0,
@@ -94,6 +97,8 @@ CEIL = 39
 ROUND = 40         # half away from zero
 RAND_SEED = 41     # [seed -> rand(seed)]
 RAND = 42          # [-> rand()] ; the per-evaluation call counter advances
+STORE = 43         # [a ->] ; params[arg] = a
+SALT = 44          # rand() draws from the instance hash salted with arg; counter reset
 
 OPCODE_NAMES = {v: k for k, v in globals().items()
                 if k.isupper() and isinstance(v, int) and not k.startswith('_')}
@@ -229,6 +234,8 @@ def eval_row(code, consts, start, end, params, row, inst_hash, salt_slot, stack)
     this: a 2-D table needs no view, and expressions without rand() skip the hash."""
     sp = 0            # number of values on the stack
     nrand = 0         # rand() calls made so far
+    h0 = inst_hash
+    need_salt = salt_slot >= 0
     pc = start
     while pc < end:
         op = code[pc, 0]
@@ -240,12 +247,20 @@ def eval_row(code, consts, start, end, params, row, inst_hash, salt_slot, stack)
         elif op == LOAD:
             stack[sp] = params[row, arg]
             sp += 1
+        elif op == STORE:
+            sp -= 1
+            params[row, arg] = stack[sp]
         elif op == RAND:
-            if nrand == 0 and salt_slot >= 0:
-                inst_hash = salt(inst_hash, salt_slot)
+            if need_salt:
+                inst_hash = salt(h0, salt_slot)
+                need_salt = False
             stack[sp] = hash_to_unit(mix(inst_hash, nrand))
             nrand += 1
             sp += 1
+        elif op == SALT:
+            salt_slot = arg
+            need_salt = True
+            nrand = 0
         elif op == JUMP:
             pc += arg - 1
         elif op == JUMP_IF_FALSE:
