@@ -7,6 +7,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from pcsg.graph.expr import FUNCTIONS, ExprTable
+from pcsg.graph.peephole import fuse_operands
 from pcsg.language.ast import Binary, Call, Num, Unary, Var
 from pcsg.language.unparse import unparse_arith
 from pcsg.trace import vm
@@ -304,6 +305,13 @@ def test_folding_never_changes_a_value(tree, p, h):
     c = vm.eval_expr(arr['code'], arr['consts'], arr['start'][i], arr['end'][i],
                      np.array([p]), np.uint64(h), stack)
     assert bits(c) == bits(a) or (math.isnan(a) and math.isnan(c))
+    # the tracer's fused bytecode gives the same bits, folded or not
+    for t, k, vals in ((folded, i, [p]), (hidden, j, [p] + values)):
+        arr = t.arrays()
+        code, remap = fuse_operands(arr['code'], arr['start'])
+        f = vm.eval_expr(code, arr['consts'], remap[arr['start'][k]], remap[arr['end'][k]],
+                         np.array(vals), np.uint64(h), np.empty(arr['max_stack']))
+        assert bits(f) == bits(a) or (math.isnan(a) and math.isnan(f)), unparse_arith(tree)
 
 
 # ---- reads, uses_rand, arrays ---------------------------------------------------------

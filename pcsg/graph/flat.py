@@ -10,6 +10,7 @@ from ..trace.transforms import CODES as TRANSFORM_CODES
 from ..trace.transforms import matrix as transform_matrix
 from ..trace.vm import RAND, SALT, STORE
 from .model import CALC, MATERIAL, PAINT, PRIMITIVE, TRANSFORM, Graph
+from .peephole import fuse_operands
 from .terminating import terminating_rules
 
 Flat = namedtuple("Flat", [
@@ -62,6 +63,12 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None) -> Flat:
         term[s] = r
     vm = graph.exprs.arrays()
     vm_code, calc_start, calc_end = _calc_programs(graph, vm)
+    is_calc = kind == CALC
+    vm_code, remap = fuse_operands(vm_code, np.concatenate([vm["start"], calc_start[is_calc]]))
+    vm_start = remap[np.asarray(vm["start"], dtype=np.int64)].astype(np.int32)
+    vm_end = remap[np.asarray(vm["end"], dtype=np.int64)].astype(np.int32)
+    calc_start = np.where(is_calc, remap[calc_start], 0).astype(np.int32)
+    calc_end = np.where(is_calc, remap[calc_end], 0).astype(np.int32)
     if table is None:
         table = (np.zeros(2, dtype=np.uint64), np.zeros(2, dtype=np.int8), np.zeros((2, 6)))
     fixed, fixed_map = _fixed_nodes(graph)
@@ -79,8 +86,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None) -> Flat:
         inst_keys=table[0], inst_used=table[1], inst_boxes=np.ascontiguousarray(table[2]),
         vm_code=vm_code, calc_start=calc_start, calc_end=calc_end,
         vm_consts=np.asarray(vm["consts"], dtype=np.float64),
-        vm_start=np.asarray(vm["start"], dtype=np.int32),
-        vm_end=np.asarray(vm["end"], dtype=np.int32),
+        vm_start=vm_start, vm_end=vm_end,
         root=np.int64(graph.root), n_params=np.int64(max(1, len(graph.params))),
         max_stack=np.int64(max(1, vm["max_stack"])),
         max_children=np.int64(max(1, counts.max(initial=1))),

@@ -50,7 +50,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .jit import kernel
+from .jit import inline, kernel
 
 # ---- opcodes -------------------------------------------------------------
 # Stack effects in brackets: [a b -> r] pops b (top) then a and pushes r.
@@ -99,9 +99,14 @@ RAND_SEED = 41     # [seed -> rand(seed)]
 RAND = 42          # [-> rand()] ; the per-evaluation call counter advances
 STORE = 43         # [a ->] ; params[arg] = a
 SALT = 44          # rand() draws from the instance hash salted with arg; counter reset
+BIN_LOAD = 45      # [a -> a op params[arg >> 6]], op = arg & 63: LOAD then a binary op
+BIN_CONST = 46     # [a -> a op consts[arg >> 6]]: CONST then a binary op
+FUSABLE = (ADD, SUB, MUL, DIV, MOD, POW, LT, LE, GT, GE, EQ, NE, MIN, MAX, ATAN2)
 
 OPCODE_NAMES = {v: k for k, v in globals().items()
                 if k.isupper() and isinstance(v, int) and not k.startswith('_')}
+OP_BITS = 6
+OP_MASK = (1 << OP_BITS) - 1
 
 ROOT_HASH = np.uint64(0)
 SALT_KEY = np.uint64(0x5DEECE66D2545F49)
@@ -213,6 +218,40 @@ def select_rule(x, nrules):
     return int(r)
 
 
+@inline
+def binary(op, a, b):
+    """a op b for the binary opcodes (ADD .. ATAN2 but the jumps)."""
+    if op == ADD:
+        return a + b
+    if op == SUB:
+        return a - b
+    if op == MUL:
+        return a * b
+    if op == DIV:
+        return a / b
+    if op == MOD:
+        return a - b * np.floor(a / b)
+    if op == POW:
+        return a ** b
+    if op == LT:
+        return 1.0 if a < b else 0.0
+    if op == LE:
+        return 1.0 if a <= b else 0.0
+    if op == GT:
+        return 1.0 if a > b else 0.0
+    if op == GE:
+        return 1.0 if a >= b else 0.0
+    if op == EQ:
+        return 1.0 if a == b else 0.0
+    if op == NE:
+        return 1.0 if a != b else 0.0
+    if op == MIN:
+        return fmin(a, b)
+    if op == MAX:
+        return fmax(a, b)
+    return math.atan2(a, b)
+
+
 # ---- the evaluator -------------------------------------------------------------
 
 @_jit
@@ -289,39 +328,11 @@ def eval_row(code, consts, start, end, params, row, inst_hash, salt_slot, stack)
                 stack[sp - 1] = 1.0 if truth(a) else 0.0
         elif op <= ATAN2:                         # binary
             sp -= 1
-            b = stack[sp]
-            a = stack[sp - 1]
-            if op == ADD:
-                r = a + b
-            elif op == SUB:
-                r = a - b
-            elif op == MUL:
-                r = a * b
-            elif op == DIV:
-                r = a / b
-            elif op == MOD:
-                r = a - b * np.floor(a / b)
-            elif op == POW:
-                r = a ** b
-            elif op == LT:
-                r = 1.0 if a < b else 0.0
-            elif op == LE:
-                r = 1.0 if a <= b else 0.0
-            elif op == GT:
-                r = 1.0 if a > b else 0.0
-            elif op == GE:
-                r = 1.0 if a >= b else 0.0
-            elif op == EQ:
-                r = 1.0 if a == b else 0.0
-            elif op == NE:
-                r = 1.0 if a != b else 0.0
-            elif op == MIN:
-                r = fmin(a, b)
-            elif op == MAX:
-                r = fmax(a, b)
-            else:                                 # ATAN2
-                r = math.atan2(a, b)
-            stack[sp - 1] = r
+            stack[sp - 1] = binary(op, stack[sp - 1], stack[sp])
+        elif op == BIN_LOAD:
+            stack[sp - 1] = binary(arg & OP_MASK, stack[sp - 1], params[row, arg >> OP_BITS])
+        elif op == BIN_CONST:
+            stack[sp - 1] = binary(arg & OP_MASK, stack[sp - 1], consts[arg >> OP_BITS])
         elif op == CLAMP:
             sp -= 2
             stack[sp - 1] = fmin(fmax(stack[sp - 1], stack[sp]), stack[sp + 1])
