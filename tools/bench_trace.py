@@ -2,7 +2,8 @@
 
     python tools/bench_trace.py [--size 640x480] [--repeat 3] [--lod]
 
-Prints rays/s per sample (best of --repeat runs, all threads) and the machine.
+Prints rays/s per sample (best of --repeat runs) on all threads and on one thread
+(per core), and the machine.
 """
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import platform
 import time
 from pathlib import Path
 
+import numba
 import numpy as np
 
 import pcsg
@@ -45,15 +47,23 @@ def main():
         prep = time.perf_counter() - t
         cam, o, d = primary_rays(obj, width, height)
         lod = cam.pixel_angle(height) if args.lod else 0.0
-        obj.trace(o[:64], d[:64], lod=lod)            # compile (or load the cache)
-        best = float("inf")
-        for _ in range(args.repeat):
-            t = time.perf_counter()
-            h = obj.trace(o, d, lod=lod)
-            best = min(best, time.perf_counter() - t)
-        print(f"{name:20s} {width}x{height}: {len(o) / best / 1e6:6.2f} M rays/s "
-              f"({best:.3f} s, {h.hit.mean():.0%} hit; load+bounds {prep:.2f} s, "
+        h = obj.trace(o, d, lod=lod)                  # compile (or load the cache)
+        threads = numba.get_num_threads()
+        best = {}
+        for n in (threads, 1):
+            numba.set_num_threads(n)
+            best[n] = min(timed(obj, o, d, lod) for _ in range(args.repeat))
+        numba.set_num_threads(threads)
+        print(f"{name:20s} {width}x{height}: {len(o) / best[threads] / 1e6:6.2f} M rays/s "
+              f"on {threads} threads, {len(o) / best[1] / 1e6:5.2f} M on 1 "
+              f"({h.hit.mean():.0%} hit; load+bounds {prep:.2f} s, "
               f"bounds {obj.bounds_method})")
+
+
+def timed(obj, o, d, lod):
+    t = time.perf_counter()
+    obj.trace(o, d, lod=lod)
+    return time.perf_counter() - t
 
 
 if __name__ == "__main__":
