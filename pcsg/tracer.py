@@ -77,7 +77,7 @@ class Traced:
         if o.shape != d.shape:
             raise ValueError(f"origins {o.shape} and directions {d.shape} differ")
         n = len(o)
-        out = np.zeros((n, R_WIDTH))
+        out = np.empty((n, R_WIDTH))      # the kernel writes every row in full
         events = np.zeros((N_EVENTS, len(self.graph.nodes)), dtype=np.int64)
         for s in range(0, n, BATCH):
             e = min(n, s + BATCH)
@@ -88,11 +88,9 @@ class Traced:
                        out[s:e], ev)
             events += ev.sum(axis=0)
         self.events += events
-        return Hits(t=out[:, R_T].copy(), normal=out[:, R_N:R_N + 3].copy(),
-                    paint=np.where(out[:, R_HIT:R_HIT + 1] > 0, out[:, R_PAINT:R_PAINT + 3],
-                                   np.nan),
-                    material=np.where(out[:, R_HIT] > 0, out[:, R_MAT], -1).astype(np.int64),
-                    hit=out[:, R_HIT] > 0, events=events)
+        return Hits(t=out[:, R_T], normal=out[:, R_N:R_N + 3], paint=out[:, R_PAINT:R_PAINT + 3],
+                    material=out[:, R_MAT].astype(np.int64), hit=out[:, R_HIT] > 0,
+                    events=events)
 
     def describe_events(self, events: np.ndarray) -> list[str]:
         """One line per kind of thing that happened, naming where."""

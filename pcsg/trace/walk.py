@@ -466,6 +466,10 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
             if not step_unary(flat, node, kind, F, I, H, f, 0, params, stack, args, m34, ev):
                 break
     res[ri, R_HIT] = 1.0 if hit else 0.0
-    if not hit:
+    if not hit:         # a miss is a full row too: the caller hands out views
         res[ri, R_T] = np.inf
+        for c in range(3):
+            res[ri, R_N + c] = 0.0
+            res[ri, R_PAINT + c] = np.nan
+        res[ri, R_MAT] = -1.0
     return hit
