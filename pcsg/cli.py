@@ -74,11 +74,27 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--max-depth", type=int, default=64, metavar="N",
                    help="derivation levels a ray may descend (default 64)")
     r.add_argument("--no-shadows", action="store_true", help="skip shadow rays")
+    r.add_argument("--shadow-samples", type=int, default=8, metavar="N",
+                   help="shadow rays per area light (default 8; 1: lights are points)")
+    r.add_argument("--no-adaptive", action="store_true",
+                   help="exactly --samples rays per pixel, no adaptive oversampling")
     r.add_argument("--bounces", type=int, default=3, metavar="N",
                    help="reflection and refraction depth (default 3)")
     r.add_argument("--reference", action="store_true",
                    help="trace the fully expanded system instead (small orders; for checking)")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+
+    x = sub.add_parser("export", parents=[common],
+                       help="the expanded derivation as a POV-Ray scene (small and medium orders)")
+    x.add_argument("file", metavar="FILE")
+    x.add_argument("--pov", required=True, metavar="OUT.pov", help="the POV-Ray scene to write")
+    x.add_argument("--size", type=_size, default=(640, 480), metavar="WxH",
+                   help="the image size the camera is framed for (default 640x480)")
+    x.add_argument("--shadow-samples", type=int, default=8, metavar="N",
+                   help="1: lights are points; more: area lights stay area lights")
+    x.add_argument("--no-shadows", action="store_true", help="lights cast no shadows")
+    x.add_argument("--bounces", type=int, default=3, metavar="N",
+                   help="reflection and refraction depth (default 3)")
 
     g = sub.add_parser("graph", parents=[common], help="the cyclic CSG graph as Graphviz dot")
     g.add_argument("file", metavar="FILE")
@@ -224,7 +240,8 @@ def cmd_render(args) -> int:
                    eye=args.eye, at=args.at, up=args.up, fov=args.fov, alpha=args.alpha,
                    depth=Path(args.depth) if args.depth else None, max_depth=args.max_depth,
                    shadows=not args.no_shadows, bounces=max(0, args.bounces), quiet=args.quiet,
-                   reference=args.reference)
+                   reference=args.reference, shadow_samples=args.shadow_samples,
+                   adaptive=not args.no_adaptive)
     problem = check_options(opts)
     if problem:
         raise UsageError(problem)
@@ -271,8 +288,31 @@ def _outputs(files: list[str], output: str | None) -> list[Path]:
     return [out]
 
 
+def cmd_export(args) -> int:
+    import time
+    from .povray import export_pov
+    from .render.camera import make_camera
+    from .render.shade import make_lighting
+    from .tracer import Traced
+    out = Path(args.pov)
+    if not out.parent.exists():
+        raise UsageError(f"--pov {args.pov}: the directory {out.parent} does not exist")
+    start = time.perf_counter()
+    graph = _compile(args.file, args.overrides)
+    _report(None, graph.warnings)
+    traced = Traced(graph)
+    w, h = args.size
+    camera = make_camera(traced, w / h)
+    lighting = make_lighting(traced, camera, not args.no_shadows, args.shadow_samples,
+                             max(0, args.bounces))
+    count = export_pov(traced, camera, lighting, out, args.size)
+    print(f"{out}: {count:,} primitives, {out.stat().st_size / 1e6:.1f} MB, "
+          f"{time.perf_counter() - start:.1f} s; render with: povray +I{out} +W{w} +H{h}")
+    return EXIT_OK
+
+
 COMMANDS = {"check": cmd_check, "expand": cmd_expand, "stats": cmd_stats, "graph": cmd_graph,
-            "render": cmd_render}
+            "render": cmd_render, "export": cmd_export}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -2,6 +2,7 @@
 deliberately simple reference that the graph tracer is checked against."""
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,9 +25,22 @@ class Instance:
 def flatten(graph: Graph, max_primitives: int = 1_000_000) -> list[Instance]:
     """Every primitive of the derivation with its world matrix, in derivation order.
     Raises PcsgError when there are more than max_primitives."""
+    out: list[Instance] = []
+    for inst in instances(graph):
+        out.append(inst)
+        if len(out) > max_primitives:
+            raise PcsgError([Diagnostic("error", f"the derivation has more than "
+                                        f"{max_primitives:,} primitives; the reference "
+                                        f"expansion is for small orders", None, graph.source,
+                                        code="too-large")])
+    return out
+
+
+def instances(graph: Graph) -> Iterator[Instance]:
+    """The primitives of the derivation one by one, in derivation order (left operand
+    first), holding only the open branches: the form for streaming exports."""
     d = Deriver(graph)
     nodes = graph.nodes
-    out: list[Instance] = []
     state, h = d.initial()
     stack = [(graph.root, state, h, np.eye(4), None, None, (), 0)]
     while stack:
@@ -35,12 +49,7 @@ def flatten(graph: Graph, max_primitives: int = 1_000_000) -> list[Instance]:
         if level > MAX_LEVELS:
             raise too_deep(graph, i, MAX_LEVELS)
         if n.kind == PRIMITIVE:
-            out.append(Instance(n.name, m, paint, material, path))
-            if len(out) > max_primitives:
-                raise PcsgError([Diagnostic("error", f"the derivation has more than "
-                                            f"{max_primitives:,} primitives; the reference "
-                                            f"expansion is for small orders", None, graph.source,
-                                            code="too-large")])
+            yield Instance(n.name, m, paint, material, path)
             continue
         if n.kind == SELECT:
             r = d.select(i, state, h)
@@ -61,4 +70,3 @@ def flatten(graph: Graph, max_primitives: int = 1_000_000) -> list[Instance]:
                               path + ((i, k),), level))
         else:
             stack.append((n.children[0], state, h, m, paint, material, path, level))
-    return out

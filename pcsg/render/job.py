@@ -48,6 +48,8 @@ def check_options(o: Options) -> str | None:
                 f"memory); pcsg renders up to {MAX_PIXELS // 1_000_000} million")
     if not 1 <= o.samples <= 1024:
         return f"--samples {o.samples}: use 1 to 1024"
+    if not 1 <= o.shadow_samples <= 256:
+        return f"--shadow-samples {o.shadow_samples}: use 1 to 256"
     if not 1 <= o.max_depth <= 10_000:
         return f"--max-depth {o.max_depth}: use 1 to 10000"
     if o.fov is not None and not 0 < o.fov < 180:
