@@ -32,7 +32,9 @@ SHAPES = {
     # {p : -v.p <= 1} for the corners v; POV-Ray's plane { n, d } is n.p <= d, n unit
     "tetrahedron": "intersection { " + " ".join(
         f"plane {{ <{-a}, {-b}, {-c}>, {1 / math.sqrt(3):.17g} }}"
-        for a, b, c in ((1, 1, 1), (-1, -1, 1), (1, -1, -1), (-1, 1, -1))) + " }",
+        for a, b, c in ((1, 1, 1), (-1, -1, 1), (1, -1, -1), (-1, 1, -1)))
+    # planes are unbounded, so POV-Ray would test every tetrahedron on every ray
+    + " bounded_by { box { -1, 1 } } }",
     "plane": "plane { z, 0 }",
 }
 TRIANGLES = {"tri1": ((0, 0, 0), (1, 0, 0), (0, 1, 0)),

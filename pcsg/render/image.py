@@ -13,7 +13,7 @@ from ..output import write_atomic
 from .camera import Camera
 from .shade import Lighting, shade
 
-ROWS_PER_BATCH = 16
+ROWS_PER_BATCH = 48
 ADAPTIVE_THRESHOLD = 0.06     # sRGB difference to a neighbour that earns extra samples
 ADAPTIVE_SAMPLES = 4
 

@@ -128,7 +128,8 @@ def _visibility(traced, light: Lighting, lt: Light, origin: np.ndarray):
     samples = light.shadow_samples if lt.radius > 0 else 1
     seen = np.zeros(len(origin))
     for k in range(samples):
-        target = lt.position + (_disk(k, samples, lt.radius, ldir) if lt.radius > 0 else 0.0)
+        # one sample: the light is a point at its centre
+        target = lt.position + (_disk(k, samples, lt.radius, ldir) if samples > 1 else 0.0)
         sd = target - origin
         hit = traced.trace(origin, sd, tmin=1e-9, tmax=1.0 - 1e-9, any_hit=True,
                            lod=light.lod)

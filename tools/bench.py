@@ -1,0 +1,190 @@
+"""pcsg against POV-Ray on the same objects, in one run.
+
+    python tools/bench.py [--repeat 3] [--only sierpinski] [--out tools/bench_results.json]
+
+For each workload, POV-Ray renders the scene `pcsg export --pov` wrote (exported
+once into .bench/, kept between runs) and `pcsg render` renders the .pcsg file:
+640x480, one ray per pixel, point lights with shadows, 2 threads, alternating
+run by run. Prints a table (medians: whole-process wall time, trace-phase rays/s,
+peak RSS, and the ratio POV-Ray/pcsg of wall times) and writes it as JSON with the
+machine it came from. The deepest orders run with pcsg alone: POV-Ray cannot hold
+their expansion.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import re
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+WORK = ROOT / ".bench"
+SIZE = (640, 480)
+# (grammar, parameter, order, also POV-Ray)
+WORKLOADS = [
+    ("sierpinski", "c", 6, True), ("sierpinski", "c", 8, True), ("sierpinski", "c", 10, True),
+    ("sierpinski", "c", 16, False),
+    ("sympodial_tree", "cnt", 11, True), ("sympodial_tree", "cnt", 14, True),
+    ("sympodial_tree", "cnt", 15, True), ("sympodial_tree", "cnt", 20, False),
+    ("carpenter_terrain", "cnt", 8, True), ("carpenter_terrain", "cnt", 9, True),
+    ("carpenter_terrain", "cnt", 12, False),
+]
+COMMON = ["--shadow-samples", "1"]      # point lights: POV-Ray's light_source
+
+
+def run(cmd: list[str], timeout: float) -> dict:
+    """Wall time, peak RSS (this process alone, via wait4) and output of one command."""
+    with tempfile.TemporaryFile("w+") as out:
+        start = time.perf_counter()
+        p = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT, text=True)
+        deadline = start + timeout
+        while True:
+            pid, status, usage = os.wait4(p.pid, os.WNOHANG)
+            if pid:
+                break
+            if time.perf_counter() > deadline:
+                p.kill()
+                os.wait4(p.pid, 0)
+                raise RuntimeError(f"timed out after {timeout:.0f} s: {' '.join(cmd)}")
+            time.sleep(0.005)
+        wall = time.perf_counter() - start
+        p.returncode = os.waitstatus_to_exitcode(status)
+        out.seek(0)
+        text = out.read()
+    if p.returncode != 0:
+        raise RuntimeError(f"exit {p.returncode}: {' '.join(cmd)}\n{text[-2000:]}")
+    return {"wall": wall, "rss_mb": usage.ru_maxrss / 1024, "output": text}
+
+
+def pcsg_cmd(grammar: str, param: str, order: int, png: Path) -> list[str]:
+    return [sys.executable, "-m", "pcsg.cli", "render", str(ROOT / "grammars" / f"{grammar}.pcsg"),
+            "--set", f"{param}={order}", "-o", str(png), "--size", f"{SIZE[0]}x{SIZE[1]}",
+            "--no-adaptive", "-q", *COMMON]
+
+
+def pcsg_result(r: dict) -> dict:
+    m = re.search(r"([\d.]+) s, ([\d.]+) M rays/s", r["output"])
+    return {"wall": r["wall"], "rss_mb": r["rss_mb"], "trace_s": float(m.group(1)),
+            "rays_per_s": float(m.group(2)) * 1e6}
+
+
+def pov_result(r: dict) -> dict:
+    out = r["output"]
+
+    def seconds(phase):
+        m = re.search(phase + r" Time:.*\(([\d.]+) seconds\)", out)
+        return float(m.group(1)) if m else 0.0
+
+    rays = sum(int(x) for x in re.findall(r"(?:^Rays|Shadow Ray Tests):\s+(\d+)", out, re.M))
+    trace = seconds("Trace")
+    return {"wall": r["wall"], "rss_mb": r["rss_mb"], "parse_s": seconds("Parse"),
+            "trace_s": trace, "rays_per_s": rays / trace if trace > 0 else None}
+
+
+def export(grammar: str, param: str, order: int) -> Path:
+    pov = WORK / f"{grammar}-{param}{order}.pov"
+    if not pov.exists():
+        print(f"exporting {pov.name} (once; kept in {WORK})", flush=True)
+        subprocess.run([sys.executable, "-m", "pcsg.cli", "export",
+                        str(ROOT / "grammars" / f"{grammar}.pcsg"), "--set", f"{param}={order}",
+                        "--pov", str(pov), "--size", f"{SIZE[0]}x{SIZE[1]}", *COMMON],
+                       check=True)
+    return pov
+
+
+def kernel_cache_state() -> str:
+    cache = ROOT / "pcsg" / "trace" / "__pycache__"
+    return "warm" if any(cache.glob("kernel.trace_rays-*.nbi")) else "cold"
+
+
+def median(rows: list[dict], key: str):
+    values = [r[key] for r in rows if r.get(key) is not None]
+    return statistics.median(values) if values else None
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--only", help="workloads whose grammar name contains this")
+    ap.add_argument("--out", default=str(ROOT / "tools" / "bench_results.json"))
+    ap.add_argument("--timeout", type=float, default=900, help="seconds per render")
+    args = ap.parse_args()
+    povray = shutil.which("povray")
+    if povray is None:
+        sys.exit("POV-Ray is not installed: apt-get install povray")
+    pov_version = subprocess.run([povray, "--version"], capture_output=True, text=True).stderr
+    pov_version = (re.search(r"POV-Ray ([\d.]+\S*)", pov_version) or [None, "?"])[1]
+    WORK.mkdir(exist_ok=True)
+    loads = [w for w in WORKLOADS if args.only is None or args.only in w[0]]
+    povs = {w: export(*w[:3]) for w in loads if w[3]}
+
+    # the first pcsg start may compile the kernels: measured once, reported apart
+    state = kernel_cache_state()
+    first = run(pcsg_cmd(*loads[0][:3], WORK / "first.png"), args.timeout)
+    results = {w: {"pcsg": [], "pov": []} for w in loads}
+    for rep in range(args.repeat):
+        for w in loads:
+            print(f"run {rep + 1}/{args.repeat}: {w[0]} {w[1]}={w[2]}", flush=True)
+            results[w]["pcsg"].append(pcsg_result(
+                run(pcsg_cmd(*w[:3], WORK / "pcsg.png"), args.timeout)))
+            if w[3]:
+                results[w]["pov"].append(pov_result(run(
+                    [povray, f"+I{povs[w]}", f"+O{WORK / 'pov.png'}", f"+W{SIZE[0]}",
+                     f"+H{SIZE[1]}", "-D", "-A", "+WT2"], args.timeout)))
+
+    rows = []
+    for w in loads:
+        p, v = results[w]["pcsg"], results[w]["pov"]
+        row = {"object": w[0], "order": f"{w[1]}={w[2]}",
+               **{f"pcsg_{k}": median(p, k) for k in ("wall", "trace_s", "rays_per_s", "rss_mb")}}
+        if v:
+            row.update({f"pov_{k}": median(v, k)
+                        for k in ("wall", "parse_s", "trace_s", "rays_per_s", "rss_mb")})
+            row["wall_ratio"] = row["pov_wall"] / row["pcsg_wall"]
+            row["rays_ratio"] = (row["pcsg_rays_per_s"] / row["pov_rays_per_s"]
+                                 if row["pov_rays_per_s"] else None)
+        rows.append(row)
+    report = {
+        "machine": f"{platform.machine()}, {os.cpu_count()} cores, "
+                   f"{os.sysconf('SC_PHYS_PAGES') * os.sysconf('SC_PAGE_SIZE') / 2**30:.0f} GiB, "
+                   f"{platform.platform()}",
+        "python": platform.python_version(), "povray": pov_version,
+        "repeat": args.repeat, "size": f"{SIZE[0]}x{SIZE[1]}",
+        "kernel_cache_before_first_start": state,
+        "first_start_wall_s": first["wall"],
+        "date": time.strftime("%Y-%m-%d"),
+        "rows": rows,
+    }
+    Path(args.out).write_text(json.dumps(report, indent=1) + "\n")
+    print(table(report))
+
+
+def table(report: dict) -> str:
+    def f(x, fmt):
+        return "—" if x is None else format(x, fmt)
+    lines = [f"{report['machine']}; POV-Ray {report['povray']}; medians of {report['repeat']} "
+             f"runs; kernel cache {report['kernel_cache_before_first_start']} at the first "
+             f"start ({report['first_start_wall_s']:.1f} s)", "",
+             "| object | order | pcsg wall | POV-Ray wall | POV/pcsg | pcsg rays/s | "
+             "POV-Ray rays/s | pcsg RSS | POV-Ray RSS |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for r in report["rows"]:
+        lines.append(
+            f"| {r['object']} | {r['order']} | {r['pcsg_wall']:.2f} s | "
+            f"{f(r.get('pov_wall'), '.2f')} s | {f(r.get('wall_ratio'), '.1f')}x | "
+            f"{r['pcsg_rays_per_s'] / 1e6:.2f} M | "
+            f"{f(r.get('pov_rays_per_s') and r['pov_rays_per_s'] / 1e6, '.2f')} M | "
+            f"{r['pcsg_rss_mb']:.0f} MB | {f(r.get('pov_rss_mb'), '.0f')} MB |")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    main()
