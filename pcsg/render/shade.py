@@ -7,9 +7,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from ..scene import MATERIAL_DEFAULTS
+from ..tracer import Hits
+
+FINISH_KEYS = ("diffuse", "specular", "shininess", "reflect", "ior", "transmit")
 
 DEFAULT_COLOR = np.array([0.78, 0.76, 0.72])       # an unpainted object: warm light grey
 DEFAULT_HORIZON = np.array([0.86, 0.90, 0.96])
@@ -54,8 +58,7 @@ def make_lighting(traced, camera, shadows=True, shadow_samples=8, max_bounces=3)
     if not lights:
         lights = [default_light(camera)]
     mats = np.array([[*scene.materials[name]["color"],
-                      *(scene.materials[name][k] for k in
-                        ("diffuse", "specular", "shininess", "reflect", "ior", "transmit"))]
+                      *(scene.materials[name][k] for k in FINISH_KEYS)]
                      for name in traced.material_names] or np.zeros((0, 9)), float).reshape(-1, 9)
     return Lighting(lights, horizon, zenith, mats, shadows, max(1, shadow_samples), max_bounces)
 
@@ -85,8 +88,12 @@ def _finish(light: Lighting, material: np.ndarray, paint: np.ndarray):
     return fin
 
 
-def shade(traced, light: Lighting, origins, directions, depth: int = 0):
-    """Linear RGB for each ray, and its first-hit distance (inf for the sky)."""
+def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: bool = True):
+    """Linear RGB for each ray, its first-hit distance (inf for the sky) and its hits.
+    The graph tracer shades in one numba kernel (trace/shading.py); this numpy code is
+    the model it follows, and shades the reference renders."""
+    if kernel and depth == 0 and hasattr(traced, "flat"):
+        return _shade_kernel(traced, light, origins, directions)
     hits = traced.trace(origins, directions, lod=light.lod)
     light.rays[0] += len(origins)
     color = light.sky(directions)
@@ -116,6 +123,32 @@ def shade(traced, light: Lighting, origins, directions, depth: int = 0):
                        depth)
     color[h] = out
     return color, hits.t, hits
+
+
+def _shade_kernel(traced, light: Lighting, origins, directions):
+    from ..trace.shading import CHUNK, shade_rays
+    from ..trace.nodes import N_EVENTS
+    o = np.ascontiguousarray(origins, dtype=np.float64)
+    d = np.ascontiguousarray(directions, dtype=np.float64)
+    n = len(o)
+    lights = np.array([[*lt.position, *lt.color, lt.radius] for lt in light.lights],
+                      float).reshape(-1, 7)
+    default = np.array([*DEFAULT_COLOR, *(MATERIAL_DEFAULTS[k] for k in FINISH_KEYS)], float)
+    materials = light.materials if len(light.materials) else default[None, :]
+    rgb = np.empty((n, 3))
+    t = np.empty(n)
+    hit = np.empty(n, dtype=np.bool_)
+    chunks = (n + CHUNK - 1) // CHUNK
+    rays = np.zeros(chunks, dtype=np.int64)
+    events = np.zeros((chunks, N_EVENTS, len(traced.graph.nodes)), dtype=np.int64)
+    shade_rays(traced.flat, o, d, lights, np.asarray(light.horizon, float),
+               np.asarray(light.zenith, float), np.ascontiguousarray(materials, dtype=float),
+               default, bool(light.shadows), int(light.shadow_samples), int(light.max_bounces),
+               float(light.lod), traced.max_depth, traced.stack_depth, numba.get_num_threads(),
+               AMBIENT, rgb, t, hit, rays, events)
+    traced.events += events.sum(axis=0)
+    light.rays[0] += int(rays.sum())
+    return rgb, t, Hits(t=t, normal=None, paint=None, material=None, hit=hit)
 
 
 def _visibility(traced, light: Lighting, lt: Light, origin: np.ndarray):

@@ -1,0 +1,46 @@
+"""The numba shading kernel (trace/shading.py) against the numpy model it follows
+(render/shade.py): same colours, first hits and ray counts, with area lights,
+reflection and refraction."""
+import numpy as np
+import pytest
+
+import pcsg
+from pcsg.render.camera import make_camera
+from pcsg.render.shade import make_lighting, shade
+
+GLASS = """
+#camera eye=(3, -4, 2.5) at=(0, 0, 0) up=(0, 0, 1) fov=40
+#light at=(-3, -8, 10) radius=0.8
+#light at=(6, 2, 3) color=(0.3, 0.3, 0.4)
+#material glass color=(0.9, 0.95, 1.0) diffuse=0.2 specular=0.8 shininess=90 reflect=0.1 ior=1.5 transmit=0.8
+#material mirror color=(0.8, 0.8, 0.8) reflect=0.7
+{n = 2} (material(glass) S ∪ material(mirror) move(0, 0, -1.2) plane ∪ move(1.5, 1, 0) cube)
+S if(n > 0, 2, 1)
+1: S → sphere \\ uscale(0.6) move(0, 0, 1) cube
+2: S → {n = n-1} (move(0.5, 0, 0) uscale(0.5) S ∪ move(-0.5, 0, 0) uscale(0.5) S)
+"""
+
+
+@pytest.mark.parametrize("obj", [
+    pcsg.loads(GLASS),
+    pcsg.load("grammars/carpenter_terrain.pcsg", cnt=3),
+    pcsg.load("grammars/sympodial_tree.pcsg", cnt=4),
+], ids=["glass", "terrain", "tree"])
+@pytest.mark.parametrize("shadows,samples", [(True, 8), (True, 1), (False, 1)])
+def test_kernel_shades_like_the_model(obj, shadows, samples):
+    cam = make_camera(obj, 4 / 3)
+    light = make_lighting(obj, cam, shadows, samples, 3)
+    light.lod = cam.pixel_angle(45)
+    ys, xs = np.mgrid[0:45, 0:60]
+    o, d = cam.rays(60, 45, xs.ravel() + 0.5, ys.ravel() + 0.5)
+    light.rays[0] = 0
+    want, want_t, want_hits = shade(obj, light, o, d, kernel=False)
+    model_rays = light.rays[0]
+    light.rays[0] = 0
+    got, got_t, got_hits = shade(obj, light, o, d)
+    assert light.rays[0] == model_rays
+    assert model_rays > len(o) or not shadows
+    np.testing.assert_array_equal(got_hits.hit, want_hits.hit)
+    np.testing.assert_allclose(got_t[want_hits.hit], want_t[want_hits.hit], rtol=1e-12)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
+    assert got.std() > 0.02                 # a picture, not a flat colour
