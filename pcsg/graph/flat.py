@@ -13,6 +13,8 @@ from .model import CALC, MATERIAL, PAINT, PRIMITIVE, TRANSFORM, Graph
 from .peephole import fuse_operands
 from .terminating import terminating_rules
 
+CACHED_CALC_ROWS = 24   # blocks at least this long are worth a cache lookup (nodes.cached_calc)
+
 Flat = namedtuple("Flat", [
     "kind",          # int8[n]      node kind (model.SELECT ...)
     "code",          # int32[n]     transformation, primitive or material code; -1
@@ -36,6 +38,7 @@ Flat = namedtuple("Flat", [
     "vm_end",        # int32[e]
     "calc_start",    # int32[n]     C-nodes: their block as one program in vm_code
     "calc_end",      # int32[n]
+    "calc_cache",    # int8[n]      C-nodes whose results the walk caches (long blocks)
     "root",          # int64
     "n_params",      # int64
     "max_stack",     # int64        expression stack depth
@@ -69,6 +72,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None) -> Flat:
     vm_end = remap[np.asarray(vm["end"], dtype=np.int64)].astype(np.int32)
     calc_start = np.where(is_calc, remap[calc_start], 0).astype(np.int32)
     calc_end = np.where(is_calc, remap[calc_end], 0).astype(np.int32)
+    calc_cache = (calc_end - calc_start >= CACHED_CALC_ROWS).astype(np.int8)
     if table is None:
         table = (np.zeros(2, dtype=np.uint64), np.zeros(2, dtype=np.int8), np.zeros((2, 6)))
     fixed, fixed_map = _fixed_nodes(graph)
@@ -84,13 +88,14 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None) -> Flat:
         term_rule=term, fixed=fixed, fixed_map=fixed_map,
         box=np.ascontiguousarray(boxes, dtype=np.float64),
         inst_keys=table[0], inst_used=table[1], inst_boxes=np.ascontiguousarray(table[2]),
-        vm_code=vm_code, calc_start=calc_start, calc_end=calc_end,
+        vm_code=vm_code, calc_start=calc_start, calc_end=calc_end, calc_cache=calc_cache,
         vm_consts=np.asarray(vm["consts"], dtype=np.float64),
         vm_start=vm_start, vm_end=vm_end,
         root=np.int64(graph.root), n_params=np.int64(max(1, len(graph.params))),
         max_stack=np.int64(max(1, vm["max_stack"])),
         max_children=np.int64(max(1, counts.max(initial=1))),
-        hashed=np.int64(len(table[0]) > 2 or bool(np.any(vm["code"][:, 0] == RAND))),
+        hashed=np.int64(len(table[0]) > 2 or bool(np.any(vm["code"][:, 0] == RAND))
+                        or bool(calc_cache.any())),
     )
 
 

@@ -180,6 +180,27 @@ def run_calc(flat, node, params, src, dst, h, stack):
 
 
 @inline
+def cached_calc(flat, node, params, src, dst, h, stack, ckeys, cvals):
+    """run_calc through the walker's cache of calculated states: neighbouring rays
+    enter the same instances, and a long block (the terrain's 25 assignments) costs
+    more than copying its result. The key is the instance hash with the node, which
+    fixes the state; a slot holds the last key that mapped to it."""
+    if not flat.calc_cache[node]:
+        run_calc(flat, node, params, src, dst, h, stack)
+        return
+    key = vm.mix(h, node) | np.uint64(1)
+    slot = np.int64(key & np.uint64(ckeys.shape[0] - 1))
+    if ckeys[slot] == key:
+        for p in range(params.shape[1]):
+            params[dst, p] = cvals[slot, p]
+        return
+    run_calc(flat, node, params, src, dst, h, stack)
+    ckeys[slot] = key
+    for p in range(params.shape[1]):
+        cvals[slot, p] = params[dst, p]
+
+
+@inline
 def pick_rule(flat, node, params, slot, h, stack):
     """The 0-based rule an S-node selects, or -1 if its selection is invalid."""
     x = expr(flat, params, slot, flat.expr_ids[flat.expr_start[node]], h, 0, stack)

@@ -17,11 +17,10 @@ import numpy as np
 from numba import njit, prange
 
 from .jit import kernel
-from .nodes import F_WIDTH, I_WIDTH
-from .walk import IV_WIDTH, R_HIT, R_MAT, R_N, R_PAINT, R_T, R_WIDTH, first_hit
+from .scratch import make_scratch
+from .walk import R_MAT, R_N, R_PAINT, R_T, R_WIDTH, first_hit
 
 CHUNK = 64
-INTERVAL_ROWS = 4096
 EPS = 1e-6
 # light rows: position (3), colour (3), radius; material rows as shade.py's table
 L_POS, L_COLOR, L_RADIUS = 0, 3, 6
@@ -29,12 +28,10 @@ P_O, P_D, P_W, P_DEPTH = 0, 3, 6, 9          # pending-ray columns
 
 
 @kernel
-def trace_one(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth, params,
-              F, I, H, Fi, Ii, Hi, iv, lists, stack, args, m34, out8, order, keys, ev, res):
+def trace_one(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth, S, ev, res):
     """first_hit into res[0] behind one call site, so that the walk is compiled once."""
-    return first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
-                     params, F, I, H, Fi, Ii, Hi, iv, lists, stack, args, m34, out8, order,
-                     keys, ev, res, 0)
+    return first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth, S, ev,
+                     res, 0)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
@@ -46,21 +43,7 @@ def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, de
     n = origins.shape[0]
     chunks = (n + CHUNK - 1) // CHUNK
     for w in prange(workers):
-        F = np.empty((stack_depth, F_WIDTH))
-        I = np.zeros((stack_depth, I_WIDTH), dtype=np.int64)
-        H = np.zeros(stack_depth, dtype=np.uint64)
-        Fi = np.empty((stack_depth, F_WIDTH))
-        Ii = np.zeros((stack_depth, I_WIDTH), dtype=np.int64)
-        Hi = np.zeros(stack_depth, dtype=np.uint64)
-        params = np.full((2 * stack_depth, flat.n_params), np.nan)
-        iv = np.empty((INTERVAL_ROWS, IV_WIDTH))
-        lists = np.zeros((stack_depth + 1, 2), dtype=np.int64)
-        vstack = np.empty(flat.max_stack)
-        args = np.empty(12)
-        m34 = np.empty((3, 4))
-        out8 = np.empty(8)
-        order = np.empty(flat.max_children, dtype=np.int64)
-        keys = np.empty((flat.max_children, 2))
+        S = make_scratch(flat, stack_depth)
         res = np.empty((1, R_WIDTH))
         pend = np.empty((2 * max_bounces + 2, 10))
         for c in range(w, chunks, workers):
@@ -82,8 +65,7 @@ def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, de
                     w0, w1, w2 = pend[top, P_W], pend[top, P_W + 1], pend[top, P_W + 2]
                     depth = int(pend[top, P_DEPTH])
                     hit = trace_one(flat, o0, o1, o2, d0, d1, d2, 1e-9, np.inf, False, lod,
-                                    max_depth, params, F, I, H, Fi, Ii, Hi, iv, lists, vstack,
-                                    args, m34, out8, order, keys, ev, res)
+                                    max_depth, S, ev, res)
                     count += 1
                     if first:
                         first_t[i] = res[0, R_T]
@@ -139,11 +121,9 @@ def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, de
                                     g0 += e0
                                     g1 += e1
                                     g2 += e2
-                                blocked = trace_one(flat, q0, q1, q2, g0 - q0, g1 - q1, g2 - q2,
-                                                    1e-9, 1.0 - 1e-9, True, lod, max_depth,
-                                                    params, F, I, H, Fi, Ii, Hi, iv, lists,
-                                                    vstack, args, m34, out8, order, keys, ev,
-                                                    res)
+                                blocked = trace_one(flat, q0, q1, q2, g0 - q0, g1 - q1,
+                                                    g2 - q2, 1e-9, 1.0 - 1e-9, True, lod,
+                                                    max_depth, S, ev, res)
                                 count += 1
                                 if not blocked:
                                     seen += 1

@@ -18,16 +18,16 @@ from .jit import inline, kernel
 from .nodes import (CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_STACK, F_WIDTH, I_WIDTH, LEVEL, M0, MAT, NODE, OX, PAINT,
                     PHASE, SLOT, T0, T1, box_normal, box_window, copy_frame, enter_paint,
-                    enter_transform, instance_window, pick_rule, run_calc, set_inverse,
+                    enter_transform, instance_window, pick_rule, cached_calc, set_inverse,
                     world_normal, world_size)
 from .primitives import intersect
+from .scratch import IV_WIDTH
 
 
 SLIVER = 1e-9           # relative thickness below which ∩ and \ pieces are slivers
 FLAT_MIN = 6            # primitive codes >= this are the flat triangles
 # interval record columns: an interval is [t_in, t_out] with what is at each end
 IT_IN, IT_OUT, IN_N, OUT_N, IN_PAINT, OUT_PAINT, IN_MAT, OUT_MAT = 0, 1, 2, 5, 8, 11, 14, 15
-IV_WIDTH = 16
 # what a ray's result row holds
 R_T, R_N, R_PAINT, R_MAT, R_HIT = 0, 1, 4, 7, 8
 R_WIDTH = 9
@@ -71,7 +71,8 @@ def enter_child(flat, node, k, F, I, H, src, dst):
 
 
 @inline
-def step_unary(flat, node, kind, F, I, H, f, slot_base, params, stack, args, m34, ev):
+def step_unary(flat, node, kind, F, I, H, f, slot_base, S, ev):
+    params, stack, args, m34 = S.params, S.stack, S.args, S.m34
     """S-free single-child nodes, in place on frame f: True if the walk goes on."""
     if kind == TRANSFORM:
         bad = enter_transform(flat, node, F, f, params, I[f, SLOT], H[f], stack, args, m34)
@@ -79,7 +80,8 @@ def step_unary(flat, node, kind, F, I, H, f, slot_base, params, stack, args, m34
             ev[EV_NONFINITE if bad == 1 else EV_SINGULAR, node] += 1
             return False
     elif kind == CALC:
-        run_calc(flat, node, params, I[f, SLOT], slot_base + f, H[f], stack)
+        cached_calc(flat, node, params, I[f, SLOT], slot_base + f, H[f], stack, S.ckeys,
+                    S.cvals)
         I[f, SLOT] = slot_base + f
     elif kind == PAINT_NODE:
         if not enter_paint(flat, node, F, f, params, I[f, SLOT], H[f], stack, args):
@@ -170,11 +172,13 @@ def push_list(lists, ls, start, count):
 
 
 @kernel
-def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, lists, stack,
-              args, m34, out8, lod, dnorm, max_depth, ev):
+def intervals(flat, F0, I0, H0, f0, w0, w1, S, lod, dnorm, max_depth, ev):
     """The interval list of frame f0's subtree within [w0, w1], computed bottom-up with
     an explicit stack; operators keep a phase (the next child) while their children run.
-    Returns (start row in iv, count)."""
+    Returns (start row in S.iv, count)."""
+    params, stack, out8 = S.params, S.stack, S.out8
+    F, I, H, iv, lists = S.Fi, S.Ii, S.Hi, S.iv, S.lists
+    slot_base = S.F.shape[0]
     cap_f = F.shape[0]
     cap_iv = iv.shape[0]
     for k in range(F_WIDTH):
@@ -257,8 +261,7 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, params, slot_base, F, I, H, iv, list
                 enter_child(flat, node, 0, F, I, H, f, sp)
                 sp += 1
                 continue
-            if not step_unary(flat, node, kind, F, I, H, f, slot_base, params, stack, args,
-                              m34, ev):
+            if not step_unary(flat, node, kind, F, I, H, f, slot_base, S, ev):
                 ls = push_list(lists, ls, top, 0)
                 sp -= 1
             continue
@@ -302,23 +305,22 @@ def record_hit(res, ri, t, F, I, f, nx, ny, nz):
 
 @kernel
 def trace_chunk(flat, origins, directions, i0, i1, tmin, tmax, any_hit, lod, max_depth,
-                params, F, I, H, Fi, Ii, Hi, iv, lists, stack, args, m34, out8, order, keys, ev,
-                res):
-    """first_hit for rays i0..i1-1: one call per chunk, not per ray, as the call
-    passes some thirty arrays."""
+                S, ev, res):
+    """first_hit for rays i0..i1-1: one call per chunk, not per ray."""
     for i in range(i0, i1):
         first_hit(flat, origins[i, 0], origins[i, 1], origins[i, 2],
                   directions[i, 0], directions[i, 1], directions[i, 2],
-                  tmin, tmax, any_hit, lod, max_depth, params, F, I, H, Fi, Ii, Hi,
-                  iv, lists, stack, args, m34, out8, order, keys, ev, res, i)
+                  tmin, tmax, any_hit, lod, max_depth, S, ev, res, i)
 
 
 @inline
-def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
-              params, F, I, H, Fi, Ii, Hi, iv, lists, stack, args, m34, out8, order, keys, ev,
+def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth, S, ev,
               res, ri):
-    """Trace one ray from the root; writes res[ri] (R_* columns). Returns True on a hit.
-    A frame pushed by a union has PHASE 1: its window is already inside its box."""
+    """Trace one ray from the root with the scratch S; writes res[ri] (R_* columns).
+    Returns True on a hit. A frame pushed by a union has PHASE 1: its window is
+    already inside its box."""
+    params, stack, out8, order, keys = S.params, S.stack, S.out8, S.order, S.keys
+    F, I, H, iv = S.F, S.I, S.H, S.iv
     cap = F.shape[0]
     has_table = flat.inst_used.shape[0] > 2
     dnorm = math.sqrt(dx * dx + dy * dy + dz * dz)
@@ -443,9 +445,8 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                 sp += m
                 break
             if kind == INTERSECTION or kind == DIFFERENCE:
-                start, count = intervals(flat, F, I, H, f, t0, t1, params, cap, Fi, Ii, Hi,
-                                         iv, lists, stack, args, m34, out8, lod, dnorm,
-                                         max_depth, ev)
+                start, count = intervals(flat, F, I, H, f, t0, t1, S, lod, dnorm, max_depth,
+                                         ev)
                 for j in range(2 * count):          # every end, in order along the ray
                     row = start + j // 2
                     side = j % 2
@@ -463,7 +464,7 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                             return True
                         break
                 break
-            if not step_unary(flat, node, kind, F, I, H, f, 0, params, stack, args, m34, ev):
+            if not step_unary(flat, node, kind, F, I, H, f, 0, S, ev):
                 break
     res[ri, R_HIT] = 1.0 if hit else 0.0
     if not hit:         # a miss is a full row too: the caller hands out views
