@@ -8,7 +8,7 @@ import pytest
 from pcsg.compiler import compile_file, compile_text
 from pcsg.graph.flatten import flatten
 from pcsg.language.errors import PcsgError
-from pcsg.trace.reference import LEAF, Leaf, Op, Reference
+from pcsg.trace.reference import LEAF, Op, Reference
 
 from .conftest import GRAMMARS
 

@@ -1,12 +1,10 @@
 """Rendered images have the properties a person would check by eye."""
-import os
 import signal
 import subprocess
 import sys
 import time
 
 import numpy as np
-import pytest
 from PIL import Image
 
 from pcsg.cli import main

@@ -53,7 +53,7 @@ def run(cmd: list[str], timeout: float) -> dict:
             if time.perf_counter() > deadline:
                 p.kill()
                 os.wait4(p.pid, 0)
-                raise RuntimeError(f"timed out after {timeout:.0f} s: {' '.join(cmd)}")
+                return {"wall": None, "rss_mb": None, "output": "", "timeout": timeout}
             time.sleep(0.005)
         wall = time.perf_counter() - start
         p.returncode = os.waitstatus_to_exitcode(status)
@@ -71,12 +71,16 @@ def pcsg_cmd(grammar: str, param: str, order: int, png: Path) -> list[str]:
 
 
 def pcsg_result(r: dict) -> dict:
+    if r["wall"] is None:
+        return {"wall": None, "timed_out_s": r["timeout"]}
     m = re.search(r"([\d.]+) s, ([\d.]+) M rays/s", r["output"])
     return {"wall": r["wall"], "rss_mb": r["rss_mb"], "trace_s": float(m.group(1)),
             "rays_per_s": float(m.group(2)) * 1e6}
 
 
 def pov_result(r: dict) -> dict:
+    if r["wall"] is None:
+        return {"wall": None, "timed_out_s": r["timeout"]}
     out = r["output"]
 
     def seconds(phase):
@@ -106,6 +110,8 @@ def kernel_cache_state() -> str:
 
 
 def median(rows: list[dict], key: str):
+    if any(r["wall"] is None for r in rows):
+        return None                 # a timed-out run: no figure rather than a flattering one
     values = [r[key] for r in rows if r.get(key) is not None]
     return statistics.median(values) if values else None
 
@@ -115,7 +121,8 @@ def main():
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--only", help="workloads whose grammar name contains this")
     ap.add_argument("--out", default=str(ROOT / "tools" / "bench_results.json"))
-    ap.add_argument("--timeout", type=float, default=900, help="seconds per render")
+    ap.add_argument("--timeout", type=float, default=300,
+                    help="seconds per render; a render past it is reported as timed out")
     args = ap.parse_args()
     povray = shutil.which("povray")
     if povray is None:
@@ -133,9 +140,11 @@ def main():
     for rep in range(args.repeat):
         for w in loads:
             print(f"run {rep + 1}/{args.repeat}: {w[0]} {w[1]}={w[2]}", flush=True)
-            results[w]["pcsg"].append(pcsg_result(
-                run(pcsg_cmd(*w[:3], WORK / "pcsg.png"), args.timeout)))
-            if w[3]:
+            done = results[w]["pcsg"]
+            if done and done[-1]["wall"] is None:
+                continue                # timed out once: not again
+            done.append(pcsg_result(run(pcsg_cmd(*w[:3], WORK / "pcsg.png"), args.timeout)))
+            if w[3] and not (results[w]["pov"] and results[w]["pov"][-1]["wall"] is None):
                 results[w]["pov"].append(pov_result(run(
                     [povray, f"+I{povs[w]}", f"+O{WORK / 'pov.png'}", f"+W{SIZE[0]}",
                      f"+H{SIZE[1]}", "-D", "-A", "+WT2"], args.timeout)))
@@ -148,16 +157,17 @@ def main():
         if v:
             row.update({f"pov_{k}": median(v, k)
                         for k in ("wall", "parse_s", "trace_s", "rays_per_s", "rss_mb")})
-            row["wall_ratio"] = row["pov_wall"] / row["pcsg_wall"]
+            both = row["pov_wall"] and row["pcsg_wall"]
+            row["wall_ratio"] = row["pov_wall"] / row["pcsg_wall"] if both else None
             row["rays_ratio"] = (row["pcsg_rays_per_s"] / row["pov_rays_per_s"]
-                                 if row["pov_rays_per_s"] else None)
+                                 if row["pov_rays_per_s"] and row["pcsg_rays_per_s"] else None)
         rows.append(row)
     report = {
         "machine": f"{platform.machine()}, {os.cpu_count()} cores, "
                    f"{os.sysconf('SC_PHYS_PAGES') * os.sysconf('SC_PAGE_SIZE') / 2**30:.0f} GiB, "
                    f"{platform.platform()}",
         "python": platform.python_version(), "povray": pov_version,
-        "repeat": args.repeat, "size": f"{SIZE[0]}x{SIZE[1]}",
+        "repeat": args.repeat, "size": f"{SIZE[0]}x{SIZE[1]}", "timeout_s": args.timeout,
         "kernel_cache_before_first_start": state,
         "first_start_wall_s": first["wall"],
         "date": time.strftime("%Y-%m-%d"),
@@ -177,12 +187,16 @@ def table(report: dict) -> str:
              "POV-Ray rays/s | pcsg RSS | POV-Ray RSS |",
              "|---|---|---|---|---|---|---|---|---|"]
     for r in report["rows"]:
+        def mega(x):
+            return x and x / 1e6
         lines.append(
-            f"| {r['object']} | {r['order']} | {r['pcsg_wall']:.2f} s | "
+            f"| {r['object']} | {r['order']} | {f(r['pcsg_wall'], '.2f')} s | "
             f"{f(r.get('pov_wall'), '.2f')} s | {f(r.get('wall_ratio'), '.1f')}x | "
-            f"{r['pcsg_rays_per_s'] / 1e6:.2f} M | "
-            f"{f(r.get('pov_rays_per_s') and r['pov_rays_per_s'] / 1e6, '.2f')} M | "
-            f"{r['pcsg_rss_mb']:.0f} MB | {f(r.get('pov_rss_mb'), '.0f')} MB |")
+            f"{f(mega(r['pcsg_rays_per_s']), '.2f')} M | "
+            f"{f(mega(r.get('pov_rays_per_s')), '.2f')} M | "
+            f"{f(r['pcsg_rss_mb'], '.0f')} MB | {f(r.get('pov_rss_mb'), '.0f')} MB |")
+    lines.append("")
+    lines.append(f"— : not run, or past the {report['timeout_s']:.0f} s timeout")
     return "\n".join(lines)
 
 

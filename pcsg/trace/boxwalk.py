@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..graph.model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, PAINT, PRIMITIVE, SELECT,
+from ..graph.model import (CALC, INTERSECTION, MATERIAL, PAINT, PRIMITIVE, SELECT,
                            TRANSFORM, UNION)
 from . import vm
 from .nodes import node_affine, pick_rule, run_calc, table_slot

@@ -2,7 +2,6 @@
 every chunk's event counts are the same at any thread count."""
 from __future__ import annotations
 
-import numpy as np
 from numba import njit, prange
 
 from .scratch import make_scratch
