@@ -106,7 +106,7 @@ def export(grammar: str, param: str, order: int) -> Path:
 
 def kernel_cache_state() -> str:
     cache = ROOT / "pcsg" / "trace" / "__pycache__"
-    return "warm" if any(cache.glob("kernel.trace_rays-*.nbi")) else "cold"
+    return "warm" if any(cache.glob("shading.shade_rays-*.nbi")) else "cold"
 
 
 def median(rows: list[dict], key: str):
