@@ -78,6 +78,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="shadow rays per area light (default 8; 1: lights are points)")
     r.add_argument("--no-adaptive", action="store_true",
                    help="exactly --samples rays per pixel, no adaptive oversampling")
+    r.add_argument("--strict", action="store_true",
+                   help="runtime errors in the grammar (invalid selections, non-finite or "
+                        "singular transformations) fail the file instead of emptying instances")
+    r.add_argument("--timeout", type=float, metavar="SECONDS",
+                   help="stop a file's render after this long, writing nothing")
     r.add_argument("--bounces", type=int, default=3, metavar="N",
                    help="reflection and refraction depth (default 3)")
     r.add_argument("--reference", action="store_true",
@@ -234,14 +239,14 @@ def cmd_graph(args) -> int:
 
 def cmd_render(args) -> int:
     import time
-    from .render.job import Options, check_options, render_file
+    from .render.job import Options, RenderFailed, check_options, render_file
     files = expand_globs(args.files)
     opts = Options(size=args.size, samples=args.samples, overrides=dict(args.overrides),
                    eye=args.eye, at=args.at, up=args.up, fov=args.fov, alpha=args.alpha,
                    depth=Path(args.depth) if args.depth else None, max_depth=args.max_depth,
                    shadows=not args.no_shadows, bounces=max(0, args.bounces), quiet=args.quiet,
                    reference=args.reference, shadow_samples=args.shadow_samples,
-                   adaptive=not args.no_adaptive)
+                   adaptive=not args.no_adaptive, strict=args.strict, timeout=args.timeout)
     problem = check_options(opts)
     if problem:
         raise UsageError(problem)
@@ -255,6 +260,10 @@ def cmd_render(args) -> int:
             summary, notes = render_file(Path(path), out, opts)
         except PcsgError as e:
             _report(e, [])
+            failed.append(path)
+            continue
+        except RenderFailed as e:
+            print(f"pcsg render: {path}: {e}", file=sys.stderr)
             failed.append(path)
             continue
         except OSError as e:

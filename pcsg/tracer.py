@@ -92,8 +92,8 @@ class Traced:
                     material=out[:, R_MAT].astype(np.int64), hit=out[:, R_HIT] > 0,
                     events=events)
 
-    def describe_events(self, events: np.ndarray) -> list[str]:
-        """One line per kind of thing that happened, naming where."""
+    def describe_events(self, events: np.ndarray, kinds=None) -> list[str]:
+        """One line per kind of thing that happened (of `kinds`: all), naming where."""
         g = self.graph
 
         def where(kind):
@@ -122,6 +122,8 @@ class Traced:
                           "too many pieces along one ray",
         }
         for kind, text in texts.items():
+            if kinds is not None and kind not in kinds:
+                continue
             w, n = where(kind)
             if n:
                 lines.append(text.format(n=n, w=w, d=self.max_depth, s=self.stack_depth))

@@ -132,3 +132,41 @@ def test_written_files_get_ordinary_permissions(capsys, sierpinski, tmp_path):
     umask = os.umask(0)
     os.umask(umask)
     assert stat.S_IMODE(out.stat().st_mode) == 0o666 & ~umask
+
+
+SINGULAR = """{n = 2} S
+S if(n > 0, 2, 1)
+1: S → scale(1, 1, n) sphere
+2: S → {n = n-1} (move(1, 0, 0) S ∪ move(-1, 0, 0) S)
+"""
+
+
+def test_strict_fails_on_runtime_errors_and_keeps_the_old_image(capsys, tmp_path):
+    bad = tmp_path / "bad.pcsg"
+    bad.write_text(SINGULAR, encoding="utf-8")
+    out = tmp_path / "bad.png"
+    assert main(["render", str(bad), "-o", str(out), "--size", "40x30", "-q"]) == 0
+    err = capsys.readouterr().err
+    assert "empty because of a singular transformation" in err and "bad.pcsg:3:" in err
+    before = out.read_bytes()
+    assert main(["render", str(bad), "-o", str(out), "--size", "40x30", "-q", "--strict"]) == 1
+    err = capsys.readouterr().err
+    assert "--strict" in err and "nothing written" in err and "bad.pcsg:3:" in err
+    assert out.read_bytes() == before
+
+
+def test_timeout_stops_the_render_and_keeps_the_old_image(capsys, tmp_path):
+    out = tmp_path / "carpenter_terrain.png"
+    out.write_bytes(b"earlier")
+    code = main(["render", str(GRAMMARS / "carpenter_terrain.pcsg"), "-o", str(out),
+                 "--size", "64x48", "-q", "--timeout", "0.05", "--set", "cnt=9"])
+    err = capsys.readouterr().err
+    assert code == 1
+    assert "carpenter_terrain.pcsg: stopped by --timeout 0.05 s; nothing written" in err
+    assert out.read_bytes() == b"earlier"
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "nan"])
+def test_timeout_must_be_positive(capsys, value):
+    assert main(["render", str(GRAMMARS / "sierpinski.pcsg"), "--timeout", value]) == 2
+    assert "--timeout" in capsys.readouterr().err

@@ -62,8 +62,9 @@ def _offsets(n: int, rng) -> np.ndarray:
 
 
 def render_frame(traced, camera: Camera, light: Lighting, width: int, height: int,
-                 samples: int = 1, adaptive: bool = True, progress: Progress | None = None
-                 ) -> Frame:
+                 samples: int = 1, adaptive: bool = True, progress: Progress | None = None,
+                 check=None) -> Frame:
+    """`check()` runs between batches of rows and may raise to stop the render."""
     t0 = time.perf_counter()
     light.lod = camera.pixel_angle(height)
     light.rays[0] = 0
@@ -92,6 +93,8 @@ def render_frame(traced, camera: Camera, light: Lighting, width: int, height: in
         cover[y0:y1] = (hit / len(offs)).reshape(y1 - y0, width)
         if progress:
             progress.update(y1 * width, light.rays[0])
+        if check:
+            check()
     if adaptive and samples <= 1:
         _refine(traced, camera, light, rgb, obj, cover, rng)
     if progress:

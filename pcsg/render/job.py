@@ -2,17 +2,20 @@
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..compiler import compile_file
+from ..trace.nodes import EV_NONFINITE, EV_SELECTION, EV_SINGULAR
 from ..tracer import Hits, Traced
 from .camera import make_camera
 from .image import Progress, render_frame, write_depth, write_png
 from .shade import make_lighting
 
+RUNTIME_ERRORS = (EV_SELECTION, EV_NONFINITE, EV_SINGULAR)
 MAX_PIXELS = 64_000_000
 BYTES_PER_PIXEL = 120        # frame buffers and per-batch ray arrays, measured roughly
 
@@ -35,6 +38,13 @@ class Options:
     bounces: int = 3
     quiet: bool = False
     reference: bool = False
+    strict: bool = False            # runtime errors in the grammar fail the render
+    timeout: float | None = None    # seconds per file; past it nothing is written
+
+
+class RenderFailed(Exception):
+    """A render that stopped without writing anything: --timeout, or --strict with
+    runtime errors in the grammar."""
 
 
 def check_options(o: Options) -> str | None:
@@ -48,6 +58,8 @@ def check_options(o: Options) -> str | None:
                 f"memory); pcsg renders up to {MAX_PIXELS // 1_000_000} million")
     if not 1 <= o.samples <= 1024:
         return f"--samples {o.samples}: use 1 to 1024"
+    if o.timeout is not None and not o.timeout > 0:
+        return f"--timeout {o.timeout}: give a positive number of seconds"
     if not 1 <= o.shadow_samples <= 256:
         return f"--shadow-samples {o.shadow_samples}: use 1 to 256"
     if not 1 <= o.max_depth <= 10_000:
@@ -57,8 +69,16 @@ def check_options(o: Options) -> str | None:
     return None
 
 
+def check_deadline(deadline: float | None, timeout: float | None):
+    if deadline is not None and time.perf_counter() > deadline:
+        raise RenderFailed(f"stopped by --timeout {timeout:g} s; nothing written")
+
+
 def render_file(path: Path, out: Path, opts: Options) -> tuple[str, list[str]]:
-    """Render `path` to `out` (written atomically); returns the summary line and notes."""
+    """Render `path` to `out` (written atomically); returns the summary line and notes.
+    Raises RenderFailed, having written nothing, past --timeout or, with --strict, when
+    instances were empty because of runtime errors."""
+    deadline = None if opts.timeout is None else time.perf_counter() + opts.timeout
     graph = compile_file(path, opts.overrides)
     notes = [w.format(show_source=False) for w in graph.warnings]
     traced = Traced(graph, max_depth=opts.max_depth)
@@ -71,11 +91,21 @@ def render_file(path: Path, out: Path, opts: Options) -> tuple[str, list[str]]:
     camera = make_camera(traced, w / h, opts.eye, opts.at, opts.up, opts.fov)
     light = make_lighting(traced, camera, opts.shadows, opts.shadow_samples, opts.bounces)
     progress = Progress(Path(path).name, w * h, not opts.quiet)
-    frame = render_frame(target, camera, light, w, h, opts.samples, opts.adaptive, progress)
+    check_deadline(deadline, opts.timeout)
+    frame = render_frame(target, camera, light, w, h, opts.samples, opts.adaptive, progress,
+                         lambda: check_deadline(deadline, opts.timeout))
+    events = getattr(target, "events", None)
+    if opts.strict:
+        errors = [x.format(show_source=False) for x in traced.warnings
+                  if x not in graph.warnings]
+        if events is not None:
+            errors += traced.describe_events(events, RUNTIME_ERRORS)
+        if errors:
+            raise RenderFailed("--strict: runtime errors in the grammar, nothing written:\n  "
+                               + "\n  ".join(errors))
     write_png(out, frame, opts.alpha)
     if opts.depth is not None:
         write_depth(opts.depth, frame)
-    events = getattr(target, "events", None)
     if events is not None:
         notes += traced.describe_events(events)
     rate = frame.rays / max(frame.seconds, 1e-9)
