@@ -30,7 +30,7 @@ Flat = namedtuple("Flat", [
                      #                paint: [r, g, b | unused]
     "box",           # float64[n,6] hyper-bounding box in the node's input frame
     "inst_keys",     # uint64[s]    instance table: S-node instance hash ->
-    "inst_used",     # int8[s]
+    "inst_used",     # int16[s]     0: empty, else the entry's level + 1
     "inst_boxes",    # float64[s,6]   that instance's own box (top levels only)
     "vm_code",       # int32[q,2]   expression bytecode
     "vm_consts",     # float64[c]
@@ -74,7 +74,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None) -> Flat:
     calc_end = np.where(is_calc, remap[calc_end], 0).astype(np.int32)
     calc_cache = (calc_end - calc_start >= CACHED_CALC_ROWS).astype(np.int8)
     if table is None:
-        table = (np.zeros(2, dtype=np.uint64), np.zeros(2, dtype=np.int8), np.zeros((2, 6)))
+        table = (np.zeros(2, dtype=np.uint64), np.zeros(2, dtype=np.int16), np.zeros((2, 6)))
     fixed, fixed_map = _fixed_nodes(graph)
     children = np.array([c for x in nodes for c in x.children], dtype=np.int32)
     starts = _starts(counts)

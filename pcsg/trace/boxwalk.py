@@ -45,22 +45,64 @@ def _unite(acc, b):
 
 
 @njit(cache=True, error_model="numpy")
-def _record(level, node, h, box, table_levels, keys, used, vals, per_level):
+def _record(level, node, h, box, table, keys, used, vals, per_level):
+    """Count the instance at its level; keep its box in the table if its level is within
+    table[0], the deepest level kept. When the table would pass table[1] entries, its
+    deepest level is dropped (table[0] lowered): the levels kept in the end are the
+    most that fit, all of them complete, as if they had been known in advance."""
     if level < per_level.shape[0]:
         per_level[level] += 1
-    if level <= table_levels:
-        key = vm.mix(h, node)
-        slot = table_slot(keys, used, key)
-        used[slot] = 1
-        keys[slot] = key
-        vals[slot, :] = box
+    if level > table[0]:
+        return
+    while table[2] + 1 > table[1] and table[0] >= 0:
+        _drop_level(table[0], keys, used, vals)
+        table[2] -= table[3 + table[0]]
+        table[3 + table[0]] = 0
+        table[0] -= 1
+    if level > table[0]:
+        return
+    key = vm.mix(h, node)
+    slot = table_slot(keys, used, key)
+    if not used[slot]:
+        table[2] += 1
+        table[3 + level] += 1
+    used[slot] = 1 + level          # 0: empty; else the entry's level + 1
+    keys[slot] = key
+    vals[slot, :] = box
 
 
 @njit(cache=True, error_model="numpy")
-def walk(flat, max_depth, budget, capacity, boxes, table_levels, keys, used, vals, per_level):
+def _drop_level(level, keys, used, vals):
+    """Delete every entry of `level` (used == level + 1), keeping every other entry
+    reachable: linear-probing deletion that moves later entries of a run back (Knuth's
+    Algorithm R)."""
+    mask = keys.shape[0] - 1
+    for i in range(keys.shape[0]):
+        while used[i] == level + 1:
+            hole = i
+            j = i
+            while True:
+                j = (j + 1) & mask
+                if not used[j]:
+                    break
+                home = np.int64(keys[j] & np.uint64(mask))
+                # the entry at j may move into the hole unless its home lies cyclically
+                # in (hole, j]
+                if (hole <= j and (home <= hole or home > j)) or \
+                        (hole > j and home <= hole and home > j):
+                    keys[hole] = keys[j]
+                    used[hole] = used[j]
+                    vals[hole, :] = vals[j]
+                    hole = j
+            used[hole] = 0
+
+
+@njit(cache=True, error_model="numpy")
+def walk(flat, max_depth, budget, capacity, boxes, table, keys, used, vals, per_level):
     """Fill boxes[n] (pre-set to empty) with the union of node n's instance boxes, and the
-    table (keys, used, vals) with the box of every S-node instance up to table_levels,
-    keyed by its instance hash; per_level counts S-node instances by level.
+    table (keys, used, vals) with the box of every S-node instance and operator operand
+    of the top derivation levels that fit (see _record; `table` is its bookkeeping),
+    keyed by its instance hash; per_level counts them by level.
     Returns 0, or 1 if the visit budget or the stack capacity ran out."""
     fr = np.zeros((capacity, 5), dtype=np.int64)
     hs = np.zeros(capacity, dtype=np.uint64)
@@ -105,8 +147,7 @@ def walk(flat, max_depth, budget, capacity, boxes, table_levels, keys, used, val
                     fr[f, PHASE] = 1 + r
             else:
                 _unite(acc[f], acc[f + 1])
-                _record(fr[f, LEVEL], node, hs[f], acc[f], table_levels, keys, used, vals,
-                        per_level)
+                _record(fr[f, LEVEL], node, hs[f], acc[f], table, keys, used, vals, per_level)
         elif kind == TRANSFORM or kind == CALC or kind == PAINT or kind == MATERIAL:
             if phase == 0:
                 child = 0
@@ -121,8 +162,7 @@ def walk(flat, max_depth, budget, capacity, boxes, table_levels, keys, used, val
             if phase > 0:
                 b = acc[f + 1]
                 # the operand's own box, in this operator's frame, for culling it unexpanded
-                _record(fr[f, LEVEL], node, hs[f + 1], b, table_levels, keys, used, vals,
-                        per_level)
+                _record(fr[f, LEVEL], node, hs[f + 1], b, table, keys, used, vals, per_level)
                 if phase == 1 or kind == UNION:
                     _unite(acc[f], b)
                 elif kind == INTERSECTION:
@@ -159,7 +199,7 @@ TABLE_SLOTS = 1 << 19      # instance boxes kept: ~30 MB at most, whatever the o
 
 
 def empty_table(slots: int = 2):
-    return (np.zeros(slots, dtype=np.uint64), np.zeros(slots, dtype=np.int8),
+    return (np.zeros(slots, dtype=np.uint64), np.zeros(slots, dtype=np.int16),
             np.zeros((slots, 6)))
 
 
@@ -175,14 +215,14 @@ def walk_boxes(graph, max_depth: int = 64, budget: int = 60_000_000, instances: 
     boxes = empty.copy()
     capacity = (max_depth + 2) * (n + 2) + 16
     per_level = np.zeros(max_depth + 2, dtype=np.int64)
-    table = empty_table()
-    if walk(flat, max_depth, budget, capacity, boxes, -1, *table, per_level) != 0:
+    table = empty_table(TABLE_SLOTS if instances else 2)
+    # [deepest level kept, most entries, entries, entries by level...]
+    book = np.zeros(3 + max_depth + 2, dtype=np.int64)
+    book[0] = max_depth + 1 if instances else -1
+    book[1] = TABLE_SLOTS // 2
+    if walk(flat, max_depth, budget, capacity, boxes, book, *table, per_level) != 0:
         boxes[:] = [-np.inf, -np.inf, -np.inf, np.inf, np.inf, np.inf]
-        return boxes, False, table
-    if instances:
-        fits = np.nonzero(np.cumsum(per_level) <= TABLE_SLOTS // 2)[0]
-        if len(fits):
-            table = empty_table(TABLE_SLOTS)
-            boxes = empty.copy()
-            walk(flat, max_depth, budget, capacity, boxes, int(fits[-1]), *table, per_level * 0)
+        return boxes, False, empty_table()
+    if instances and book[0] < 0:
+        table = empty_table()           # not even the root's level fits
     return boxes, True, table
