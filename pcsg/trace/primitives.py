@@ -190,10 +190,15 @@ def _tetrahedron(out, ox, oy, oz, dx, dy, dz):
 
 
 @_jit
+def _unit_slab(out, ox, oy, oz, dx, dy, dz):
+    """Intersect with the slab 0 <= z <= 1: the caps of the cylinder and the cone."""
+    return (_halfspace(out, 0.0, 0.0, 1.0, 1.0, ox, oy, oz, dx, dy, dz)
+            and _halfspace(out, 0.0, 0.0, -1.0, 0.0, ox, oy, oz, dx, dy, dz))
+
+
+@_jit
 def _cylinder(out, ox, oy, oz, dx, dy, dz):
-    if not _halfspace(out, 0.0, 0.0, 1.0, 1.0, ox, oy, oz, dx, dy, dz):
-        return False
-    if not _halfspace(out, 0.0, 0.0, -1.0, 0.0, ox, oy, oz, dx, dy, dz):
+    if not _unit_slab(out, ox, oy, oz, dx, dy, dz):
         return False
     a = dx * dx + dy * dy
     c = ox * ox + oy * oy - 1.0
@@ -228,9 +233,7 @@ def _cone_normal(x, y, z):
 def _cone(out, ox, oy, oz, dx, dy, dz):
     # the cone is {x^2 + y^2 <= (1 - z)^2} (a double cone, apex (0,0,1)) cut by
     # the slab 0 <= z <= 1, which also picks the lower nappe
-    if not _halfspace(out, 0.0, 0.0, 1.0, 1.0, ox, oy, oz, dx, dy, dz):
-        return False
-    if not _halfspace(out, 0.0, 0.0, -1.0, 0.0, ox, oy, oz, dx, dy, dz):
+    if not _unit_slab(out, ox, oy, oz, dx, dy, dz):
         return False
     s0 = out[0]                      # the slab interval
     s1 = out[1]
