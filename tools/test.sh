@@ -8,5 +8,5 @@ python -m pytest || exit $?
 # numba kernels do not check array bounds: a wrong index would be a crash, not an error.
 # The kernel tests run once more with the checks compiled in (their own kernel cache).
 NUMBA_BOUNDSCHECK=1 NUMBA_CACHE_DIR="$PWD/.venv/numba-boundscheck" \
-    python -m pytest -q -p no:cacheprovider tests/test_tracer.py tests/test_shading.py \
+    python -m pytest -p no:cacheprovider tests/test_tracer.py tests/test_shading.py \
     tests/test_reference.py tests/test_vm.py tests/test_primitives.py
