@@ -243,7 +243,8 @@ def _header(camera: Camera, lighting: Lighting, size, graph) -> str:
     for k in range(1, SKY_STEPS + 1):
         z = k / SKY_STEPS
         s = z ** 0.6
-        entries.append(f"[{_num(0.5 + z / 2)} rgb {_vec(lighting.horizon * (1 - s) + lighting.zenith * s)}]")
+        color = lighting.horizon * (1 - s) + lighting.zenith * s
+        entries.append(f"[{_num(0.5 + z / 2)} rgb {_vec(color)}]")
     # gradient z scaled by 2 and moved down: the pattern is (z + 1) / 2 on the unit sphere
     lines.append("sky_sphere { pigment { gradient z color_map { " + " ".join(entries)
                  + " } scale 2 translate -z } }")

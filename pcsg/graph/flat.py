@@ -116,8 +116,9 @@ def _calc_programs(graph: Graph, vm: dict):
             body = code[vm["start"][e]:vm["end"][e]]
             if np.any(body[:, 0] == RAND):
                 rows.append(np.array([[SALT, k + 1]], dtype=np.int32))
+                top += 1
             rows += [body, np.array([[STORE, target]], dtype=np.int32)]
-        top = sum(len(r) for r in rows)
+            top += len(body) + 1
         end[i] = top
     return np.ascontiguousarray(np.concatenate(rows)), start, end
 

@@ -23,7 +23,7 @@ Scratch = namedtuple("Scratch", [
     "args",     # T- and paint-node arguments
     "m34",      # a T-node's 3x4 map
     "out8",     # a primitive's hit
-    "order", "keys",        # union children sorted by their window
+    "order", "keys", "hashes",  # union children sorted by their window, their hashes
     "ckeys", "cvals",       # the cache of calculated states (nodes.cached_calc)
 ])
 
@@ -40,4 +40,5 @@ def make_scratch(flat, stack_depth):
         np.empty((INTERVAL_ROWS, IV_WIDTH)), np.zeros((stack_depth + 1, 2), dtype=np.int64),
         np.empty(flat.max_stack), np.empty(12), np.empty((3, 4)), np.empty(8),
         np.empty(flat.max_children, dtype=np.int64), np.empty((flat.max_children, 2)),
+        np.empty(flat.max_children, dtype=np.uint64),
         np.zeros(slots, dtype=np.uint64), np.empty((slots, flat.n_params)))

@@ -319,7 +319,8 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
     """Trace one ray from the root with the scratch S; writes res[ri] (R_* columns).
     Returns True on a hit. A frame pushed by a union has PHASE 1: its window is
     already inside its box."""
-    params, stack, out8, order, keys = S.params, S.stack, S.out8, S.order, S.keys
+    params, stack, out8, order, keys, hashes = (S.params, S.stack, S.out8, S.order, S.keys,
+                                                S.hashes)
     F, I, H, iv = S.F, S.I, S.H, S.iv
     cap = F.shape[0]
     has_table = flat.inst_used.shape[0] > 2
@@ -421,9 +422,14 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                     e0, e1 = box_window(flat.box, c, F, f)
                     e0 = max(e0, t0)
                     e1 = min(e1, t1)
-                    if has_table and e0 <= e1:
-                        e0, e1 = instance_window(flat, node, vm.edge_hash(H[f], node, k), F, f,
-                                                 e0, e1)
+                    if e0 > e1:
+                        continue
+                    # the child's instance hash, found once: for the table and its frame
+                    hk = H[f]
+                    if flat.hashed and n > 1:
+                        hk = vm.edge_hash(H[f], node, k)
+                    if has_table:
+                        e0, e1 = instance_window(flat, node, hk, F, f, e0, e1)
                     if e0 <= e1:
                         j = m
                         # descending, so the nearest pops first; on a tie the earlier
@@ -432,16 +438,21 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                             keys[j, 0] = keys[j - 1, 0]
                             keys[j, 1] = keys[j - 1, 1]
                             order[j] = order[j - 1]
+                            hashes[j] = hashes[j - 1]
                             j -= 1
                         keys[j, 0] = e0
                         keys[j, 1] = e1
                         order[j] = k
+                        hashes[j] = hk
                         m += 1
                 for j in range(m - 1, -1, -1):     # the source frame f is overwritten last
-                    enter_child(flat, node, order[j], F, I, H, f, sp + j)
-                    F[sp + j, T0] = keys[j, 0]
-                    F[sp + j, T1] = keys[j, 1]
-                    I[sp + j, PHASE] = 1
+                    g = sp + j
+                    copy_frame(F, I, H, f, g)
+                    I[g, NODE] = flat.children[flat.child_start[node] + order[j]]
+                    I[g, PHASE] = 1
+                    H[g] = hashes[j]
+                    F[g, T0] = keys[j, 0]
+                    F[g, T1] = keys[j, 1]
                 sp += m
                 break
             if kind == INTERSECTION or kind == DIFFERENCE:
