@@ -10,25 +10,37 @@ import hashlib
 from pathlib import Path
 
 
+def _cache_dirs(here: Path) -> list[Path]:
+    """Where numba keeps this package's kernels: beside the sources, and under
+    NUMBA_CACHE_DIR when that is set (the test command's bounds-check pass)."""
+    dirs = [here / "__pycache__"]
+    from numba.core import config
+    if config.CACHE_DIR:
+        from numba.core.caching import _CacheLocator
+        dirs.append(Path(config.CACHE_DIR)
+                    / _CacheLocator.get_suitable_cache_subpath(str(here / "kernel.py")))
+    return dirs
+
+
 def _refresh_kernel_cache() -> None:
     here = Path(__file__).resolve().parent
     sources = sorted(here.glob("*.py")) + [here.parent / "graph" / "model.py",
                                            here.parent / "language" / "names.py"]
     digest = hashlib.sha256(b"".join(p.read_bytes() for p in sources)).hexdigest()
-    cache = here / "__pycache__"
-    stamp = cache / "pcsg-kernels.sha256"
-    try:
-        if stamp.read_text() == digest:
-            return
-    except OSError:
-        pass
-    try:
-        cache.mkdir(exist_ok=True)
-        for f in list(cache.glob("*.nbi")) + list(cache.glob("*.nbc")):
-            f.unlink(missing_ok=True)
-        stamp.write_text(digest)
-    except OSError:
-        pass        # a read-only install: numba keeps its cache in the user's directory
+    for cache in _cache_dirs(here):
+        stamp = cache / "pcsg-kernels.sha256"
+        try:
+            if stamp.read_text() == digest:
+                continue
+        except OSError:
+            pass
+        try:
+            cache.mkdir(parents=True, exist_ok=True)
+            for f in list(cache.glob("*.nbi")) + list(cache.glob("*.nbc")):
+                f.unlink(missing_ok=True)
+            stamp.write_text(digest)
+        except OSError:
+            pass    # a read-only install: numba keeps its cache in the user's directory
 
 
 _refresh_kernel_cache()
