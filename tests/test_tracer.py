@@ -6,6 +6,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import pcsg
+from pcsg.graph import bounds
 from pcsg.graph.bounds import hyper_boxes
 from pcsg.graph.flatten import flatten
 from pcsg.trace.boxwalk import walk_boxes
@@ -94,9 +95,11 @@ def test_rays_starting_inside_report_the_exit():
 
 @pytest.mark.parametrize("name, overrides", [("sympodial_tree", {"cnt": 6}),
                                              ("carpenter_terrain", {"cnt": 3})])
-def test_hyper_boxes_contain_every_primitive(name, overrides):
+def test_hyper_boxes_contain_every_primitive(name, overrides, monkeypatch):
     """Both box walks are conservative; the memoised one (corner points carried through
     the transformations) is at least as tight as the per-instance box arithmetic."""
+    # the small terrain memoises, though not a state repeats: keep the probe from giving up
+    monkeypatch.setattr(bounds, "PROBE_STATES", bounds.MAX_STATES)
     g = pcsg.load(GRAMMARS / f"{name}.pcsg", **overrides).graph
     boxes, how, _, _ = hyper_boxes(g)
     assert how == "memoised"
@@ -227,7 +230,6 @@ def test_random_systems_agree_with_the_reference(text, view):
 def test_instance_box_table_agrees_with_the_reference(monkeypatch):
     """Systems with too many states for memoising get per-instance boxes from the compiled
     walk; culling by them must not lose anything the reference sees."""
-    from pcsg.graph import bounds
     monkeypatch.setattr(bounds, "MAX_STATES", 0)
     obj = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=4)
     assert obj.bounds_method == "every instance"
@@ -236,3 +238,22 @@ def test_instance_box_table_agrees_with_the_reference(monkeypatch):
     for view in VIEWS:
         o, d = camera_rays(bounds_, 40, view, seed=3)
         assert_agrees(obj, _outside_half_spaces(obj, o), d, min_hits=50)
+
+
+def test_a_walk_that_never_meets_a_state_twice_gives_up_early():
+    """The terrain's every patch has its own heights: the memoised walk stops at
+    PROBE_STATES instead of MAX_STATES and the compiled walk bounds it."""
+    g = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=5).graph
+    seen = []
+    real = bounds._Walker.box
+
+    def spy(self, *a):
+        seen.append(len(self.memo))
+        return real(self, *a)
+    bounds._Walker.box = spy
+    try:
+        with pytest.raises(bounds.TooManyStates):
+            bounds._memoised(g)
+    finally:
+        bounds._Walker.box = real
+    assert bounds.PROBE_STATES <= max(seen) < bounds.MAX_STATES

@@ -24,6 +24,8 @@ from .stats import MAX_LEVELS
 
 EMPTY = np.array([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf])
 MAX_STATES = 5_000     # beyond this the compiled walk is faster
+PROBE_STATES = 500     # states after which a walk that almost never meets a state twice
+                       # (every terrain patch has its own heights) gives up early
 
 
 class TooManyStates(Exception):
@@ -108,6 +110,7 @@ class _Walker:
 
     def reset(self):
         self.memo: dict = {}
+        self.hits = 0
         self.active: set = set()
         self.reentered: set = set()
         self.boxes = np.tile(EMPTY, (len(self.g.nodes), 1))
@@ -121,11 +124,13 @@ class _Walker:
         key = self.key(i, state, h)
         hit = self.memo.get(key)
         if hit is not None:
+            self.hits += 1
             return hit
         if key in self.active:
             self.reentered.add(key)
             return self.estimate.get(key, np.zeros((0, 3)))
-        if len(self.memo) >= MAX_STATES or level >= MAX_LEVELS:
+        if len(self.memo) >= MAX_STATES or level >= MAX_LEVELS or \
+                (len(self.memo) >= PROBE_STATES and self.hits < len(self.memo) // 50):
             raise TooManyStates
         self.active.add(key)
         if n.kind == SELECT:
