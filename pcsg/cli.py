@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 from .language.errors import PcsgError
+from .limits import INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
 
@@ -71,8 +72,17 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--fov", type=float, metavar="DEG", help="vertical field of view")
     r.add_argument("--alpha", action="store_true", help="transparent background")
     r.add_argument("--depth", metavar="FILE.npy", help="also write float32 hit distances")
-    r.add_argument("--max-depth", type=int, default=64, metavar="N",
-                   help="derivation levels a ray may descend (default 64)")
+    r.add_argument("--max-depth", type=int, default=MAX_DEPTH, metavar="N",
+                   help=f"derivation levels a ray may descend (default {MAX_DEPTH})")
+    r.add_argument("--stack-depth", type=int, metavar="N",
+                   help="frames of a ray's walk (default: from --max-depth and the widest "
+                        "union); raise it when a render reports a full walk stack")
+    r.add_argument("--interval-rows", type=int, default=INTERVAL_ROWS, metavar="N",
+                   help=f"interval-list rows per worker for ∩ and \\ subtrees (default "
+                        f"{INTERVAL_ROWS}); raise it when a render reports full interval lists")
+    r.add_argument("--max-instances", type=int, default=MAX_INSTANCES, metavar="N",
+                   help=f"S-node instances one ray may enter (default {MAX_INSTANCES:,}); "
+                        "bounds systems that neither end nor contract")
     r.add_argument("--no-shadows", action="store_true", help="skip shadow rays")
     r.add_argument("--shadow-samples", type=int, default=8, metavar="N",
                    help="shadow rays per area light (default 8; 1: lights are points)")
@@ -80,7 +90,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="exactly --samples rays per pixel, no adaptive oversampling")
     r.add_argument("--strict", action="store_true",
                    help="runtime errors in the grammar (invalid selections, non-finite or "
-                        "singular transformations) fail the file instead of emptying instances")
+                        "singular transformations) and full walk buffers fail the file instead "
+                        "of emptying instances")
     r.add_argument("--timeout", type=float, metavar="SECONDS",
                    help="stop a file's render after this long, writing nothing")
     r.add_argument("--bounces", type=int, default=3, metavar="N",
@@ -246,7 +257,9 @@ def cmd_render(args) -> int:
                    depth=Path(args.depth) if args.depth else None, max_depth=args.max_depth,
                    shadows=not args.no_shadows, bounces=max(0, args.bounces), quiet=args.quiet,
                    reference=args.reference, shadow_samples=args.shadow_samples,
-                   adaptive=not args.no_adaptive, strict=args.strict, timeout=args.timeout)
+                   adaptive=not args.no_adaptive, strict=args.strict, timeout=args.timeout,
+                   stack_depth=args.stack_depth, interval_rows=args.interval_rows,
+                   max_instances=args.max_instances)
     problem = check_options(opts)
     if problem:
         raise UsageError(problem)

@@ -14,10 +14,11 @@ from .graph.flat import flatten_graph
 from .graph.model import KIND_NAMES, SELECT, Graph
 from .trace.kernel import CHUNK, trace_rays
 from .trace.nodes import (EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
-                          EV_SINGULAR, EV_STACK, N_EVENTS)
+                          EV_SINGULAR, EV_STACK, EV_VISITS, N_EVENTS, add_events,
+                          no_events)
+from .limits import INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES
 from .trace.walk import R_HIT, R_MAT, R_N, R_PAINT, R_T, R_WIDTH
 
-MAX_DEPTH = 64
 BATCH = 1 << 16             # rays per kernel call: bounds the per-chunk event arrays
 
 
@@ -28,7 +29,7 @@ class Hits:
     paint: np.ndarray           # (N, 3) paint(r,g,b) in force at the hit; nan if none
     material: np.ndarray        # (N,) index into Traced.material_names, -1 if none
     hit: np.ndarray             # (N,) bool
-    events: np.ndarray = field(repr=False, default=None)   # (kinds, nodes) counts
+    events: np.ndarray = field(repr=False, default=None)   # trace.nodes.no_events layout
 
 
 def _pad(boxes: np.ndarray) -> np.ndarray:
@@ -46,7 +47,8 @@ def _pad(boxes: np.ndarray) -> np.ndarray:
 class Traced:
     """A compiled, bounded, flattened PCSG object, ready to trace."""
 
-    def __init__(self, graph: Graph, max_depth: int = MAX_DEPTH, stack_depth: int | None = None):
+    def __init__(self, graph: Graph, max_depth: int = MAX_DEPTH, stack_depth: int | None = None,
+                 interval_rows: int = INTERVAL_ROWS, max_instances: int = MAX_INSTANCES):
         self.graph = graph
         self.max_depth = int(max_depth)
         boxes, self.bounds_method, problems, table = hyper_boxes(graph, self.max_depth)
@@ -55,9 +57,14 @@ class Traced:
         if table is not None:
             table = (table[0], table[1], _pad(table[2]))
         self.flat = flatten_graph(graph, _pad(boxes), table)
-        self.events = np.zeros((N_EVENTS, len(graph.nodes)), dtype=np.int64)   # all traces
+        self.events = no_events(len(graph.nodes))      # of all traces so far
         kids = int(self.flat.max_children)
         self.stack_depth = int(stack_depth or kids + (self.max_depth + 2) * min(kids, 16) + 32)
+        self.interval_rows = int(interval_rows)
+        self.max_instances = int(max_instances)
+        # what the kernels get (limits.LIM_*)
+        self.limits = np.array([self.stack_depth, self.interval_rows, self.max_instances],
+                               dtype=np.int64)
 
     @property
     def material_names(self) -> list[str]:
@@ -78,16 +85,15 @@ class Traced:
             raise ValueError(f"origins {o.shape} and directions {d.shape} differ")
         n = len(o)
         out = np.empty((n, R_WIDTH))      # the kernel writes every row in full
-        events = np.zeros((N_EVENTS, len(self.graph.nodes)), dtype=np.int64)
+        events = no_events(len(self.graph.nodes))
         for s in range(0, n, BATCH):
             e = min(n, s + BATCH)
-            ev = np.zeros(((e - s + CHUNK - 1) // CHUNK, N_EVENTS, len(self.graph.nodes)),
-                          dtype=np.int64)
+            ev = no_events(len(self.graph.nodes), (e - s + CHUNK - 1) // CHUNK)
             trace_rays(self.flat, o[s:e], d[s:e], float(tmin), float(tmax), bool(any_hit),
-                       float(lod), self.max_depth, self.stack_depth, numba.get_num_threads(),
+                       float(lod), self.max_depth, self.limits, numba.get_num_threads(),
                        out[s:e], ev)
-            events += ev.sum(axis=0)
-        self.events += events
+            add_events(events, ev)
+        add_events(self.events, events)
         return Hits(t=out[:, R_T], normal=out[:, R_N:R_N + 3], paint=out[:, R_PAINT:R_PAINT + 3],
                     material=out[:, R_MAT].astype(np.int64), hit=out[:, R_HIT] > 0,
                     events=events)
@@ -104,7 +110,7 @@ class Traced:
                 label = f"'{n.name}'" if n.kind == SELECT else KIND_NAMES[n.kind]
                 if n.span is not None:
                     label += f" at {g.source.locate(n.span[0])}"
-                names.append(label)
+                names.append(f"{label}, depth up to {events[N_EVENTS + kind, i]}")
             return ", ".join(names), int(events[kind].sum())
 
         lines = []
@@ -117,25 +123,36 @@ class Traced:
                           "number ({w})",
             EV_SINGULAR: "{n:,} instances were empty because of a singular transformation ({w})",
             EV_NONFINITE: "{n:,} instances were empty because of a non-finite argument ({w})",
-            EV_STACK: "walk stack full {n:,} times ({w}); raise --stack-depth (now {s})",
-            EV_INTERVALS: "interval lists full {n:,} times ({w}); an ∩ or \\ subtree has "
-                          "too many pieces along one ray",
+            EV_STACK: "walk stack full {n:,} times ({w}); the rays lost what lay beyond; "
+                      "raise --stack-depth (now {s})",
+            EV_INTERVALS: "interval lists full {n:,} times ({w}): an ∩ or \\ subtree has "
+                          "too many pieces along one ray; raise --interval-rows (now {r})",
+            EV_VISITS: "{n:,} rays stopped after entering --max-instances {v:,} instances "
+                       "({w}), the rest of their walk taken as empty: a cycle that neither "
+                       "ends nor contracts? raise --max-instances to go on",
         }
         for kind, text in texts.items():
             if kinds is not None and kind not in kinds:
                 continue
             w, n = where(kind)
             if n:
-                lines.append(text.format(n=n, w=w, d=self.max_depth, s=self.stack_depth))
+                lines.append(text.format(n=n, w=w, d=self.max_depth, s=self.stack_depth,
+                                         r=self.interval_rows, v=self.max_instances))
         return lines
 
 
-def load(path: str | Path, max_depth: int = MAX_DEPTH, **overrides: float) -> Traced:
+def load(path: str | Path, max_depth: int = MAX_DEPTH, stack_depth: int | None = None,
+         interval_rows: int = INTERVAL_ROWS, max_instances: int = MAX_INSTANCES,
+         **overrides: float) -> Traced:
     """Compile a .pcsg file (raising PcsgError on errors) and prepare it for tracing.
-    Keyword arguments override initial parameters, like --set."""
-    return Traced(compile_file(path, overrides), max_depth=max_depth)
+    Keyword arguments override initial parameters, like --set; the others are the
+    render options of the same names."""
+    return Traced(compile_file(path, overrides), max_depth, stack_depth, interval_rows,
+                  max_instances)
 
 
 def loads(text: str, file: str = "<string>", max_depth: int = MAX_DEPTH,
-          **overrides: float) -> Traced:
-    return Traced(compile_text(text, file, overrides), max_depth=max_depth)
+          stack_depth: int | None = None, interval_rows: int = INTERVAL_ROWS,
+          max_instances: int = MAX_INSTANCES, **overrides: float) -> Traced:
+    return Traced(compile_text(text, file, overrides), max_depth, stack_depth, interval_rows,
+                  max_instances)

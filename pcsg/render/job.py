@@ -9,13 +9,17 @@ from pathlib import Path
 import numpy as np
 
 from ..compiler import compile_file
-from ..trace.nodes import EV_NONFINITE, EV_SELECTION, EV_SINGULAR
+from ..trace.nodes import (EV_INTERVALS, EV_NONFINITE, EV_SELECTION, EV_SINGULAR, EV_STACK,
+                           EV_VISITS)
+from ..limits import (INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, MAX_INTERVAL_ROWS,
+                      MAX_STACK_DEPTH)
 from ..tracer import Hits, Traced
 from .camera import make_camera
 from .image import Progress, render_frame, write_depth, write_png
 from .shade import make_lighting
 
-RUNTIME_ERRORS = (EV_SELECTION, EV_NONFINITE, EV_SINGULAR)
+RUNTIME_ERRORS = (EV_SELECTION, EV_NONFINITE, EV_SINGULAR, EV_STACK, EV_INTERVALS, EV_VISITS)
+
 MAX_PIXELS = 64_000_000
 BYTES_PER_PIXEL = 120        # frame buffers and per-batch ray arrays, measured roughly
 
@@ -32,7 +36,7 @@ class Options:
     fov: float | None = None
     alpha: bool = False
     depth: Path | None = None
-    max_depth: int = 64
+    max_depth: int = MAX_DEPTH
     shadows: bool = True
     shadow_samples: int = 8
     bounces: int = 3
@@ -40,6 +44,9 @@ class Options:
     reference: bool = False
     strict: bool = False            # runtime errors in the grammar fail the render
     timeout: float | None = None    # seconds per file; past it nothing is written
+    stack_depth: int | None = None  # None: Traced's default
+    interval_rows: int = INTERVAL_ROWS
+    max_instances: int = MAX_INSTANCES
 
 
 class RenderFailed(Exception):
@@ -64,6 +71,12 @@ def check_options(o: Options) -> str | None:
         return f"--shadow-samples {o.shadow_samples}: use 1 to 256"
     if not 1 <= o.max_depth <= 10_000:
         return f"--max-depth {o.max_depth}: use 1 to 10000"
+    if o.stack_depth is not None and not 16 <= o.stack_depth <= MAX_STACK_DEPTH:
+        return f"--stack-depth {o.stack_depth}: use 16 to {MAX_STACK_DEPTH}"
+    if not 16 <= o.interval_rows <= MAX_INTERVAL_ROWS:
+        return f"--interval-rows {o.interval_rows}: use 16 to {MAX_INTERVAL_ROWS}"
+    if not 1 <= o.max_instances <= 2 ** 62:
+        return f"--max-instances {o.max_instances}: give a positive number"
     if o.fov is not None and not 0 < o.fov < 180:
         return f"--fov {o.fov}: the vertical field of view is between 0 and 180 degrees"
     return None
@@ -81,7 +94,8 @@ def render_file(path: Path, out: Path, opts: Options) -> tuple[str, list[str]]:
     deadline = None if opts.timeout is None else time.perf_counter() + opts.timeout
     graph = compile_file(path, opts.overrides)
     notes = [w.format(show_source=False) for w in graph.warnings]
-    traced = Traced(graph, max_depth=opts.max_depth)
+    traced = Traced(graph, opts.max_depth, opts.stack_depth, opts.interval_rows,
+                    opts.max_instances)
     notes += [w.format(show_source=False) for w in traced.warnings
               if w not in graph.warnings]
     target = traced

@@ -127,7 +127,7 @@ def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: 
 
 def _shade_kernel(traced, light: Lighting, origins, directions):
     from ..trace.shading import CHUNK, shade_rays
-    from ..trace.nodes import N_EVENTS
+    from ..trace.nodes import add_events, no_events
     o = np.ascontiguousarray(origins, dtype=np.float64)
     d = np.ascontiguousarray(directions, dtype=np.float64)
     n = len(o)
@@ -140,13 +140,13 @@ def _shade_kernel(traced, light: Lighting, origins, directions):
     hit = np.empty(n, dtype=np.bool_)
     chunks = (n + CHUNK - 1) // CHUNK
     rays = np.zeros(chunks, dtype=np.int64)
-    events = np.zeros((chunks, N_EVENTS, len(traced.graph.nodes)), dtype=np.int64)
+    events = no_events(len(traced.graph.nodes), chunks)
     shade_rays(traced.flat, o, d, lights, np.asarray(light.horizon, float),
                np.asarray(light.zenith, float), np.ascontiguousarray(materials, dtype=float),
                default, bool(light.shadows), int(light.shadow_samples), int(light.max_bounces),
-               float(light.lod), traced.max_depth, traced.stack_depth, numba.get_num_threads(),
+               float(light.lod), traced.max_depth, traced.limits, numba.get_num_threads(),
                AMBIENT, rgb, t, hit, rays, events)
-    traced.events += events.sum(axis=0)
+    add_events(traced.events, events)
     light.rays[0] += int(rays.sum())
     return rgb, t, Hits(t=t, normal=None, paint=None, material=None, hit=hit)
 

@@ -23,9 +23,31 @@ F_WIDTH = 23
 NODE, SLOT, LEVEL, MAT, CUT, PHASE = 0, 1, 2, 3, 4, 5
 I_WIDTH = 6
 
-# event kinds, counted per node and reported once per render
-EV_LOD, EV_DEPTH, EV_STACK, EV_INTERVALS, EV_SINGULAR, EV_SELECTION, EV_NONFINITE = range(7)
-N_EVENTS = 7
+# event kinds, counted per node and reported once per render. An events array has
+# 2 * N_EVENTS rows per node: the counts, then the deepest level each kind was met at.
+(EV_LOD, EV_DEPTH, EV_STACK, EV_INTERVALS, EV_SINGULAR, EV_SELECTION, EV_NONFINITE,
+ EV_VISITS) = range(8)
+N_EVENTS = 8
+
+
+@inline
+def note(ev, kind, node, level):
+    ev[kind, node] += 1
+    ev[N_EVENTS + kind, node] = max(ev[N_EVENTS + kind, node], level)
+
+
+def no_events(nodes: int, chunks: int | None = None) -> np.ndarray:
+    shape = (2 * N_EVENTS, nodes) if chunks is None else (chunks, 2 * N_EVENTS, nodes)
+    return np.zeros(shape, dtype=np.int64)
+
+
+def add_events(total: np.ndarray, ev: np.ndarray) -> np.ndarray:
+    """Fold events (one array, or per-chunk arrays) into total: counts add, levels max."""
+    if ev.ndim == 3:
+        ev = np.concatenate([ev[:, :N_EVENTS].sum(axis=0), ev[:, N_EVENTS:].max(axis=0)])
+    total[:N_EVENTS] += ev[:N_EVENTS]
+    np.maximum(total[N_EVENTS:], ev[N_EVENTS:], out=total[N_EVENTS:])
+    return total
 
 
 @inline
@@ -54,6 +76,8 @@ def box_window(boxes, b, F, f):
         d = F[f, DX + a]
         lo = boxes[b, a]
         hi = boxes[b, a + 3]
+        if lo > hi:         # an empty box: the slabs below would make it all of space
+            return np.inf, -np.inf
         if d == 0.0:
             if o < lo or o > hi:
                 return np.inf, -np.inf

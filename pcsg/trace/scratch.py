@@ -7,9 +7,9 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from ..limits import LIM_INSTANCES, LIM_ROWS, LIM_STACK
 from .nodes import F_WIDTH, I_WIDTH
 
-INTERVAL_ROWS = 4096
 IV_WIDTH = 16
 CALC_CACHE_SLOTS = 4096      # a power of two
 
@@ -17,7 +17,7 @@ Scratch = namedtuple("Scratch", [
     "params",   # (2 * stack, n_params) parameter states by slot
     "F", "I", "H",          # the first-hit walk's frames (nodes.py columns)
     "Fi", "Ii", "Hi",       # the interval walk's frames
-    "iv",       # (INTERVAL_ROWS, IV_WIDTH) interval lists of ∩ and \\ subtrees
+    "iv",       # (interval_rows, IV_WIDTH) interval lists of ∩ and \\ subtrees
     "lists",    # (stack + 1, 2) their [start, count] stack
     "stack",    # the expression machine's value stack
     "args",     # T- and paint-node arguments
@@ -25,11 +25,13 @@ Scratch = namedtuple("Scratch", [
     "out8",     # a primitive's hit
     "order", "keys", "hashes",  # union children sorted by their window, their hashes
     "ckeys", "cvals",       # the cache of calculated states (nodes.cached_calc)
+    "visits",   # [S-node instances the current ray entered, the most it may]
 ])
 
 
 @njit(cache=True, error_model="numpy")
-def make_scratch(flat, stack_depth):
+def make_scratch(flat, limits):
+    stack_depth = limits[LIM_STACK]
     slots = CALC_CACHE_SLOTS if flat.calc_cache.any() else 1
     return Scratch(
         np.full((2 * stack_depth, flat.n_params), np.nan),
@@ -37,8 +39,9 @@ def make_scratch(flat, stack_depth):
         np.zeros(stack_depth, dtype=np.uint64),
         np.empty((stack_depth, F_WIDTH)), np.zeros((stack_depth, I_WIDTH), dtype=np.int64),
         np.zeros(stack_depth, dtype=np.uint64),
-        np.empty((INTERVAL_ROWS, IV_WIDTH)), np.zeros((stack_depth + 1, 2), dtype=np.int64),
+        np.empty((limits[LIM_ROWS], IV_WIDTH)), np.zeros((stack_depth + 1, 2), dtype=np.int64),
         np.empty(flat.max_stack), np.empty(12), np.empty((3, 4)), np.empty(8),
         np.empty(flat.max_children, dtype=np.int64), np.empty((flat.max_children, 2)),
         np.empty(flat.max_children, dtype=np.uint64),
-        np.zeros(slots, dtype=np.uint64), np.empty((slots, flat.n_params)))
+        np.zeros(slots, dtype=np.uint64), np.empty((slots, flat.n_params)),
+        np.array([0, limits[LIM_INSTANCES]], dtype=np.int64))

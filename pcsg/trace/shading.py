@@ -36,14 +36,14 @@ def trace_one(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, default,
-               shadows, shadow_samples, max_bounces, lod, max_depth, stack_depth, workers,
-               ambient, rgb, first_t, first_hit_out, rays, events):
+               shadows, shadow_samples, max_bounces, lod, max_depth, limits, workers, ambient,
+               rgb, first_t, first_hit_out, rays, events):
     """rgb[i] = the linear colour of camera ray i; first_t / first_hit_out its first hit;
     rays[chunk] = rays traced; events[chunk] as trace_rays."""
     n = origins.shape[0]
     chunks = (n + CHUNK - 1) // CHUNK
     for w in prange(workers):
-        S = make_scratch(flat, stack_depth)
+        S = make_scratch(flat, limits)
         res = np.empty((1, R_WIDTH))
         pend = np.empty((2 * max_bounces + 2, 10))
         for c in range(w, chunks, workers):

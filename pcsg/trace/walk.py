@@ -16,9 +16,9 @@ from ..graph.model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, PAINT as PA
 from . import vm
 from .jit import inline, kernel
 from .nodes import (CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
-                    EV_SINGULAR, EV_STACK, F_WIDTH, I_WIDTH, LEVEL, M0, MAT, NODE, OX, PAINT,
+                    EV_SINGULAR, EV_STACK, EV_VISITS, F_WIDTH, I_WIDTH, LEVEL, M0, MAT, NODE, OX, PAINT,
                     PHASE, SLOT, T0, T1, box_normal, box_window, copy_frame, enter_paint,
-                    enter_transform, instance_window, pick_rule, cached_calc, set_inverse,
+                    enter_transform, instance_window, note, pick_rule, cached_calc, set_inverse,
                     world_normal, world_size)
 from .primitives import intersect
 from .scratch import IV_WIDTH
@@ -34,19 +34,26 @@ R_WIDTH = 9
 
 
 @inline
-def choose_rule(flat, node, F, I, H, f, params, stack, lod, dnorm, max_depth, t_enter, ev):
+def choose_rule(flat, node, F, I, H, f, S, lod, dnorm, max_depth, t_enter, ev):
     """The S-node's rule for frame f: >= 0 a rule, -1 the instance is empty, -2 hit its box.
     Past the depth bound or below the pixel footprint the walk stops refining and
-    follows the rule that ends soonest (graph/terminating.py)."""
+    follows the rule that ends soonest (graph/terminating.py). Past the ray's budget
+    of instances every instance is empty, so that the walk ends."""
+    params, stack, visits = S.params, S.stack, S.visits
     level = I[f, LEVEL] + 1
     I[f, LEVEL] = level
+    visits[0] += 1
+    if visits[0] > visits[1]:
+        if visits[0] == visits[1] + 1:
+            note(ev, EV_VISITS, node, level)
+        return -1
     if I[f, CUT] == 0:
         if level > max_depth:
             I[f, CUT] = 1
-            ev[EV_DEPTH, node] += 1
+            note(ev, EV_DEPTH, node, level)
         elif lod > 0.0 and world_size(flat.box, node, F, f) < lod * dnorm * max(t_enter, 0.0):
             I[f, CUT] = 1
-            ev[EV_LOD, node] += 1
+            note(ev, EV_LOD, node, level)
     if I[f, CUT] == 1:
         r = flat.term_rule[node]
         if r < 0:
@@ -56,7 +63,7 @@ def choose_rule(flat, node, F, I, H, f, params, stack, lod, dnorm, max_depth, t_
         return r
     r = pick_rule(flat, node, params, I[f, SLOT], H[f], stack)
     if r < 0:
-        ev[EV_SELECTION, node] += 1
+        note(ev, EV_SELECTION, node, level)
         return -1
     return r
 
@@ -77,7 +84,7 @@ def step_unary(flat, node, kind, F, I, H, f, slot_base, S, ev):
     if kind == TRANSFORM:
         bad = enter_transform(flat, node, F, f, params, I[f, SLOT], H[f], stack, args, m34)
         if bad != 0:
-            ev[EV_NONFINITE if bad == 1 else EV_SINGULAR, node] += 1
+            note(ev, EV_NONFINITE if bad == 1 else EV_SINGULAR, node, I[f, LEVEL])
             return False
     elif kind == CALC:
         cached_calc(flat, node, params, I[f, SLOT], slot_base + f, H[f], stack, S.ckeys,
@@ -85,7 +92,7 @@ def step_unary(flat, node, kind, F, I, H, f, slot_base, S, ev):
         I[f, SLOT] = slot_base + f
     elif kind == PAINT_NODE:
         if not enter_paint(flat, node, F, f, params, I[f, SLOT], H[f], stack, args):
-            ev[EV_NONFINITE, node] += 1
+            note(ev, EV_NONFINITE, node, I[f, LEVEL])
             return False
     elif kind == MATERIAL:
         I[f, MAT] = flat.code[node]
@@ -219,7 +226,7 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, S, lod, dnorm, max_depth, ev):
                         set_end(iv, top, 1, b, F, I, f, r[5], r[6], r[7])
                         n = 1
                     elif a <= b:
-                        ev[EV_INTERVALS, node] += 1
+                        note(ev, EV_INTERVALS, node, I[f, LEVEL])
                 ls = push_list(lists, ls, top, n)
                 top += n
                 sp -= 1
@@ -230,7 +237,7 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, S, lod, dnorm, max_depth, ev):
                     ls = push_list(lists, ls, top, 0)
                     sp -= 1
                     continue
-                r = choose_rule(flat, node, F, I, H, f, params, stack, lod, dnorm, max_depth,
+                r = choose_rule(flat, node, F, I, H, f, S, lod, dnorm, max_depth,
                                 t0, ev)
                 if r == -2:         # a graftal below the footprint: its box is the solid
                     n = 0
@@ -240,6 +247,8 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, S, lod, dnorm, max_depth, ev):
                         nx, ny, nz = box_normal(flat.box, node, F, f, t1)
                         set_end(iv, top, 1, t1, F, I, f, nx, ny, nz)
                         n = 1
+                    else:
+                        note(ev, EV_INTERVALS, node, I[f, LEVEL])
                     ls = push_list(lists, ls, top, n)
                     top += n
                     sp -= 1
@@ -253,7 +262,7 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, S, lod, dnorm, max_depth, ev):
                 continue
             if kind == UNION or kind == INTERSECTION or kind == DIFFERENCE:
                 if sp >= cap_f:
-                    ev[EV_STACK, node] += 1
+                    note(ev, EV_STACK, node, I[f, LEVEL])
                     ls = push_list(lists, ls, top, 0)
                     sp -= 1
                     continue
@@ -271,7 +280,7 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, S, lod, dnorm, max_depth, ev):
             b0, nb = lists[ls - 1, 0], lists[ls - 1, 1]
             op = 0 if kind == UNION else (1 if kind == INTERSECTION else 2)
             if top + na + nb > cap_iv:
-                ev[EV_INTERVALS, node] += 1
+                note(ev, EV_INTERVALS, node, I[f, LEVEL])
                 n = na                      # keep the accumulator as it was
             else:
                 n = combine(iv, a0, na, b0, nb, top, op)
@@ -347,6 +356,7 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
     H[0] = vm.ROOT_HASH
     for k in range(params.shape[1]):
         params[0, k] = np.nan
+    S.visits[0] = 0
     best = tmax
     hit = False
     sp = 1
@@ -393,7 +403,7 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
                 t0, t1 = instance_window(flat, node, H[f], F, f, t0, t1)
                 if t0 > t1:
                     break
-                r = choose_rule(flat, node, F, I, H, f, params, stack, lod, dnorm, max_depth,
+                r = choose_rule(flat, node, F, I, H, f, S, lod, dnorm, max_depth,
                                 t0, ev)
                 if r == -2:
                     if t0 > tmin and t0 < best:
@@ -413,7 +423,7 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
             if kind == UNION:
                 n = flat.child_count[node]
                 if sp + n > cap:
-                    ev[EV_STACK, node] += 1
+                    note(ev, EV_STACK, node, I[f, LEVEL])
                     break
                 # nearest box first: sort the children that the window meets by entry
                 m = 0

@@ -1,0 +1,13 @@
+"""Defaults and bounds of the walk's fixed-capacity buffers, in a module without numba
+so that the command line can name them in its help without loading the kernels."""
+
+MAX_DEPTH = 64                  # derivation levels a ray may descend (--max-depth)
+INTERVAL_ROWS = 4096            # interval-list rows per worker (--interval-rows)
+MAX_INSTANCES = 1 << 16         # S-node instances one ray may enter (--max-instances): a
+                                # system that neither ends nor contracts stops there, not
+                                # after 2^64 instances; the samples need at most a few
+                                # hundred per ray
+MAX_STACK_DEPTH = 100_000       # --stack-depth at most: ~40 MB of frames per worker
+MAX_INTERVAL_ROWS = 1_000_000   # --interval-rows at most: 128 MB per worker
+# the kernels take the three as one array: limits[LIM_STACK], ...
+LIM_STACK, LIM_ROWS, LIM_INSTANCES = 0, 1, 2

@@ -1,0 +1,109 @@
+"""The walk's fixed-capacity buffers: an overflow ends the ray's walk there, is counted,
+and is reported once with where it happened and the option that raises the limit."""
+import numpy as np
+import pytest
+
+import pcsg
+from pcsg.cli import main
+from pcsg.trace.nodes import EV_INTERVALS, EV_STACK, EV_VISITS
+
+ROW = """// a row of spheres along x, built by recursion
+{ n = 40 } ROW
+ROW if(n > 0, 2, 1)
+1: ROW → sphere
+2: ROW → sphere ∪ { n = n - 1 } move(2.5, 0, 0) ROW
+"""
+# the same row clipped: a ray along it meets 41 pieces inside one ∩
+CLIPPED = ROW.replace("{ n = 40 } ROW", "{ n = 40 } (ROW ∩ scale(200, 2, 2) cube)")
+
+
+def test_a_full_walk_stack_is_reported_with_the_option_that_raises_it():
+    # seen from the far end, every level leaves its own sphere pending on the stack
+    o, d = [[200.0, 0, 0]], [[-1.0, 0, 0]]
+    full = pcsg.loads(ROW).trace(o, d)
+    assert full.events[EV_STACK].sum() == 0 and full.t[0] == pytest.approx(99.0)
+    small = pcsg.loads(ROW, "row.pcsg", stack_depth=16)
+    h = small.trace(o, d)
+    assert h.events[EV_STACK].sum() == 1
+    assert h.hit[0] and h.t[0] > full.t[0]        # it lost the far spheres, nothing else
+    (line,) = small.describe_events(h.events)
+    assert line.startswith("walk stack full 1 times (union at row.pcsg:5:17, depth up to ")
+    assert line.endswith("raise --stack-depth (now 16)")
+
+
+def test_full_interval_lists_are_reported_with_the_option_that_raises_it():
+    o, d = [[-5.0, 0, 0]], [[1.0, 0, 0]]
+    assert pcsg.loads(CLIPPED).trace(o, d).events[EV_INTERVALS].sum() == 0
+    small = pcsg.loads(CLIPPED, "row.pcsg", interval_rows=16)
+    h = small.trace(o, d)
+    assert h.events[EV_INTERVALS].sum() > 0 and h.t[0] == pytest.approx(4.0)
+    (line,) = small.describe_events(h.events)
+    assert "primitive at row.pcsg:4:10, depth up to 41" in line
+    assert line.endswith("raise --interval-rows (now 16)")
+
+
+def test_the_render_names_the_overflow_and_strict_fails_on_it(capsys, tmp_path):
+    src = tmp_path / "row.pcsg"
+    src.write_text(ROW.replace("{ n = 40 } ROW", "{ n = 40 } move(-50, 0, 0) ROW"),
+                   encoding="utf-8")
+    out = tmp_path / "row.png"
+    args = ["render", str(src), "-o", str(out), "--size", "48x24", "-q", "--no-shadows",
+            "--eye", "120,0,0", "--at", "0,0,0", "--fov", "20"]
+    assert main(args) == 0
+    assert "walk stack full" not in capsys.readouterr().err
+    before = out.read_bytes()
+    assert main(args + ["--stack-depth", "16"]) == 0
+    err = capsys.readouterr().err
+    assert "walk stack full" in err and "raise --stack-depth (now 16)" in err
+    assert out.read_bytes() != before
+    out.unlink()
+    assert main(args + ["--stack-depth", "16", "--strict"]) == 1
+    assert "walk stack full" in capsys.readouterr().err and not out.exists()
+
+
+@pytest.mark.parametrize("flag, value", [("--stack-depth", "4"), ("--stack-depth", "10000000"),
+                                         ("--interval-rows", "0"),
+                                         ("--interval-rows", "100000000"),
+                                         ("--max-instances", "0")])
+def test_buffer_sizes_out_of_range_are_usage_errors(capsys, flag, value):
+    assert main(["render", "x.pcsg", flag, value]) == 2
+    assert flag in capsys.readouterr().err
+
+
+def test_the_events_keep_the_deepest_level_across_chunks():
+    from pcsg.trace.nodes import N_EVENTS, add_events, no_events
+    ev = no_events(2, chunks=3)
+    ev[0, EV_STACK, 1], ev[0, N_EVENTS + EV_STACK, 1] = 2, 7
+    ev[2, EV_STACK, 1], ev[2, N_EVENTS + EV_STACK, 1] = 1, 3
+    total = add_events(no_events(2), ev)
+    assert total[EV_STACK, 1] == 3 and total[N_EVENTS + EV_STACK, 1] == 7
+    assert np.count_nonzero(total) == 2
+
+
+ENDLESS = """// neither ends nor contracts: 2^depth instances behind every ray that misses
+{ n = 1 } S
+S 1
+1: S → sphere ∪ move(3, 0, 0) S ∪ move(0, 3, 0) S
+"""
+
+
+def test_a_ray_stops_after_its_budget_of_instances():
+    obj = pcsg.loads(ENDLESS, "endless.pcsg", max_instances=2000)
+    h = obj.trace([[-5.0, -5, 5], [-5, 0, 0]], [[0.3, 0.3, 1], [1, 0, 0]])
+    # unbounded boxes prune nothing: both rays run out, the second keeps the hit it found
+    assert h.events[EV_VISITS].sum() == 2
+    assert list(h.hit) == [False, True] and h.t[1] == pytest.approx(4.0)
+    line = obj.describe_events(h.events)[-1]
+    assert line.startswith("2 rays stopped after entering --max-instances 2,000 instances "
+                           "('S' at endless.pcsg:3:1, depth up to ")
+    assert line.endswith("raise --max-instances to go on")
+
+
+def test_a_system_without_primitives_is_empty_not_endless():
+    """Its boxes are empty; an empty box must cull every ray (a slab test alone would
+    make it all of space and the walk would descend 2^64 instances)."""
+    obj = pcsg.loads("{ n = 1 } S\nS 1\n"
+                     "1: S → move(1, 0, 0) uscale(0.5) S ∪ move(-1, 0, 0) uscale(0.5) S\n",
+                     max_instances=100)
+    h = obj.trace([[-5.0, 0, 0], [0, 0, 5]], [[1.0, 0, 0], [0, 0, -1]])
+    assert not h.hit.any() and h.events.sum() == 0
