@@ -9,4 +9,5 @@ python -m pytest || exit $?
 # The kernel tests run once more with the checks compiled in (their own kernel cache).
 NUMBA_BOUNDSCHECK=1 NUMBA_CACHE_DIR="$PWD/.venv/numba-boundscheck" \
     python -m pytest -p no:cacheprovider tests/test_tracer.py tests/test_shading.py \
-    tests/test_reference.py tests/test_vm.py tests/test_primitives.py tests/test_limits.py
+    tests/test_reference.py tests/test_vm.py tests/test_primitives.py tests/test_limits.py \
+    tests/test_fuzz_systems.py

@@ -28,6 +28,10 @@ Semantics (the contract the tracer is compared on)
   next one is; with trace(..., exits=True) such a ray reports instead where
   it leaves the solid (t_out < tmax, the outward normal there). For a flat triangle the normal is turned so that
   dot(normal, d) <= 0; a solid's normal is the CSG outward normal as is.
+- Coincident surfaces: on a tie a union keeps its first operand's end; the graph
+  tracer, which visits operands nearest box first, may show the other one. `tie`
+  marks the rays whose hit has another surface of a different paint or material at
+  the same t.
 - Misses: hit False, t inf, normal nan, paint nan, material -1, primitive ''.
 """
 from __future__ import annotations
@@ -147,7 +151,7 @@ class Reference:
         res = {"hit": np.zeros(n, dtype=bool), "t": np.full(n, np.inf),
                "normal": np.full((n, 3), np.nan), "paint": np.full((n, 3), np.nan),
                "material": np.full(n, -1, dtype=np.int64),
-               "primitive": np.full(n, "", dtype=object)}
+               "primitive": np.full(n, "", dtype=object), "tie": np.zeros(n, dtype=bool)}
         for a in range(0, n, _CHUNK):
             self._trace_chunk(O[a:a + _CHUNK], D[a:a + _CHUNK], float(tmin), float(tmax),
                               bool(exits), res, a)
@@ -221,7 +225,26 @@ class Reference:
                         res["paint"][j] = leaf.paint
                     res["material"][j] = leaf.material
                     res["primitive"][j] = leaf.name
+                    res["tie"][j] = _tie(leaf_hits, k, leaf, t0)
                     break
+
+
+def _tie(leaf_hits, k, leaf, t) -> bool:
+    """Whether another leaf of a different paint or material has a surface at t too
+    (coincident surfaces): the graph tracer, which visits union operands nearest box
+    first, may then show either; the oracle compares paint and material elsewhere."""
+    eps = 1e-9 * max(1.0, abs(t))
+    for hits in leaf_hits.values():
+        iv = hits[k]
+        if iv is None or iv[1][1] is leaf:
+            continue
+        other = iv[1][1]
+        if (abs(iv[0] - t) <= eps or abs(iv[2] - t) <= eps) and (
+                other.material != leaf.material or
+                not np.array_equal(np.asarray(other.paint, float), np.asarray(leaf.paint, float),
+                                   equal_nan=True)):
+            return True
+    return False
 
 
 # ---- Roth's interval CSG on sorted lists of disjoint closed intervals ----------------

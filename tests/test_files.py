@@ -1,0 +1,112 @@
+"""Files and batches: bad inputs and outputs give one clear line each, no partial PNG
+is ever left, an earlier good image is never destroyed, and one failure in a batch
+never stops the others."""
+import os
+import resource
+import signal
+import subprocess
+import sys
+
+import pytest
+
+from pcsg.cli import main
+
+from .conftest import ROOT
+
+SPHERE = "sphere\n"
+FAST = ["--size", "64x48", "-q", "--no-shadows"]
+
+
+def _leftovers(directory):
+    return [p.name for p in directory.iterdir() if p.name.endswith(".part")]
+
+
+def test_a_directory_given_as_input_fails_alone(capsys, tmp_path):
+    good = tmp_path / "good.pcsg"
+    good.write_text(SPHERE, encoding="utf-8")
+    (tmp_path / "dir.pcsg").mkdir()
+    out = tmp_path / "out"
+    code = main(["render", str(tmp_path / "dir.pcsg"), str(good), "-o", f"{out}/", *FAST])
+    captured = capsys.readouterr()
+    assert code == 1
+    assert "dir.pcsg" in captured.err and "is a directory" in captured.err
+    assert "Traceback" not in captured.err
+    assert (out / "good.png").exists() and not (out / "dir.png").exists()
+    assert "rendered 1 of 2 files" in captured.out
+
+
+def test_an_output_directory_that_is_a_file(capsys, tmp_path):
+    src = tmp_path / "s.pcsg"
+    src.write_text(SPHERE, encoding="utf-8")
+    blocker = tmp_path / "renders"
+    blocker.write_text("not a directory", encoding="utf-8")
+    code = main(["render", str(src), "-o", f"{blocker}/", *FAST])
+    err = capsys.readouterr().err
+    assert code == 1 and "Traceback" not in err
+    assert "renders" in err and ("Not a directory" in err or "File exists" in err)
+    assert blocker.read_text(encoding="utf-8") == "not a directory"
+
+
+def test_an_output_file_in_a_missing_directory(capsys, tmp_path):
+    src = tmp_path / "s.pcsg"
+    src.write_text(SPHERE, encoding="utf-8")
+    code = main(["render", str(src), "-o", str(tmp_path / "no" / "s.png"), *FAST])
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err      # said before anything is rendered
+    assert f"the directory {tmp_path / 'no'} does not exist" in err
+
+
+def _limit_file_size(limit):
+    def apply():
+        # a file may not grow past `limit` bytes: a write beyond fails with EFBIG, as it
+        # would with ENOSPC on a full disk (SIGXFSZ ignored, or it would kill the process)
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+    return apply
+
+
+def test_a_write_that_fails_midway_keeps_the_earlier_image(tmp_path):
+    src = tmp_path / "s.pcsg"
+    src.write_text("paint(1, 0.3, 0.2) sphere ∪ move(1.5, 0, 0) cube\n", encoding="utf-8")
+    first = tmp_path / "first.pcsg"
+    first.write_text(SPHERE, encoding="utf-8")
+    out = tmp_path / "out"
+    out.mkdir()
+    earlier = b"an earlier good image"
+    (out / "s.png").write_bytes(earlier)
+    cmd = [sys.executable, "-m", "pcsg", "render", str(first), str(src), "-o", f"{out}/",
+           "--size", "320x240", "-q", "--no-shadows"]
+    # PNGs of a plain sphere at 320x240 are a few kB; allow 1 kB
+    proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=600,
+                          preexec_fn=_limit_file_size(1024))
+    assert proc.returncode == 1, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert "s.pcsg: File too large" in proc.stderr and "first.pcsg: File too large" in \
+        proc.stderr                         # both tried: the first failure stopped nothing
+    assert (out / "s.png").read_bytes() == earlier
+    assert not (out / "first.png").exists() and _leftovers(out) == []
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A real 64 kB file system (tmpfs), where this machine lets us mount one."""
+    mnt = tmp_path / "disk"
+    mnt.mkdir()
+    if os.geteuid() != 0 or subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs",
+                                            str(mnt)], capture_output=True).returncode != 0:
+        pytest.skip("cannot mount a small tmpfs here (needs root)")
+    yield mnt
+    subprocess.run(["umount", str(mnt)], check=True)
+
+
+def test_a_full_disk_keeps_the_earlier_image(capsys, tmp_path, small_disk):
+    src = tmp_path / "s.pcsg"
+    src.write_text("paint(1, 0.3, 0.2) sphere ∪ move(1.5, 0, 0) cube\n", encoding="utf-8")
+    earlier = small_disk / "s.png"
+    earlier.write_bytes(b"an earlier good image")
+    (small_disk / "filler").write_bytes(b"\0" * 56 * 1024)      # leaves ~8 kB free
+    code = main(["render", str(src), "-o", str(earlier), "--size", "320x240", "-q"])
+    err = capsys.readouterr().err
+    assert code == 1 and "No space left on device" in err and "Traceback" not in err
+    assert earlier.read_bytes() == b"an earlier good image"
+    assert _leftovers(small_disk) == []
