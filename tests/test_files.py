@@ -87,16 +87,33 @@ def test_a_write_that_fails_midway_keeps_the_earlier_image(tmp_path):
     assert not (out / "first.png").exists() and _leftovers(out) == []
 
 
+def _mount(mnt, options):
+    """A real tmpfs at mnt, where this machine lets us mount one (root); else skip."""
+    mnt.mkdir()
+    if os.geteuid() != 0 or subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs",
+                                            str(mnt)], capture_output=True).returncode != 0:
+        pytest.skip("cannot mount a tmpfs here (needs root)")
+    return mnt
+
+
 @pytest.fixture
 def small_disk(tmp_path):
-    """A real 64 kB file system (tmpfs), where this machine lets us mount one."""
-    mnt = tmp_path / "disk"
-    mnt.mkdir()
-    if os.geteuid() != 0 or subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs",
-                                            str(mnt)], capture_output=True).returncode != 0:
-        pytest.skip("cannot mount a small tmpfs here (needs root)")
-    yield mnt
-    subprocess.run(["umount", str(mnt)], check=True)
+    yield _mount(tmp_path / "disk", "size=64k")
+    subprocess.run(["umount", str(tmp_path / "disk")], check=True)
+
+
+def test_an_output_directory_that_cannot_be_written(capsys, tmp_path):
+    """Read-only (permissions do not stop root, who runs CI here; a read-only mount does)."""
+    mnt = _mount(tmp_path / "ro", "size=64k,ro")
+    try:
+        src = tmp_path / "s.pcsg"
+        src.write_text(SPHERE, encoding="utf-8")
+        code = main(["render", str(src), "-o", str(mnt / "s.png"), *FAST])
+        err = capsys.readouterr().err
+        assert code == 1 and "Read-only file system" in err and "Traceback" not in err
+        assert list(mnt.iterdir()) == []
+    finally:
+        subprocess.run(["umount", str(mnt)], check=True)
 
 
 def test_a_full_disk_keeps_the_earlier_image(capsys, tmp_path, small_disk):

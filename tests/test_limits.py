@@ -5,6 +5,7 @@ import pytest
 
 import pcsg
 from pcsg.cli import main
+from pcsg.graph import bounds
 from pcsg.trace.nodes import EV_INTERVALS, EV_STACK, EV_VISITS
 
 ROW = """// a row of spheres along x, built by recursion
@@ -99,11 +100,15 @@ def test_a_ray_stops_after_its_budget_of_instances():
     assert line.endswith("raise --max-instances to go on")
 
 
-def test_a_system_without_primitives_is_empty_not_endless():
-    """Its boxes are empty; an empty box must cull every ray (a slab test alone would
-    make it all of space and the walk would descend 2^64 instances)."""
+def test_an_empty_box_culls_every_ray(monkeypatch):
+    """The compiled box walk leaves a graftal empty (only the memoised walk bounds its
+    attractor). An empty box must cull every ray: a slab test alone makes it all of
+    space, and the walk would descend every instance (here: run out of its budget)."""
+    monkeypatch.setattr(bounds, "MAX_STATES", 0)
     obj = pcsg.loads("{ n = 1 } S\nS 1\n"
                      "1: S → move(1, 0, 0) uscale(0.5) S ∪ move(-1, 0, 0) uscale(0.5) S\n",
-                     max_instances=100)
+                     max_depth=12, max_instances=100)
+    assert obj.bounds_method == "every instance"
+    assert obj.bounds[0] > obj.bounds[3]
     h = obj.trace([[-5.0, 0, 0], [0, 0, 5]], [[1.0, 0, 0], [0, 0, -1]])
     assert not h.hit.any() and h.events.sum() == 0

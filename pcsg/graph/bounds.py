@@ -28,6 +28,10 @@ PROBE_STATES = 500     # states after which a walk that almost never meets a sta
                        # (every terrain patch has its own heights) gives up early
 
 
+NOTHING = np.zeros((0, 3))
+SEED = np.zeros((1, 3))         # a point: a graftal's growth starts there
+
+
 class TooManyStates(Exception):
     pass
 
@@ -84,7 +88,10 @@ def _corners(box: np.ndarray) -> np.ndarray:
 
 def transform_bound(m: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Points map exactly (no growth under rotation: the paper's Fig. 9); boxes with
-    infinite sides by interval arithmetic."""
+    infinite sides by interval arithmetic. A non-finite map empties its operand, as in
+    the tracer."""
+    if not np.all(np.isfinite(m)):
+        return EMPTY.copy()
     if b.ndim == 2:
         return b @ m[:3, :3].T + m[:3, 3]
     return transform_box(m, b)
@@ -106,6 +113,7 @@ class _Walker:
         self.d = Deriver(graph)
         self.key = StateKey(graph, geometry=True)
         self.estimate: dict = {}
+        self.seed = NOTHING        # the first estimate of a re-entered state
         self.reset()
 
     def reset(self):
@@ -128,7 +136,7 @@ class _Walker:
             return hit
         if key in self.active:
             self.reentered.add(key)
-            return self.estimate.get(key, np.zeros((0, 3)))
+            return self.estimate.get(key, self.seed)
         if len(self.memo) >= MAX_STATES or level >= MAX_LEVELS or \
                 (len(self.memo) >= PROBE_STATES and self.hits < len(self.memo) // 50):
             raise TooManyStates
@@ -160,26 +168,84 @@ class _Walker:
 
 def _memoised(graph: Graph) -> np.ndarray:
     """Exact boxes by the memoised walk, iterated to a fixed point over re-entered
-    states; TooManyStates when memoising cannot help."""
+    states; TooManyStates when memoising cannot help. A re-entered state that stays
+    empty (a graftal: no primitive below its cycle) is bounded as an IFS attractor."""
     w = _Walker(graph)
-    for _ in range(MAX_ROUNDS):
+
+    def round_():
         w.reset()
         state, h = w.d.initial()
         w.box(graph.root, state, h, 0)
-        if not w.reentered:
+        return {k: w.memo[k] for k in w.reentered}
+
+    for _ in range(MAX_ROUNDS):
+        new = round_()
+        if not new:
             return w.boxes
-        new = {k: w.memo[k] for k in w.reentered}
         if all(k in w.estimate and _same(as_box(new[k]), as_box(w.estimate[k])) for k in new):
+            if any(_empty(as_box(v)) for v in new.values()):
+                return _attractor_boxes(w, round_)
             return w.boxes
         w.estimate.update(new)
     raise TooManyStates
 
 
-def _same(a, b) -> bool:
+def _attractor_boxes(w: _Walker, round_) -> np.ndarray:
+    """Boxes of a system whose cycles carry no primitive, by Hutchinson's theorem: a
+    set that the system's maps take into itself holds the attractor. Each re-entered
+    state's box grows from a point (and a hair each round) until a round from the
+    boxes stays inside them; from there, each further round still holds the attractor
+    and shrinks the boxes towards it, dropping the starting point."""
+    est: dict = {}
+    w.seed = SEED
+    for _ in range(MAX_ROUNDS):
+        w.estimate = est
+        new = {k: as_box(v) for k, v in round_().items()}
+        if est and all(k in est and _inside(b, as_box(est[k])) for k, b in new.items()):
+            break
+        est = {k: _corners(_widen(union_box(as_box(est.get(k, SEED)), b), GROWTH))
+               for k, b in new.items()}
+    else:
+        raise TooManyStates         # it does not contract
+    # Each estimate's convex hull holds its attractor; the maps are affine, so a round's
+    # corner points span hulls that hold it too, and these hulls (not their boxes) shrink
+    # towards the attractor, past what boxes turned by the maps could reach.
+    boxes = w.boxes.copy()
+    hulls = {k: _corners(b) for k, b in new.items()}
+    for _ in range(TIGHTEN_ROUNDS):
+        w.estimate = hulls
+        tighter = round_()
+        if not all(k in hulls for k in tighter):
+            break           # a state the invariant round did not meet: keep that round
+        boxes = w.boxes.copy()
+        if all(_same(as_box(v), as_box(hulls[k]), 1e-9) for k, v in tighter.items()):
+            break
+        hulls = tighter
+    return boxes
+
+
+GROWTH = 1e-9           # relative widening per growing round: makes containment strict
+TIGHTEN_ROUNDS = 200
+
+
+def _empty(b: np.ndarray) -> bool:
+    return bool(b[0] > b[3])
+
+
+def _widen(box: np.ndarray, margin: float) -> np.ndarray:
+    pad = margin * (np.abs(box[:3]) + np.abs(box[3:]) + (box[3:] - box[:3])) + 1e-300
+    return np.concatenate([box[:3] - pad, box[3:] + pad])
+
+
+def _inside(a: np.ndarray, b: np.ndarray) -> bool:
+    return bool(_empty(a) or (np.all(a[:3] >= b[:3]) and np.all(a[3:] <= b[3:])))
+
+
+def _same(a, b, tol: float = 1e-13) -> bool:
     scale = np.nanmax(np.abs(np.where(np.isfinite(a), a, 0.0))) + 1e-300
     both = np.isfinite(a) & np.isfinite(b)
     return bool(np.array_equal(np.isfinite(a), np.isfinite(b))
-                and np.all(np.abs(a[both] - b[both]) <= 1e-13 * scale))
+                and np.all(np.abs(a[both] - b[both]) <= tol * scale))
 
 
 def hyper_boxes(graph: Graph, max_depth: int = 64):

@@ -177,6 +177,12 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
 
 
 def non_contracting_cycles(graph: Graph) -> list[Diagnostic]:
+    # a parameter that overflows makes maps non-finite; those are handled, not warned about
+    with np.errstate(all="ignore"):
+        return _probe(graph)
+
+
+def _probe(graph: Graph) -> list[Diagnostic]:
     """Walk the derivation for a while with real parameter values; a module instance
     nested PROBE_REPEATS times in itself with transformations that do not shrink
     (largest singular value ≥ 1 between successive instances) is reported, since
@@ -201,7 +207,9 @@ def non_contracting_cycles(graph: Graph) -> list[Diagnostic]:
                     # the Frobenius norm bounds the largest singular value from above
                     # and costs no SVD; most cycles contract well below 1
                     norm = np.sqrt((rel * rel).sum())
-                    if not norm < 1 - 1e-9:
+                    if not np.isfinite(norm):
+                        norm = 0.0      # a non-finite map empties the instance: no cycle
+                    elif not norm < 1 - 1e-9:
                         norm = np.linalg.norm(rel, 2)
                     repeats = prev[1] + 1 if not norm < 1 - 1e-9 else 0
                     if repeats >= PROBE_REPEATS and i not in reported and edge is not None:

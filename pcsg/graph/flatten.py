@@ -59,7 +59,8 @@ def instances(graph: Graph) -> Iterator[Instance]:
         if n.kind == CALC:
             state = d.calc(i, state, h)
         elif n.kind == TRANSFORM:
-            m = m @ d.matrix(i, state, h)
+            with np.errstate(invalid="ignore", over="ignore"):   # non-finite: empty leaf
+                m = m @ d.matrix(i, state, h)
         elif n.kind == PAINT:
             paint = tuple(d.args(i, state, h))
         elif n.kind == MATERIAL:

@@ -153,9 +153,12 @@ def walk(flat, max_depth, budget, capacity, boxes, table, keys, used, vals, per_
                 child = 0
                 fr[f, PHASE] = 1
             elif kind == TRANSFORM:
-                node_affine(flat, node, params, fr[f, SLOT], hs[f], stack, args, m34)
-                _transform_box(m34, acc[f + 1], tmp)
-                acc[f, :] = tmp
+                if node_affine(flat, node, params, fr[f, SLOT], hs[f], stack, args, m34):
+                    _transform_box(m34, acc[f + 1], tmp)
+                    acc[f, :] = tmp
+                else:               # non-finite arguments: the tracer empties the instance
+                    acc[f, :3] = np.inf
+                    acc[f, 3:] = -np.inf
             else:
                 acc[f, :] = acc[f + 1]
         else:   # UNION, INTERSECTION, DIFFERENCE: children one by one
