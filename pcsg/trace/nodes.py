@@ -69,6 +69,10 @@ def set_inverse(F, f):
 @inline
 def box_window(boxes, b, F, f):
     """Where the frame's ray is inside boxes[b]: (t_enter, t_exit), empty if enter > exit."""
+    if boxes[b, 0] > boxes[b, 3]:
+        # empty (the box walks make every side of an empty box inverted): the slabs
+        # below would make it all of space
+        return np.inf, -np.inf
     t0 = -np.inf
     t1 = np.inf
     for a in range(3):
@@ -76,8 +80,6 @@ def box_window(boxes, b, F, f):
         d = F[f, DX + a]
         lo = boxes[b, a]
         hi = boxes[b, a + 3]
-        if lo > hi:         # an empty box: the slabs below would make it all of space
-            return np.inf, -np.inf
         if d == 0.0:
             if o < lo or o > hi:
                 return np.inf, -np.inf
