@@ -34,7 +34,8 @@ class Lighting:
     lights: list[Light]
     horizon: np.ndarray
     zenith: np.ndarray
-    materials: np.ndarray            # (k, 9): color(3) diffuse specular shininess reflect ior transmit
+    # (k, 9): color(3) diffuse specular shininess reflect ior transmit
+    materials: np.ndarray
     shadows: bool = True
     shadow_samples: int = 8
     max_bounces: int = 3

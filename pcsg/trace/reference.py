@@ -26,8 +26,9 @@ Semantics (the contract the tracer is compared on)
 - The hit is the first interval whose start t is > tmin (strictly): an
   interval clipped at tmin (the origin inside a solid) is not a hit, the
   next one is; with trace(..., exits=True) such a ray reports instead where
-  it leaves the solid (t_out < tmax, the outward normal there). For a flat triangle the normal is turned so that
-  dot(normal, d) <= 0; a solid's normal is the CSG outward normal as is.
+  it leaves the solid (t_out < tmax, the outward normal there). For a flat
+  triangle the normal is turned so that dot(normal, d) <= 0; a solid's normal
+  is the CSG outward normal as is.
 - Coincident surfaces: on a tie a union keeps its first operand's end; the graph
   tracer, which visits operands nearest box first, may show the other one. `tie`
   marks the rays whose hit has another surface of a different paint or material at

@@ -16,8 +16,8 @@ from ..graph.model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, PAINT as PA
 from . import vm
 from .jit import inline, kernel
 from .nodes import (CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
-                    EV_SINGULAR, EV_STACK, EV_VISITS, F_WIDTH, I_WIDTH, LEVEL, M0, MAT, NODE, OX, PAINT,
-                    PHASE, SLOT, T0, T1, box_normal, box_window, copy_frame, enter_paint,
+                    EV_SINGULAR, EV_STACK, EV_VISITS, F_WIDTH, I_WIDTH, LEVEL, M0, MAT, NODE, OX,
+                    PAINT, PHASE, SLOT, T0, T1, box_normal, box_window, copy_frame, enter_paint,
                     enter_transform, instance_window, note, pick_rule, cached_calc, set_inverse,
                     world_normal, world_size)
 from .primitives import intersect
@@ -79,8 +79,8 @@ def enter_child(flat, node, k, F, I, H, src, dst):
 
 @inline
 def step_unary(flat, node, kind, F, I, H, f, slot_base, S, ev):
-    params, stack, args, m34 = S.params, S.stack, S.args, S.m34
     """S-free single-child nodes, in place on frame f: True if the walk goes on."""
+    params, stack, args, m34 = S.params, S.stack, S.args, S.m34
     if kind == TRANSFORM:
         bad = enter_transform(flat, node, F, f, params, I[f, SLOT], H[f], stack, args, m34)
         if bad != 0:
