@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from .graph.flatten import instances
-from .graph.model import DIFFERENCE, INTERSECTION
+from .graph.model import DIFFERENCE, INTERSECTION, PRIMITIVE
+from .language.names import FRACTAL_PRIMITIVES
 from .output import open_atomic
 from .render.camera import Camera
 from .render.shade import AMBIENT, DEFAULT_COLOR, Lighting
@@ -135,10 +136,24 @@ class _Mesh:
         out.write("  }\n}\n")
 
 
+def _refuse_fractals(graph):
+    """POV-Ray has no Mandelbulb, and its julia_fractal is a different slice and
+    iteration: an export that drew something else would mislead."""
+    from .graph.checks import reachable
+    from .language.errors import Diagnostic, PcsgError
+    live = reachable(graph)
+    for i, n in enumerate(graph.nodes):
+        if live[i] and n.kind == PRIMITIVE and n.name in FRACTAL_PRIMITIVES:
+            raise PcsgError([Diagnostic(
+                "error", f"'{n.name}' cannot be exported: POV-Ray has no primitive that "
+                         f"draws the same set", n.span, graph.source, code="export")])
+
+
 def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
                size: tuple[int, int]) -> int:
     """Write the scene to `path` (atomically); returns the number of primitives."""
     graph = traced.graph
+    _refuse_fractals(graph)
     textures = _Textures(graph, lighting)
     mesh = _Mesh()
     count = 0

@@ -16,7 +16,7 @@ import sys
 import numpy as np
 
 from ..language.errors import Diagnostic, PcsgError
-from ..trace.primitives import BOXES, CODES
+from ..trace.primitives import object_box
 from .dependence import StateKey
 from .derive import Deriver
 from .model import CALC, DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, UNION, Graph
@@ -126,7 +126,7 @@ class _Walker:
     def box(self, i: int, state, h: int, level: int) -> np.ndarray:
         n = self.g.nodes[i]
         if n.kind == PRIMITIVE:
-            b = _corners(BOXES[CODES[n.name]])
+            b = _corners(object_box(n.name, self.g.constant_args(i)))
             self.boxes[i] = union_box(self.boxes[i], as_box(b))
             return b
         key = self.key(i, state, h)

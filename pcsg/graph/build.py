@@ -6,7 +6,8 @@ from collections import defaultdict
 
 from ..language import ast
 from ..language.errors import Diagnostic, PcsgError, sort_key
-from ..language.names import PRIMITIVES, RESERVED, TRANSFORMS
+from ..language.names import FRACTAL_PRIMITIVES, PRIMITIVES, RESERVED, TRANSFORMS
+from ..trace.fractals import check_arguments
 from ..scene import build_scene
 from .derive import names_in
 from .expr import ExprTable
@@ -223,6 +224,8 @@ class _Builder:
     def csg(self, e) -> int:
         if isinstance(e, ast.Ref):
             return self.ref(e)
+        if isinstance(e, ast.Fractal):
+            return self.fractal(e)
         if isinstance(e, ast.CsgOp):
             # A chain A ∪ B ∪ C (or A \ B \ C = A \ (B ∪ C)) is one n-ary node: no
             # recursion along long chains such as expand's output, and one place where
@@ -291,6 +294,28 @@ class _Builder:
                    f"{', '.join(PRIMITIVES)})"
         self.error(e.span, what, "undefined")
         return self.primitive_node_for_errors()
+
+    def fractal(self, e: ast.Fractal) -> int:
+        """A fractal primitive: one node per use, its arguments constants (the parameters
+        the axiom alone assigns count; the bounds and the kernels take them as numbers)."""
+        names = FRACTAL_PRIMITIVES[e.name]
+        exprs = [self.expr(a) for a in e.args]
+        if len(exprs) != len(names):
+            self.error(e.span, f"'{e.name}' takes {len(names)} argument"
+                               f"{'' if len(names) == 1 else 's'} ({', '.join(names)}), "
+                               f"got {len(exprs)}", "arity")
+            return self.primitive_node_for_errors()
+        values = [self.exprs.constant(x) for x in exprs]
+        if any(v is None for v in values):
+            self.error(e.span, f"the arguments of '{e.name}' must be constants: numbers, pi, "
+                               f"#define names and parameters that only the axiom assigns",
+                       "fractal-arguments")
+            return self.primitive_node_for_errors()
+        why = check_arguments(e.name, values)
+        if why is not None:
+            self.error(e.span, why, "fractal-arguments")
+            return self.primitive_node_for_errors()
+        return self.add(Node(PRIMITIVE, name=e.name, exprs=exprs, span=e.span))
 
     def primitive_node_for_errors(self) -> int:
         return self.add(Node(PRIMITIVE, name="sphere"))

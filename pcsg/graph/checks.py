@@ -7,7 +7,7 @@ import numpy as np
 
 from ..language import ast
 from ..language.errors import Diagnostic, PcsgError
-from ..language.names import FLAT_PRIMITIVES
+from ..language.names import FLAT_PRIMITIVES, UNION_ONLY_PRIMITIVES
 from .derive import Deriver
 from .model import CALC, DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, Graph
 
@@ -97,7 +97,8 @@ def definite_assignment(graph: Graph) -> list[Diagnostic]:
 
 
 def flat_under_solid_operators(graph: Graph) -> list[Diagnostic]:
-    """tri1/tri2 have no inside, so nothing below ∩ or \\ may derive them."""
+    """tri1/tri2 have no inside and a fractal gives only its first surface, so nothing
+    below ∩ or \\ may derive them."""
     nodes = graph.nodes
     flat_below: dict[int, int | None] = {}
 
@@ -105,7 +106,7 @@ def flat_under_solid_operators(graph: Graph) -> list[Diagnostic]:
         seen, stack = {start}, [start]
         while stack:
             i = stack.pop()
-            if nodes[i].kind == PRIMITIVE and nodes[i].name in FLAT_PRIMITIVES:
+            if nodes[i].kind == PRIMITIVE and nodes[i].name in UNION_ONLY_PRIMITIVES:
                 return i
             for c in nodes[i].children:
                 if c not in seen:
@@ -124,9 +125,12 @@ def flat_under_solid_operators(graph: Graph) -> list[Diagnostic]:
             if f is not None:
                 op = "∩" if n.kind == INTERSECTION else "\\"
                 prim = nodes[f].name
-                errors.append(_diag(graph, "error", f"'{prim}' is flat (it has no inside) but the "
+                what = ("is flat (it has no inside)" if prim in FLAT_PRIMITIVES else
+                        "is a fractal (traced to its first surface only)")
+                kinds = "flat" if prim in FLAT_PRIMITIVES else "fractal"
+                errors.append(_diag(graph, "error", f"'{prim}' {what} but the "
                                     f"{'left' if side == 0 else 'right'} operand of '{op}' derives "
-                                    f"it; flat primitives may only be combined by '∪'",
+                                    f"it; {kinds} primitives may only be combined by '∪'",
                                     n.edge_spans[side], "flat-primitive",
                                     [(nodes[f].span, f"'{prim}' used here")] if nodes[f].span else []))
     return errors

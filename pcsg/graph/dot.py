@@ -36,7 +36,7 @@ def node_label(graph: Graph, i: int) -> str:
     if n.kind == MATERIAL:
         return f"material({n.name})"
     if n.kind == PRIMITIVE:
-        return n.name
+        return n.name + (f"({', '.join(text(e) for e in n.exprs)})" if n.exprs else "")
     return OPERATOR_SYMBOLS[n.kind]
 
 

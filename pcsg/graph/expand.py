@@ -39,7 +39,9 @@ class _Printer:
         elif kind == CALC:
             self.word(node.children[0], self.d.calc(node_id, state, h), h, steps, need, parts)
         elif kind == PRIMITIVE:
-            self.out(parts, node.name)
+            args = self.g.constant_args(node_id)
+            self.out(parts, node.name + (f"({', '.join(map(format_value, args))})"
+                                         if args else ""))
         elif kind in _LEVEL:
             level = _LEVEL[kind]
             wrap = level < need

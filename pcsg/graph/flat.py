@@ -5,7 +5,8 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..language.names import PRIMITIVES
+from ..language.names import FRACTAL_PRIMITIVES, PRIMITIVES
+from ..trace.fractals import ARG_WIDTH, fractal_row
 from ..trace.transforms import CODES as TRANSFORM_CODES
 from ..trace.transforms import matrix as transform_matrix
 from ..trace.vm import RAND, SALT, STORE
@@ -29,6 +30,7 @@ Flat = namedtuple("Flat", [
     "fixed_map",     # float64[n,24]  [L (9) | t (3) | L^-1 (9) | unused (3)], row-major;
                      #                paint: [r, g, b | unused]
     "box",           # float64[n,6] hyper-bounding box in the node's input frame
+    "fractal",       # float64[n,5] fractal primitives: arguments, bounding radius
     "inst_keys",     # uint64[s]    instance table: S-node instance hash ->
     "inst_used",     # int16[s]     0: empty, else the entry's level + 1
     "inst_boxes",    # float64[s,6]   that instance's own box (top levels only)
@@ -76,6 +78,10 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None) -> Flat:
     if table is None:
         table = (np.zeros(2, dtype=np.uint64), np.zeros(2, dtype=np.int16), np.zeros((2, 6)))
     fixed, fixed_map = _fixed_nodes(graph)
+    fractal = np.zeros((n, ARG_WIDTH))
+    for i, x in enumerate(nodes):
+        if x.kind == PRIMITIVE and x.name in FRACTAL_PRIMITIVES:
+            fractal[i] = fractal_row(x.name, graph.constant_args(i))
     children = np.array([c for x in nodes for c in x.children], dtype=np.int32)
     starts = _starts(counts)
     _compose_fixed_chains(kind, fixed, fixed_map, starts, children)
@@ -86,7 +92,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None) -> Flat:
         expr_start=_starts(ecounts), expr_count=ecounts,
         expr_ids=np.array([e for x in nodes for e in x.exprs], dtype=np.int32),
         term_rule=term, fixed=fixed, fixed_map=fixed_map,
-        box=np.ascontiguousarray(boxes, dtype=np.float64),
+        box=np.ascontiguousarray(boxes, dtype=np.float64), fractal=fractal,
         inst_keys=table[0], inst_used=table[1], inst_boxes=np.ascontiguousarray(table[2]),
         vm_code=vm_code, calc_start=calc_start, calc_end=calc_end, calc_cache=calc_cache,
         vm_consts=np.asarray(vm["consts"], dtype=np.float64),

@@ -20,6 +20,7 @@ class Instance:
     paint: tuple | None           # the innermost paint(r, g, b) above it
     material: str | None          # the innermost material(NAME) above it
     path: tuple                   # CSG operators above it: ((node, child number), ...)
+    args: tuple = ()              # a fractal's arguments
 
 
 def flatten(graph: Graph, max_primitives: int = 1_000_000) -> list[Instance]:
@@ -49,7 +50,7 @@ def instances(graph: Graph) -> Iterator[Instance]:
         if level > MAX_LEVELS:
             raise too_deep(graph, i, MAX_LEVELS)
         if n.kind == PRIMITIVE:
-            yield Instance(n.name, m, paint, material, path)
+            yield Instance(n.name, m, paint, material, path, graph.constant_args(i))
             continue
         if n.kind == SELECT:
             r = d.select(i, state, h)

@@ -51,6 +51,10 @@ class Graph:
     warnings: list[Diagnostic] = field(default_factory=list)
     axiom_span: tuple[int, int] | None = None
 
+    def constant_args(self, i: int) -> tuple:
+        """The arguments of node i, which the builder checked to be constants (fractals)."""
+        return tuple(self.exprs.constant(e) for e in self.nodes[i].exprs)
+
     @property
     def param_names(self) -> list[str]:
         return sorted(self.params, key=self.params.get)

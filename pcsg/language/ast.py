@@ -58,6 +58,14 @@ class Ref:
 
 
 @dataclass(eq=False)
+class Fractal:
+    """A primitive with arguments: mandelbulb(power), julia(cx, cy, cz, cw)."""
+    name: str
+    args: list
+    span: Span
+
+
+@dataclass(eq=False)
 class CsgOp:
     op: str          # 'union', 'intersection', 'difference'
     left: object

@@ -8,8 +8,13 @@ TRANSFORMS = {
 }
 
 # notation §5; flat primitives have no inside and may only be combined by union
-PRIMITIVES = ("sphere", "cube", "cylinder", "cone", "tetrahedron", "plane", "tri1", "tri2")
+# Fractals given by a distance estimate take arguments (name -> their names) and, like the
+# flat ones, have no interval along a ray: only the first surface, so union only.
+FRACTAL_PRIMITIVES = {"mandelbulb": ("power",), "julia": ("cx", "cy", "cz", "cw")}
+PRIMITIVES = ("sphere", "cube", "cylinder", "cone", "tetrahedron", "plane", "tri1", "tri2",
+              *FRACTAL_PRIMITIVES)
 FLAT_PRIMITIVES = frozenset({"tri1", "tri2"})
+UNION_ONLY_PRIMITIVES = FLAT_PRIMITIVES | frozenset(FRACTAL_PRIMITIVES)
 
 FUNCTIONS = ("if", "min", "max", "abs", "sqrt", "pow", "exp", "ln", "log", "log10", "sin", "cos",
              "tan", "asin", "acos", "atan", "atan2", "deg", "rad", "floor", "ceil", "round",

@@ -103,6 +103,10 @@ class _ToAst(Transformer):
         head, _l, name, close, operand = c
         return ast.Material(str(name), operand, _join(head, operand), _join(head, close), _span(name))
 
+    def fractal(self, c):
+        name, _l, args, close = c
+        return ast.Fractal(str(name), args or [], _join(name, close))
+
     def ref(self, c):
         return ast.Ref(str(c[0]), _span(c[0]))
 
@@ -201,14 +205,16 @@ _FRIENDLY = {
     "NAME": "a name", "NUMBER": "a number", "INT": "a rule number", "_NL": "end of line",
     "$END": "end of file", "ARROW": "'→'", "EQUAL": "'='", "LPAR": "'('", "RPAR": "')'",
     "LBRACE": "'{'", "RBRACE": "'}'", "UNION": "'∪'", "INTER": "'∩'", "DIFF": "'\\'",
-    "TRANSFORM": "a transformation", "FLIP": "a flip", "PAINT": "'paint'",
+    "TRANSFORM": "a transformation", "FLIP": "a flip", "FRACTAL": "a fractal primitive",
+    "PAINT": "'paint'",
     "MATERIAL": "'material'", "DIRECTIVE": "a directive", "COLON": "':'", "COMMA": "','",
     "SEMICOLON": "';'", "CMP": "a comparison", "PLUS": "'+'", "MINUS": "'-'", "STAR": "'*'",
     "SLASH": "'/'", "PERCENT": "'%'", "CARET": "'^'", "BANG": "'!'", "NOT": "'not'",
     "OR": "'||'", "AND": "'&&'",
 }
-_OPERAND = {"NAME", "LPAR", "TRANSFORM", "FLIP", "PAINT", "MATERIAL", "LBRACE"}
+_OPERAND = {"NAME", "LPAR", "TRANSFORM", "FLIP", "FRACTAL", "PAINT", "MATERIAL", "LBRACE"}
 _RESERVED_TOKENS = {"TRANSFORM": "a transformation", "FLIP": "a transformation",
+                    "FRACTAL": "a primitive",
                     "PAINT": "the paint operator", "MATERIAL": "the material operator",
                     "NOT": "an operator"}
 

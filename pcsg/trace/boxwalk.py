@@ -12,7 +12,8 @@ from ..graph.model import (CALC, INTERSECTION, MATERIAL, PAINT, PRIMITIVE, SELEC
                            TRANSFORM, UNION)
 from . import vm
 from .nodes import node_affine, pick_rule, run_calc, table_slot
-from .primitives import BOXES
+from .fractals import A_R
+from .primitives import BOXES, FRACTAL_MIN
 
 NODE, SLOT, LEVEL, PHASE, CUT = range(5)
 
@@ -129,7 +130,12 @@ def walk(flat, max_depth, budget, capacity, boxes, table, keys, used, vals, per_
             acc[f, 3:] = -np.inf
         child = -1
         if kind == PRIMITIVE:
-            acc[f, :] = BOXES[flat.code[node]]
+            if flat.code[node] >= FRACTAL_MIN:
+                r = flat.fractal[node, A_R]
+                acc[f, :3] = -r
+                acc[f, 3:] = r
+            else:
+                acc[f, :] = BOXES[flat.code[node]]
         elif kind == SELECT:
             if phase == 0:
                 level = fr[f, LEVEL] + 1

@@ -35,12 +35,16 @@ import math
 import numpy as np
 
 from ..language.names import FLAT_PRIMITIVES, PRIMITIVES
+from .fractals import bound_radius
 from .jit import kernel as _jit
 
 CODES = {name: i for i, name in enumerate(PRIMITIVES)}
-SPHERE, CUBE, CYLINDER, CONE, TETRAHEDRON, PLANE, TRI1, TRI2 = (CODES[n] for n in (
-    "sphere", "cube", "cylinder", "cone", "tetrahedron", "plane", "tri1", "tri2"))
+SPHERE, CUBE, CYLINDER, CONE, TETRAHEDRON, PLANE, TRI1, TRI2, MANDELBULB, JULIA = (
+    CODES[n] for n in ("sphere", "cube", "cylinder", "cone", "tetrahedron", "plane", "tri1",
+                       "tri2", "mandelbulb", "julia"))
 FLAT = frozenset(CODES[n] for n in FLAT_PRIMITIVES)      # {TRI1, TRI2}
+FRACTAL_MIN = MANDELBULB      # codes from here on are fractals (trace/fractals.py)
+UNION_ONLY = FLAT | {MANDELBULB, JULIA}                   # a surface, not an interval
 
 EDGE_EPS = 1e-12     # inclusive tolerance of the triangle edge tests (object frame)
 
@@ -56,6 +60,8 @@ BOXES = np.array([
     [-_INF, -_INF, -_INF, _INF, _INF, 0.0],     # plane
     [0.0, 0.0, 0.0, 1.0, 1.0, 0.0],             # tri1
     [-1.0, -1.0, 0.0, 0.0, 0.0, 0.0],           # tri2
+    [-_INF, -_INF, -_INF, _INF, _INF, _INF],    # mandelbulb, julia: their arguments
+    [-_INF, -_INF, -_INF, _INF, _INF, _INF],    #   decide (object_box)
 ])
 BOXES.setflags(write=False)
 
@@ -69,6 +75,14 @@ TETRA_CORNERS.setflags(write=False)
 def box(code: int) -> np.ndarray:
     """The object-frame bounding box (xmin, ymin, zmin, xmax, ymax, zmax) of a primitive."""
     return BOXES[code].copy()
+
+
+def object_box(name: str, args=()) -> np.ndarray:
+    """box() for a primitive with its arguments: a fractal's box holds its bounding ball."""
+    if CODES[name] >= FRACTAL_MIN:
+        r = bound_radius(name, args)
+        return np.array([-r, -r, -r, r, r, r])
+    return box(CODES[name])
 
 
 # ---- building blocks: out[0:2] is the running interval, out[2:8] its normals ----
@@ -359,7 +373,8 @@ def _triangle(out, code, ox, oy, oz, dx, dy, dz):
 @_jit
 def intersect(code, ox, oy, oz, dx, dy, dz, out):
     """Intersect the line o + t d (all t) with primitive `code` in its object
-    frame; see the module docstring for the layout of `out`."""
+    frame; see the module docstring for the layout of `out`. Fractals are marched
+    instead (fractals.march); here they miss."""
     if not (abs(ox) < _INF and abs(oy) < _INF and abs(oz) < _INF
             and abs(dx) < _INF and abs(dy) < _INF and abs(dz) < _INF):
         return False

@@ -44,7 +44,7 @@ from numba import njit
 
 from ..graph.flatten import flatten
 from ..graph.model import DIFFERENCE, INTERSECTION, UNION, Graph
-from . import primitives
+from . import fractals, primitives
 
 LEAF = -1            # tree node kind of a primitive; operators use the graph's kinds
 _OPNAMES = {UNION: "union", INTERSECTION: "intersection", DIFFERENCE: "difference"}
@@ -53,10 +53,14 @@ _CHUNK = 4096        # rays per batch (bounds the per-leaf arrays)
 
 class Leaf:
     """A primitive of the expanded tree."""
-    __slots__ = ("code", "name", "matrix", "paint", "material", "inverse", "normal_matrix")
+    __slots__ = ("code", "name", "matrix", "paint", "material", "inverse", "normal_matrix",
+                 "fractal")
 
-    def __init__(self, code, name, matrix, paint, material):
+    def __init__(self, code, name, matrix, paint, material, args=()):
         self.code, self.name, self.matrix = code, name, matrix
+        self.fractal = None
+        if code >= primitives.FRACTAL_MIN:
+            self.fractal = np.array([fractals.fractal_row(name, args)])
         self.paint, self.material = paint, material          # rgb tuple | None, index | -1
         self.inverse = self.normal_matrix = None              # None: singular, empty
         if np.all(np.isfinite(matrix)):
@@ -85,6 +89,13 @@ def _intersect_many(code, O, D, out, hit):
     for k in range(O.shape[0]):
         hit[k] = primitives.intersect(code, O[k, 0], O[k, 1], O[k, 2],
                                       D[k, 0], D[k, 1], D[k, 2], out[k])
+
+
+@njit(cache=True, error_model='numpy')
+def _march_many(is_julia, args, O, D, tmin, tmax, out, hit):
+    for k in range(O.shape[0]):
+        hit[k] = fractals.march(is_julia, args, 0, O[k, 0], O[k, 1], O[k, 2],
+                                D[k, 0], D[k, 1], D[k, 2], tmin, tmax, 0.0, 0.0, out[k])
 
 
 class Reference:
@@ -116,7 +127,7 @@ class Reference:
             paint = None if inst.paint is None else tuple(float(v) for v in inst.paint)
             parent[slot] = len(tree)
             tree.append(Leaf(primitives.CODES[inst.primitive], inst.primitive, inst.matrix,
-                             paint, material))
+                             paint, material, inst.args))
         return holder[0]
 
     @property
@@ -168,14 +179,17 @@ class Reference:
         Do = np.ascontiguousarray(D @ inv[:3, :3].T)
         out = np.zeros((n, 8))
         hit = np.zeros(n, dtype=bool)
-        _intersect_many(leaf.code, Oo, Do, out, hit)
+        if leaf.fractal is None:
+            _intersect_many(leaf.code, Oo, Do, out, hit)
+        else:
+            _march_many(leaf.code == primitives.JULIA, leaf.fractal, Oo, Do, tmin, tmax, out, hit)
         rows = np.flatnonzero(hit)
         nin = out[rows, 2:5] @ leaf.normal_matrix.T
         nout = out[rows, 5:8] @ leaf.normal_matrix.T
         with np.errstate(invalid="ignore", divide="ignore"):
             nin /= np.linalg.norm(nin, axis=1, keepdims=True)
             nout /= np.linalg.norm(nout, axis=1, keepdims=True)
-        flat = leaf.code in primitives.FLAT
+        flat = leaf.code in primitives.UNION_ONLY
         res = [None] * n
         for r, k in enumerate(rows):
             t0, t1 = max(out[k, 0], tmin), min(out[k, 1], tmax)

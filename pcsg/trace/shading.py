@@ -24,14 +24,15 @@ CHUNK = 64
 EPS = 1e-6
 # light rows: position (3), colour (3), radius; material rows as shade.py's table
 L_POS, L_COLOR, L_RADIUS = 0, 3, 6
-P_O, P_D, P_W, P_DEPTH = 0, 3, 6, 9          # pending-ray columns
+P_O, P_D, P_W, P_DEPTH, P_CONE = 0, 3, 6, 9, 10     # pending-ray columns
 
 
 @kernel
-def trace_one(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth, S, ev, res):
+def trace_one(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_depth, S, ev,
+              res):
     """first_hit into res[0] behind one call site, so that the walk is compiled once."""
-    return first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth, S, ev,
-                     res, 0)
+    return first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_depth,
+                     S, ev, res, 0)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
@@ -45,7 +46,7 @@ def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, de
     for w in prange(workers):
         S = make_scratch(flat, limits)
         res = np.empty((1, R_WIDTH))
-        pend = np.empty((2 * max_bounces + 2, 10))
+        pend = np.empty((2 * max_bounces + 2, 11))
         for c in range(w, chunks, workers):
             ev = events[c]
             count = 0
@@ -56,6 +57,7 @@ def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, de
                     pend[0, P_W + k] = 1.0
                     rgb[i, k] = 0.0
                 pend[0, P_DEPTH] = 0.0
+                pend[0, P_CONE] = 0.0
                 top = 1
                 first = True
                 while top > 0:
@@ -64,8 +66,9 @@ def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, de
                     d0, d1, d2 = pend[top, P_D], pend[top, P_D + 1], pend[top, P_D + 2]
                     w0, w1, w2 = pend[top, P_W], pend[top, P_W + 1], pend[top, P_W + 2]
                     depth = int(pend[top, P_DEPTH])
+                    cone = pend[top, P_CONE]
                     hit = trace_one(flat, o0, o1, o2, d0, d1, d2, 1e-9, np.inf, False, lod,
-                                    max_depth, S, ev, res)
+                                    cone, max_depth, S, ev, res)
                     count += 1
                     if first:
                         first_t[i] = res[0, R_T]
@@ -78,6 +81,7 @@ def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, de
                             rgb[i, k] += (w0, w1, w2)[k] * (horizon[k] * (1 - s) + zenith[k] * s)
                         continue
                     t = res[0, R_T]
+                    cone += lod * t * dn          # the pixel's width here: rays from it start so
                     u0, u1, u2 = d0 / dn, d1 / dn, d2 / dn
                     p0, p1, p2 = o0 + t * d0, o1 + t * d1, o2 + t * d2
                     n0, n1, n2 = res[0, R_N], res[0, R_N + 1], res[0, R_N + 2]
@@ -123,7 +127,7 @@ def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, de
                                     g2 += e2
                                 blocked = trace_one(flat, q0, q1, q2, g0 - q0, g1 - q1,
                                                     g2 - q2, 1e-9, 1.0 - 1e-9, True, lod,
-                                                    max_depth, S, ev, res)
+                                                    cone, max_depth, S, ev, res)
                                 count += 1
                                 if not blocked:
                                     seen += 1
@@ -151,14 +155,14 @@ def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, de
                             wr = kr * pass_t
                             _push(pend, top, q0, q1, q2, u0 + 2 * cos_i * n0,
                                   u1 + 2 * cos_i * n1, u2 + 2 * cos_i * n2,
-                                  w0 * wr, w1 * wr, w2 * wr, depth + 1)
+                                  w0 * wr, w1 * wr, w2 * wr, depth + 1, cone)
                             top += 1
                         if kt > 1e-3:
                             keep *= 1.0 - kt
                             a = eta * cos_i - math.sqrt(max(kk, 0.0))
                             _push(pend, top, p0 - n0 * EPS * scale, p1 - n1 * EPS * scale,
                                   p2 - n2 * EPS * scale, eta * u0 + a * n0, eta * u1 + a * n1,
-                                  eta * u2 + a * n2, w0 * kt, w1 * kt, w2 * kt, depth + 1)
+                                  eta * u2 + a * n2, w0 * kt, w1 * kt, w2 * kt, depth + 1, cone)
                             top += 1
                     rgb[i, 0] += w0 * keep * c0
                     rgb[i, 1] += w1 * keep * c1
@@ -167,11 +171,12 @@ def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, de
 
 
 @kernel
-def _push(pend, top, o0, o1, o2, d0, d1, d2, w0, w1, w2, depth):
+def _push(pend, top, o0, o1, o2, d0, d1, d2, w0, w1, w2, depth, cone):
     pend[top, P_O], pend[top, P_O + 1], pend[top, P_O + 2] = o0, o1, o2
     pend[top, P_D], pend[top, P_D + 1], pend[top, P_D + 2] = d0, d1, d2
     pend[top, P_W], pend[top, P_W + 1], pend[top, P_W + 2] = w0, w1, w2
     pend[top, P_DEPTH] = depth
+    pend[top, P_CONE] = cone
 
 
 @kernel

@@ -20,12 +20,13 @@ from .nodes import (CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SE
                     PAINT, PHASE, SLOT, T0, T1, box_normal, box_window, copy_frame, enter_paint,
                     enter_transform, instance_window, note, pick_rule, cached_calc, set_inverse,
                     world_normal, world_size)
-from .primitives import intersect
+from .fractals import march
+from .primitives import FRACTAL_MIN, JULIA, intersect
 from .scratch import IV_WIDTH
 
 
 SLIVER = 1e-9           # relative thickness below which ∩ and \ pieces are slivers
-FLAT_MIN = 6            # primitive codes >= this are the flat triangles
+FLAT_MIN = 6            # primitive codes >= this have a surface only: triangles, fractals
 # interval record columns: an interval is [t_in, t_out] with what is at each end
 IT_IN, IT_OUT, IN_N, OUT_N, IN_PAINT, OUT_PAINT, IN_MAT, OUT_MAT = 0, 1, 2, 5, 8, 11, 14, 15
 # what a ray's result row holds
@@ -319,15 +320,16 @@ def trace_chunk(flat, origins, directions, i0, i1, tmin, tmax, any_hit, lod, max
     for i in range(i0, i1):
         first_hit(flat, origins[i, 0], origins[i, 1], origins[i, 2],
                   directions[i, 0], directions[i, 1], directions[i, 2],
-                  tmin, tmax, any_hit, lod, max_depth, S, ev, res, i)
+                  tmin, tmax, any_hit, lod, 0.0, max_depth, S, ev, res, i)
 
 
 @inline
-def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth, S, ev,
-              res, ri):
+def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_depth, S,
+              ev, res, ri):
     """Trace one ray from the root with the scratch S; writes res[ri] (R_* columns).
     Returns True on a hit. A frame pushed by a union has PHASE 1: its window is
-    already inside its box."""
+    already inside its box. The ray's footprint at t is cone + lod * |d| * t (world
+    units): a shadow or reflected ray starts as wide as the pixel it leaves."""
     params, stack, out8, order, keys, hashes = (S.params, S.stack, S.out8, S.order, S.keys,
                                                 S.hashes)
     F, I, H, iv = S.F, S.I, S.H, S.iv
@@ -381,8 +383,15 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, max_depth,
             if kind == PRIMITIVE:
                 code = flat.code[node]
                 r = out8
-                if intersect(code, F[f, OX], F[f, OX + 1], F[f, OX + 2],
-                             F[f, DX], F[f, DX + 1], F[f, DX + 2], r):
+                if code >= FRACTAL_MIN:
+                    # marched from tmin, not t0, so that the reference finds the same steps
+                    found = march(code == JULIA, flat.fractal, node, F[f, OX], F[f, OX + 1],
+                                  F[f, OX + 2], F[f, DX], F[f, DX + 1], F[f, DX + 2], tmin, t1,
+                                  lod, cone / dnorm, r)
+                else:
+                    found = intersect(code, F[f, OX], F[f, OX + 1], F[f, OX + 2],
+                                      F[f, DX], F[f, DX + 1], F[f, DX + 2], r)
+                if found:
                     # the first boundary crossing: the entry, or the exit from inside.
                     # Not `t >= t0`: the box entry may round past the primitive's own entry.
                     side = 0 if r[0] > tmin else 1
