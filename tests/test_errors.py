@@ -56,7 +56,7 @@ def test_the_report_quotes_the_line_with_a_caret_under_the_span():
     lines = e.diagnostics[0].format().splitlines()
     assert lines[0] == "x.pcsg:2:17: error: undefined name 'foo' (not a module, named " \
                        "expression or primitive: sphere, cube, cylinder, cone, tetrahedron, " \
-                       "plane, tri1, tri2)"
+                       "plane, tri1, tri2, mandelbulb, julia)"
     assert lines[1].endswith("1: S → sphere ∪ foo")
     assert lines[2].index("^^^") == lines[1].index("foo")
 

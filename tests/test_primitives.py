@@ -75,9 +75,11 @@ def random_rays(rng, n):
 
 def test_codes_and_constants():
     assert list(P.CODES) == ["sphere", "cube", "cylinder", "cone", "tetrahedron", "plane",
-                             "tri1", "tri2"]
+                             "tri1", "tri2", "mandelbulb", "julia"]
     assert P.FLAT == {P.CODES["tri1"], P.CODES["tri2"]}
-    assert P.BOXES.shape == (8, 6)
+    assert P.UNION_ONLY == P.FLAT | {P.MANDELBULB, P.JULIA}
+    assert P.BOXES.shape == (10, 6)
+    assert list(P.object_box("mandelbulb", (2.0,))) == pytest.approx([-2, -2, -2, 2, 2, 2])
     assert list(P.box(P.CODES["plane"])) == [-INF, -INF, -INF, INF, INF, 0.0]
     assert list(P.box(P.CODES["cylinder"])) == [-1, -1, 0, 1, 1, 1]
     assert list(P.box(P.CODES["tri2"])) == [-1, -1, 0, 0, 0, 0]
