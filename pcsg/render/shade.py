@@ -1,7 +1,8 @@
 """Shading: Phong with paint colours and #material finishes, hard shadows by
 any-hit rays, soft shadows from area lights, ambient occlusion, mirror reflection
-and refraction with Fresnel to a bounded depth, a sky. Works on batches of rays (numpy); the
-tracing itself is the numba kernel. Colours are linear; image.py encodes sRGB."""
+and refraction with Fresnel to a bounded depth, a sky. Works on batches of rays
+(numpy); the tracing itself is the numba kernel. Colours are linear; image.py
+encodes sRGB."""
 from __future__ import annotations
 
 import math
