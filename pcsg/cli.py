@@ -95,7 +95,13 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--timeout", type=float, metavar="SECONDS",
                    help="stop a file's render after this long, writing nothing")
     r.add_argument("--bounces", type=int, default=3, metavar="N",
-                   help="reflection and refraction depth (default 3)")
+                   help="reflection and refraction depth (default 3; 0: off)")
+    r.add_argument("--ao", type=int, metavar="N",
+                   help="ambient occlusion: N hemisphere rays per shading point (default: "
+                        "the file's #occlusion, else 0: off)")
+    r.add_argument("--ao-distance", type=float, metavar="D",
+                   help="occluders farther than D do not darken (default: the file's "
+                        "#occlusion, else 15%% of the object's box diagonal)")
     r.add_argument("--reference", action="store_true",
                    help="trace the fully expanded system instead (small orders; for checking)")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress line")
@@ -259,7 +265,8 @@ def cmd_render(args) -> int:
                    reference=args.reference, shadow_samples=args.shadow_samples,
                    adaptive=not args.no_adaptive, strict=args.strict, timeout=args.timeout,
                    stack_depth=args.stack_depth, interval_rows=args.interval_rows,
-                   max_instances=args.max_instances)
+                   max_instances=args.max_instances, ao=args.ao,
+                   ao_distance=args.ao_distance)
     problem = check_options(opts)
     if problem:
         raise UsageError(problem)

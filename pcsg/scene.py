@@ -1,4 +1,5 @@
-"""Scene directives (notation §8): #camera, #light, #sky, #material."""
+"""Scene directives (notation §8): #camera, #light, #sky, #material, and #occlusion
+(ambient occlusion, a pcsg extension)."""
 from __future__ import annotations
 
 from .graph.model import Scene
@@ -9,11 +10,20 @@ DIRECTIVES = {
     "camera": {"eye": 3, "at": 3, "up": 3, "fov": 1},
     "light": {"at": 3, "color": 3, "radius": 1},
     "sky": {"color": 3, "horizon": 3, "zenith": 3},
+    "occlusion": {"samples": 1, "distance": 1},
     "material": {"color": 3, "diffuse": 1, "specular": 1, "shininess": 1, "reflect": 1,
                  "ior": 1, "transmit": 1},
 }
 MATERIAL_DEFAULTS = {"color": (0.8, 0.8, 0.8), "diffuse": 0.7, "specular": 0.3, "shininess": 40.0,
                      "reflect": 0.0, "ior": 1.0, "transmit": 0.0}
+ONCE = ("camera", "sky", "occlusion")       # at most one per file
+MAX_AO_SAMPLES = 1024
+# (directive, key) -> (test of the value, what the error asks for)
+RANGES = {
+    ("occlusion", "samples"): (lambda v: 0 <= v <= MAX_AO_SAMPLES and v == int(v),
+                               f"a whole number of rays from 0 (off) to {MAX_AO_SAMPLES}"),
+    ("occlusion", "distance"): (lambda v: 0 < v < float("inf"), "a positive distance"),
+}
 
 
 def _known(words) -> str:
@@ -38,7 +48,7 @@ def build_scene(directives: list[ast.Directive], constants, report) -> Scene:
                 continue
         elif d.name is not None:
             report(d.kind_span, f"#{d.kind} takes no name, only key=value pairs", "directive")
-        if d.kind in ("camera", "sky") and d.kind in seen:
+        if d.kind in ONCE and d.kind in seen:
             report(d.kind_span, f"a second #{d.kind}; a file has at most one", "directive")
             continue
         seen[d.kind] = d
@@ -58,6 +68,11 @@ def build_scene(directives: list[ast.Directive], constants, report) -> Scene:
                 report(item.value.span, f"'{item.key}' takes {shape}, got {len(parts)}", "directive")
                 continue
             nums = tuple(constants(p) for p in parts)
+            check, wanted = RANGES.get((d.kind, item.key), (None, ""))
+            if check is not None and not check(nums[0]):
+                report(item.value.span, f"'{item.key}' takes {wanted}, got {nums[0]:g}",
+                       "directive")
+                continue
             values[item.key] = nums[0] if want == 1 else nums
         if d.kind == "camera":
             scene.camera = values
@@ -65,6 +80,8 @@ def build_scene(directives: list[ast.Directive], constants, report) -> Scene:
             scene.lights.append(values)
         elif d.kind == "sky":
             scene.sky = values
+        elif d.kind == "occlusion":
+            scene.occlusion = values
         elif d.name in scene.materials:
             report(d.kind_span, f"material '{d.name}' is defined twice", "directive")
         else:

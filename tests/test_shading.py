@@ -1,6 +1,6 @@
 """The numba shading kernel (trace/shading.py) against the numpy model it follows
 (render/shade.py): same colours, first hits and ray counts, with area lights,
-reflection and refraction."""
+reflection, refraction and ambient occlusion."""
 import numpy as np
 import pytest
 
@@ -26,10 +26,11 @@ S if(n > 0, 2, 1)
     pcsg.load("grammars/carpenter_terrain.pcsg", cnt=3),
     pcsg.load("grammars/sympodial_tree.pcsg", cnt=4),
 ], ids=["glass", "terrain", "tree"])
-@pytest.mark.parametrize("shadows,samples", [(True, 8), (True, 1), (False, 1)])
-def test_kernel_shades_like_the_model(obj, shadows, samples):
+@pytest.mark.parametrize("shadows,samples,ao", [(True, 8, 0), (True, 1, 0), (False, 1, 0),
+                                                (True, 4, 8)])
+def test_kernel_shades_like_the_model(obj, shadows, samples, ao):
     cam = make_camera(obj, 4 / 3)
-    light = make_lighting(obj, cam, shadows, samples, 3)
+    light = make_lighting(obj, cam, shadows, samples, 3, ao=ao)
     light.lod = cam.pixel_angle(45)
     ys, xs = np.mgrid[0:45, 0:60]
     o, d = cam.rays(60, 45, xs.ravel() + 0.5, ys.ravel() + 0.5)
@@ -40,6 +41,7 @@ def test_kernel_shades_like_the_model(obj, shadows, samples):
     got, got_t, got_hits = shade(obj, light, o, d)
     assert light.rays[0] == model_rays
     assert model_rays > len(o) or not shadows
+    assert model_rays >= len(o) + ao * want_hits.hit.sum()     # every visible point's AO rays
     np.testing.assert_array_equal(got_hits.hit, want_hits.hit)
     np.testing.assert_allclose(got_t[want_hits.hit], want_t[want_hits.hit], rtol=1e-12)
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)

@@ -34,6 +34,7 @@ class Scene:
     camera: dict = field(default_factory=dict)
     lights: list[dict] = field(default_factory=list)
     sky: dict = field(default_factory=dict)
+    occlusion: dict = field(default_factory=dict)
     materials: dict[str, dict] = field(default_factory=dict)
 
 

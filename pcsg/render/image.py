@@ -80,9 +80,10 @@ def render_frame(traced, camera: Camera, light: Lighting, width: int, height: in
         acc = np.zeros(((y1 - y0) * width, 3))
         acc_obj = np.zeros(((y1 - y0) * width, 3))
         hit = np.zeros((y1 - y0) * width)
+        pixels = (ys * width + xs).ravel().astype(np.int64)
         for k, (ox, oy) in enumerate(offs):
             o, d = camera.rays(width, height, xs.ravel() + ox, ys.ravel() + oy)
-            c, t, hits = shade(traced, light, o, d)
+            c, t, hits = shade(traced, light, o, d, ids=sample_ids(pixels, k, width, height))
             acc += c
             acc_obj += c * hits.hit[:, None]
             hit += hits.hit
@@ -122,15 +123,22 @@ def _refine(traced, camera, light, rgb, obj, cover, rng):
     acc = rgb[ys, xs] * 1.0
     hit = cover[ys, xs] * 1.0
     acc_obj = obj[ys, xs] * hit[:, None]
-    for ox, oy in offs:
+    pixels = (ys * w + xs).astype(np.int64)
+    for k, (ox, oy) in enumerate(offs):
         o, d = camera.rays(w, h, xs + ox, ys + oy)
-        c, _, hits = shade(traced, light, o, d)
+        c, _, hits = shade(traced, light, o, d, ids=sample_ids(pixels, 1 + k, w, h))
         acc += c
         acc_obj += c * hits.hit[:, None]
         hit += hits.hit
     rgb[ys, xs] = acc / (1 + len(offs))
     obj[ys, xs] = acc_obj / np.maximum(hit, 1)[:, None]
     cover[ys, xs] = hit / (1 + len(offs))
+
+
+def sample_ids(pixels: np.ndarray, k: int, width: int, height: int) -> np.ndarray:
+    """Sample k of each pixel, numbered for shade's ambient occlusion pattern: the same
+    number whatever the batch or the thread, a different one for every sample."""
+    return pixels + np.int64(k) * (width * height)
 
 
 def to_srgb(linear: np.ndarray) -> np.ndarray:

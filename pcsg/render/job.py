@@ -11,6 +11,7 @@ import numpy as np
 from ..compiler import compile_file
 from ..trace.nodes import (EV_INTERVALS, EV_NONFINITE, EV_SELECTION, EV_SINGULAR, EV_STACK,
                            EV_VISITS)
+from ..scene import MAX_AO_SAMPLES
 from ..limits import (INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, MAX_INTERVAL_ROWS,
                       MAX_STACK_DEPTH)
 from ..tracer import Hits, Traced
@@ -40,6 +41,8 @@ class Options:
     shadows: bool = True
     shadow_samples: int = 8
     bounces: int = 3
+    ao: int | None = None           # ambient occlusion rays; None: the file's #occlusion
+    ao_distance: float | None = None
     quiet: bool = False
     reference: bool = False
     strict: bool = False            # runtime errors in the grammar fail the render
@@ -69,6 +72,10 @@ def check_options(o: Options) -> str | None:
         return f"--timeout {o.timeout}: give a positive number of seconds"
     if not 1 <= o.shadow_samples <= 256:
         return f"--shadow-samples {o.shadow_samples}: use 1 to 256"
+    if o.ao is not None and not 0 <= o.ao <= MAX_AO_SAMPLES:
+        return f"--ao {o.ao}: use 0 (off) to {MAX_AO_SAMPLES} rays"
+    if o.ao_distance is not None and not 0 < o.ao_distance < math.inf:
+        return f"--ao-distance {o.ao_distance}: give a positive distance"
     if not 1 <= o.max_depth <= 10_000:
         return f"--max-depth {o.max_depth}: use 1 to 10000"
     if o.stack_depth is not None and not 16 <= o.stack_depth <= MAX_STACK_DEPTH:
@@ -103,7 +110,8 @@ def render_file(path: Path, out: Path, opts: Options) -> tuple[str, list[str]]:
         target = _ReferenceTarget(traced)
     w, h = opts.size
     camera = make_camera(traced, w / h, opts.eye, opts.at, opts.up, opts.fov)
-    light = make_lighting(traced, camera, opts.shadows, opts.shadow_samples, opts.bounces)
+    light = make_lighting(traced, camera, opts.shadows, opts.shadow_samples, opts.bounces,
+                          opts.ao, opts.ao_distance)
     progress = Progress(Path(path).name, w * h, not opts.quiet)
     check_deadline(deadline, opts.timeout)
     frame = render_frame(target, camera, light, w, h, opts.samples, opts.adaptive, progress,

@@ -1,7 +1,8 @@
 """Shading: Phong with paint colours and #material finishes, hard shadows by
-any-hit rays, soft shadows from area lights, mirror reflection and refraction
-with Fresnel to a bounded depth, a sky. Works on batches of rays (numpy); the
-tracing itself is the numba kernel. Colours are linear; image.py encodes sRGB."""
+any-hit rays, soft shadows from area lights, ambient occlusion, mirror reflection
+and refraction with Fresnel to a bounded depth, a sky. Works on batches of rays
+(numpy); the tracing itself is the numba kernel. Colours are linear; image.py
+encodes sRGB."""
 from __future__ import annotations
 
 import math
@@ -11,7 +12,10 @@ import numba
 import numpy as np
 
 from ..scene import MATERIAL_DEFAULTS
+from ..trace.shading import GOLDEN
+from ..trace.vm import hash_to_unit_array, splitmix64_array
 from ..tracer import Hits
+from .camera import finite_bounds
 
 FINISH_KEYS = ("diffuse", "specular", "shininess", "reflect", "ior", "transmit")
 
@@ -19,6 +23,7 @@ DEFAULT_COLOR = np.array([0.78, 0.76, 0.72])       # an unpainted object: warm l
 DEFAULT_HORIZON = np.array([0.86, 0.90, 0.96])
 DEFAULT_ZENITH = np.array([0.32, 0.52, 0.84])
 AMBIENT = 0.22
+AO_DISTANCE = 0.15          # default --ao-distance, a fraction of the object's box diagonal
 EPS = 1e-6
 
 
@@ -39,6 +44,8 @@ class Lighting:
     shadows: bool = True
     shadow_samples: int = 8
     max_bounces: int = 3
+    ao_samples: int = 0             # hemisphere rays per shading point; 0: no occlusion
+    ao_distance: float = 1.0        # occluders farther than this do not count
     lod: float = 0.0
     rays: list = field(default_factory=lambda: [0])   # rays traced, for the summary
 
@@ -48,7 +55,10 @@ class Lighting:
         return self.horizon * (1 - s) + self.zenith * s
 
 
-def make_lighting(traced, camera, shadows=True, shadow_samples=8, max_bounces=3) -> Lighting:
+def make_lighting(traced, camera, shadows=True, shadow_samples=8, max_bounces=3, ao=None,
+                  ao_distance=None) -> Lighting:
+    """`ao` / `ao_distance` None: the file's #occlusion, else no occlusion and a distance
+    of AO_DISTANCE times the object's (finite) box diagonal."""
     scene = traced.graph.scene
     sky = scene.sky
     horizon = np.array(sky.get("horizon", sky.get("color", DEFAULT_HORIZON)), float)
@@ -61,7 +71,13 @@ def make_lighting(traced, camera, shadows=True, shadow_samples=8, max_bounces=3)
     mats = np.array([[*scene.materials[name]["color"],
                       *(scene.materials[name][k] for k in FINISH_KEYS)]
                      for name in traced.material_names] or np.zeros((0, 9)), float).reshape(-1, 9)
-    return Lighting(lights, horizon, zenith, mats, shadows, max(1, shadow_samples), max_bounces)
+    occ = scene.occlusion
+    ao = int(occ.get("samples", 0)) if ao is None else ao
+    if ao_distance is None:
+        box = finite_bounds(traced)
+        ao_distance = occ.get("distance", AO_DISTANCE * float(np.linalg.norm(box[3:] - box[:3])))
+    return Lighting(lights, horizon, zenith, mats, shadows, max(1, shadow_samples), max_bounces,
+                    ao, float(ao_distance))
 
 
 def default_light(camera) -> Light:
@@ -89,12 +105,16 @@ def _finish(light: Lighting, material: np.ndarray, paint: np.ndarray):
     return fin
 
 
-def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: bool = True):
+def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: bool = True,
+          ids=None):
     """Linear RGB for each ray, its first-hit distance (inf for the sky) and its hits.
-    The graph tracer shades in one numba kernel (trace/shading.py); this numpy code is
-    the model it follows, and shades the reference renders."""
+    ids (default 0, 1, ...) name each ray's pixel and sample for the ambient occlusion
+    pattern; bounces keep their camera ray's id. The graph tracer shades in one numba
+    kernel (trace/shading.py); this numpy code is the model it follows, and shades the
+    reference renders."""
+    ids = np.arange(len(origins), dtype=np.int64) if ids is None else ids
     if kernel and depth == 0 and hasattr(traced, "flat"):
-        return _shade_kernel(traced, light, origins, directions)
+        return _shade_kernel(traced, light, origins, directions, ids)
     hits = traced.trace(origins, directions, lod=light.lod)
     light.rays[0] += len(origins)
     color = light.sky(directions)
@@ -113,6 +133,8 @@ def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: 
     out = AMBIENT * base * (light.horizon * (1 - up) + light.zenith * up)
     scale = 1.0 + np.abs(p).max(axis=1, keepdims=True)
     origin = p + n * EPS * scale
+    if light.ao_samples > 0:
+        out *= _unoccluded(traced, light, origin, n, ids[h])[:, None]
     for lt in light.lights:
         vis, ldir = _visibility(traced, light, lt, origin)
         ndl = np.clip(np.einsum("ij,ij->i", n, ldir), 0, None)[:, None]
@@ -121,12 +143,12 @@ def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: 
         out += vis[:, None] * lt.color * (kd * base * ndl + ks * spec * (ndl > 0))
     if depth < light.max_bounces:
         out = _bounces(traced, light, out, d, n, p, scale, inside, reflect, ior, transmit,
-                       depth)
+                       depth, ids[h])
     color[h] = out
     return color, hits.t, hits
 
 
-def _shade_kernel(traced, light: Lighting, origins, directions):
+def _shade_kernel(traced, light: Lighting, origins, directions, ids):
     from ..trace.shading import CHUNK, shade_rays
     from ..trace.nodes import add_events, no_events
     o = np.ascontiguousarray(origins, dtype=np.float64)
@@ -146,7 +168,8 @@ def _shade_kernel(traced, light: Lighting, origins, directions):
                np.asarray(light.zenith, float), np.ascontiguousarray(materials, dtype=float),
                default, bool(light.shadows), int(light.shadow_samples), int(light.max_bounces),
                float(light.lod), traced.max_depth, traced.limits, numba.get_num_threads(),
-               AMBIENT, rgb, t, hit, rays, events)
+               AMBIENT, int(light.ao_samples), float(light.ao_distance),
+               np.ascontiguousarray(ids, dtype=np.int64), rgb, t, hit, rays, events)
     add_events(traced.events, events)
     light.rays[0] += int(rays.sum())
     return rgb, t, Hits(t=t, normal=None, paint=None, material=None, hit=hit)
@@ -177,14 +200,45 @@ def _disk(k: int, n: int, radius: float, normal: np.ndarray) -> np.ndarray:
     same points every render: deterministic soft shadows)."""
     r = radius * math.sqrt((k + 0.5) / n)
     a = k * math.pi * (3 - math.sqrt(5))
-    helper = np.where(np.abs(normal[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
-    u = np.cross(normal, helper)
-    u /= np.linalg.norm(u, axis=1, keepdims=True)
-    v = np.cross(normal, u)
+    u, v = _basis(normal)
     return r * (math.cos(a) * u + math.sin(a) * v)
 
 
-def _bounces(traced, light, out, d, n, p, scale, inside, reflect, ior, transmit, depth):
+def _basis(normal: np.ndarray):
+    """Two unit vectors perpendicular to each normal and to each other."""
+    helper = np.where(np.abs(normal[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
+    u = np.cross(normal, helper)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    return u, np.cross(normal, u)
+
+
+def _unoccluded(traced, light: Lighting, origin, normal, ids) -> np.ndarray:
+    """The fraction of ao_samples cosine-weighted hemisphere rays about each normal that
+    meet nothing within ao_distance: the ambient light a Lambertian point receives."""
+    h = splitmix64_array(ids)
+    shift = np.stack([hash_to_unit_array(h), hash_to_unit_array(splitmix64_array(h))], 1)
+    seen = np.zeros(len(origin))
+    for k in range(light.ao_samples):
+        hit = traced.trace(origin, _hemisphere(k, light.ao_samples, shift, normal), tmin=1e-9,
+                           tmax=light.ao_distance, any_hit=True, lod=light.lod)
+        light.rays[0] += len(origin)
+        seen += ~hit.hit
+    return seen / light.ao_samples
+
+
+def _hemisphere(k: int, n: int, shift: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """Direction k of n about each unit normal, cosine weighted: a pattern stratified in
+    elevation with golden-ratio azimuths, shifted by each row of `shift` mod 1 (the
+    kernel's trace/shading.hemisphere, which says why)."""
+    uv = np.stack([(k + 0.5) / n + shift[:, 0], k * GOLDEN + shift[:, 1]], 1)
+    uv -= np.floor(uv)
+    s, c = np.sqrt(uv[:, :1]), np.sqrt(np.clip(1.0 - uv[:, :1], 0.0, None))
+    a = 2 * math.pi * uv[:, 1:]
+    u, v = _basis(normal)
+    return s * np.cos(a) * u + s * np.sin(a) * v + c * normal
+
+
+def _bounces(traced, light, out, d, n, p, scale, inside, reflect, ior, transmit, depth, ids):
     """Mirror reflection and refraction (Schlick's Fresnel), traced one level deeper."""
     cos_i = -np.einsum("ij,ij->i", d, n)
     eta = np.where(inside, ior, 1.0 / np.maximum(ior, 1e-9))
@@ -197,13 +251,13 @@ def _bounces(traced, light, out, d, n, p, scale, inside, reflect, ior, transmit,
     if want_r.any():
         rd = d[want_r] + 2 * cos_i[want_r, None] * n[want_r]
         c, _, _ = shade(traced, light, p[want_r] + n[want_r] * EPS * scale[want_r], rd,
-                        depth + 1)
+                        depth + 1, ids=ids[want_r])
         out[want_r] = out[want_r] * (1 - kr[want_r, None]) + kr[want_r, None] * c
     want_t = kt > 1e-3
     if want_t.any():
         e, ci, kk = eta[want_t, None], cos_i[want_t, None], k[want_t, None]
         td = e * d[want_t] + (e * ci - np.sqrt(np.clip(kk, 0, None))) * n[want_t]
         c, _, _ = shade(traced, light, p[want_t] - n[want_t] * EPS * scale[want_t], td,
-                        depth + 1)
+                        depth + 1, ids=ids[want_t])
         out[want_t] = out[want_t] * (1 - kt[want_t, None]) + kt[want_t, None] * c
     return out

@@ -8,6 +8,10 @@ A sample's pending rays (the camera ray, then its bounces) sit on a small stack,
 each with the weight its colour enters the pixel with: a surface keeps
 (1 - kr)(1 - kt) of its own colour, passes kr(1 - kt) to its reflection and kt
 to its refraction, exactly the blend shade.py applies on the way back up.
+
+Ambient occlusion shifts one fixed pattern of hemisphere directions by two numbers
+hashed from the camera ray's id (its pixel and sample), never from the thread that
+shades it, so the picture is the same at any thread count.
 """
 from __future__ import annotations
 
@@ -18,6 +22,7 @@ from numba import njit, prange
 
 from .jit import kernel
 from .scratch import make_scratch
+from .vm import hash_to_unit, splitmix64
 from .walk import R_MAT, R_N, R_PAINT, R_T, R_WIDTH, first_hit
 
 CHUNK = 64
@@ -25,6 +30,7 @@ EPS = 1e-6
 # light rows: position (3), colour (3), radius; material rows as shade.py's table
 L_POS, L_COLOR, L_RADIUS = 0, 3, 6
 P_O, P_D, P_W, P_DEPTH, P_CONE = 0, 3, 6, 9, 10     # pending-ray columns
+GOLDEN = 0.6180339887498949                    # the pattern's azimuths: k * GOLDEN mod 1
 
 
 @kernel
@@ -38,9 +44,10 @@ def trace_one(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_
 @njit(cache=True, parallel=True, error_model="numpy")
 def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, default,
                shadows, shadow_samples, max_bounces, lod, max_depth, limits, workers, ambient,
-               rgb, first_t, first_hit_out, rays, events):
+               ao_samples, ao_distance, ids, rgb, first_t, first_hit_out, rays, events):
     """rgb[i] = the linear colour of camera ray i; first_t / first_hit_out its first hit;
-    rays[chunk] = rays traced; events[chunk] as trace_rays."""
+    rays[chunk] = rays traced; events[chunk] as trace_rays. ids[i] seeds the ambient
+    occlusion pattern of ray i and of its bounces."""
     n = origins.shape[0]
     chunks = (n + CHUNK - 1) // CHUNK
     for w in prange(workers):
@@ -105,6 +112,22 @@ def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, de
                     scale = 1.0 + max(abs(p0), abs(p1), abs(p2))
                     q0, q1, q2 = (p0 + n0 * EPS * scale, p1 + n1 * EPS * scale,
                                   p2 + n2 * EPS * scale)
+                    if ao_samples > 0:
+                        h = splitmix64(np.uint64(ids[i]))
+                        r1, r2 = hash_to_unit(h), hash_to_unit(splitmix64(h))
+                        seen = 0
+                        for k in range(ao_samples):
+                            a0, a1, a2 = hemisphere(k, ao_samples, r1, r2, n0, n1, n2)
+                            blocked = trace_one(flat, q0, q1, q2, a0, a1, a2, 1e-9,
+                                                ao_distance, True, lod, cone, max_depth, S, ev,
+                                                res)
+                            count += 1
+                            if not blocked:
+                                seen += 1
+                        unoccluded = seen / ao_samples
+                        c0 *= unoccluded
+                        c1 *= unoccluded
+                        c2 *= unoccluded
                     for li in range(lights.shape[0]):
                         t0 = lights[li, L_POS] - q0
                         t1 = lights[li, L_POS + 1] - q1
@@ -184,10 +207,34 @@ def disk(k, n, radius, x, y, z):
     """shade._disk: sample k of n on a disk of `radius` facing (x, y, z)."""
     r = radius * math.sqrt((k + 0.5) / n)
     a = k * math.pi * (3 - math.sqrt(5))
+    ux, uy, uz, vx, vy, vz = basis(x, y, z)
+    ca, sa = math.cos(a), math.sin(a)
+    return r * (ca * ux + sa * vx), r * (ca * uy + sa * vy), r * (ca * uz + sa * vz)
+
+
+@kernel
+def hemisphere(k, n, r1, r2, x, y, z):
+    """shade._hemisphere: direction k of n about the unit normal (x, y, z), cosine
+    weighted, so that the fraction of unblocked directions estimates the ambient light
+    a Lambertian surface receives. The pattern (stratified in elevation, golden-ratio
+    azimuths) is shifted by (r1, r2) mod 1 (Cranley-Patterson rotation): stratified
+    within a pixel, noise rather than bands across pixels."""
+    u = (k + 0.5) / n + r1
+    u -= math.floor(u)
+    v = k * GOLDEN + r2
+    v -= math.floor(v)
+    s, c = math.sqrt(u), math.sqrt(max(1.0 - u, 0.0))
+    a = 2 * math.pi * v
+    ux, uy, uz, vx, vy, vz = basis(x, y, z)
+    ca, sa = s * math.cos(a), s * math.sin(a)
+    return ca * ux + sa * vx + c * x, ca * uy + sa * vy + c * y, ca * uz + sa * vz + c * z
+
+
+@kernel
+def basis(x, y, z):
+    """Two unit vectors perpendicular to (x, y, z) and to each other (shade._basis)."""
     hx, hy, hz = (0.0, 0.0, 1.0) if abs(z) < 0.9 else (1.0, 0.0, 0.0)
     ux, uy, uz = y * hz - z * hy, z * hx - x * hz, x * hy - y * hx
     norm = math.sqrt(ux * ux + uy * uy + uz * uz)
     ux, uy, uz = ux / norm, uy / norm, uz / norm
-    vx, vy, vz = y * uz - z * uy, z * ux - x * uz, x * uy - y * ux
-    ca, sa = math.cos(a), math.sin(a)
-    return r * (ca * ux + sa * vx), r * (ca * uy + sa * vy), r * (ca * uz + sa * vz)
+    return ux, uy, uz, y * uz - z * uy, z * ux - x * uz, x * uy - y * ux

@@ -143,6 +143,18 @@ def splitmix64(x):
     return z ^ (z >> _S31)
 
 
+def splitmix64_array(x: np.ndarray) -> np.ndarray:
+    """splitmix64 of each element of an integer array, in numpy (same bits)."""
+    z = x.astype(np.uint64) + _GOLDEN
+    z = (z ^ (z >> _S30)) * _M1
+    z = (z ^ (z >> _S27)) * _M2
+    return z ^ (z >> _S31)
+
+
+def hash_to_unit_array(h: np.ndarray) -> np.ndarray:
+    return (h >> _S11).astype(np.float64) * _INV_2_53
+
+
 @_jit_sig('float64(uint64)')
 def hash_to_unit(h):
     return np.float64(np.uint64(h) >> _S11) * _INV_2_53
