@@ -16,9 +16,10 @@ import sys
 import numpy as np
 
 from ..language.errors import Diagnostic, PcsgError
+from ..language.names import PIXELS
 from ..trace.primitives import object_box
 from .dependence import StateKey
-from .derive import Deriver
+from .derive import Deriver, State
 from .model import CALC, DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, UNION, Graph
 from .stats import MAX_LEVELS
 
@@ -29,6 +30,9 @@ PROBE_STATES = 500     # states after which a walk that almost never meets a sta
 
 
 NOTHING = np.zeros((0, 3))
+# the sizes at which a selection that reads `pixels` is asked for its rules: straddling
+# any threshold between 1/16 and 16 million pixels, within a factor 1.5
+PIXEL_PROBES = (0.0, *(m * 2.0 ** k for k in range(-4, 25) for m in (1.0, 1.5)), np.inf)
 SEED = np.zeros((1, 3))         # a point: a graftal's growth starts there
 
 
@@ -112,6 +116,8 @@ class _Walker:
         self.g = graph
         self.d = Deriver(graph)
         self.key = StateKey(graph, geometry=True)
+        self.pixel_selects = [n.kind == SELECT and PIXELS in graph.params and
+                              PIXELS in graph.exprs.reads(n.exprs[0]) for n in graph.nodes]
         self.estimate: dict = {}
         self.seed = NOTHING        # the first estimate of a re-entered state
         self.reset()
@@ -142,8 +148,10 @@ class _Walker:
             raise TooManyStates
         self.active.add(key)
         if n.kind == SELECT:
-            r = self.d.select(i, state, h)
-            b = self.box(n.children[r], state, self.d.edge(h, i, r), level + 1)
+            b = NOTHING
+            for r in self.rules(i, state, h):
+                b = unite_bounds(b, self.box(n.children[r], state, self.d.edge(h, i, r),
+                                             level + 1))
         elif n.kind == CALC:
             b = self.box(n.children[0], self.d.calc(i, state, h), h, level)
         elif n.kind == TRANSFORM:
@@ -164,6 +172,25 @@ class _Walker:
         self.memo[key] = b
         self.boxes[i] = union_box(self.boxes[i], as_box(b))
         return b
+
+
+    def rules(self, i: int, state, h: int) -> list[int]:
+        """The rule the selection picks; for one that reads `pixels`, every rule it picks
+        at PIXEL_PROBES (the tracer may see the instance at any size)."""
+        if not self.pixel_selects[i]:
+            return [self.d.select(i, state, h)]
+        found, error = set(), None
+        slot = self.g.params[PIXELS]
+        for v in PIXEL_PROBES:
+            probe = State(state.values.copy(), state.assigned)
+            probe.values[slot] = v
+            try:
+                found.add(self.d.select(i, probe, h))
+            except PcsgError as e:        # that size gives an empty instance
+                error = e
+        if not found:
+            raise error
+        return sorted(found)
 
 
 def _memoised(graph: Graph) -> np.ndarray:
@@ -265,6 +292,9 @@ def hyper_boxes(graph: Graph, max_depth: int = 64):
                                d.source, d.notes, d.code) for d in e.diagnostics]
     finally:
         sys.setrecursionlimit(limit)
-    from ..trace.boxwalk import walk_boxes
+    from ..trace.boxwalk import empty_table, walk_boxes
+    if PIXELS in graph.params:      # the instance walk knows no pixel sizes: no boxes
+        n = len(graph.nodes)
+        return np.tile(-EMPTY, (n, 1)), "unbounded", problems, empty_table()
     boxes, complete, table = walk_boxes(graph, max_depth, instances=True)
     return boxes, "every instance" if complete else "unbounded", problems, table

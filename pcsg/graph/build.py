@@ -6,7 +6,7 @@ from collections import defaultdict
 
 from ..language import ast
 from ..language.errors import Diagnostic, PcsgError, sort_key
-from ..language.names import FRACTAL_PRIMITIVES, PRIMITIVES, RESERVED, TRANSFORMS
+from ..language.names import FRACTAL_PRIMITIVES, PIXELS, PRIMITIVES, RESERVED, TRANSFORMS
 from ..trace.fractals import check_arguments
 from ..scene import build_scene
 from .derive import names_in
@@ -162,6 +162,9 @@ class _Builder:
                            "duplicate")
         for name, named in self.named.items():
             self._reserved(name, named.name_span, "a named expression")
+        if any(decl is not None and PIXELS in names_in(decl.selection)
+               for decl, _ in self.rules.values()):
+            params[PIXELS] = len(params)     # a slot that the tracer fills before selecting
         return params
 
     def _apply_overrides(self, axioms):

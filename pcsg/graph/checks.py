@@ -7,7 +7,8 @@ import numpy as np
 
 from ..language import ast
 from ..language.errors import Diagnostic, PcsgError
-from ..language.names import FLAT_PRIMITIVES, UNION_ONLY_PRIMITIVES
+from ..language.names import FLAT_PRIMITIVES, PIXELS, UNION_ONLY_PRIMITIVES
+from .expr import PIXELS_ONLY_IN_SELECTIONS
 from .derive import Deriver
 from .model import CALC, DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, Graph
 
@@ -29,7 +30,8 @@ def reachable(graph: Graph) -> list[bool]:
 
 def run_checks(graph: Graph) -> list[Diagnostic]:
     """Errors raise PcsgError; warnings are returned (and added to graph.warnings)."""
-    errors = definite_assignment(graph) + flat_under_solid_operators(graph)
+    errors = (definite_assignment(graph) + flat_under_solid_operators(graph)
+              + pixels_outside_selections(graph))
     if errors:
         raise PcsgError(errors)
     warnings = unused_modules(graph) + endless_cycles(graph) + non_contracting_cycles(graph)
@@ -64,7 +66,8 @@ def definite_assignment(graph: Graph) -> list[Diagnostic]:
     nodes, table, names = graph.nodes, graph.exprs, graph.param_names
     everything = (1 << len(names)) - 1
     must = [everything] * len(nodes)
-    must[graph.root] = 0
+    given = 1 << graph.params[PIXELS] if PIXELS in graph.params else 0   # by the tracer
+    must[graph.root] = given
     live = reachable(graph)
     work = deque([graph.root])
     while work:
@@ -75,7 +78,7 @@ def definite_assignment(graph: Graph) -> list[Diagnostic]:
             for slot in n.targets:
                 out |= 1 << slot
         for c in n.children:
-            new = must[c] & out if c != graph.root else 0
+            new = must[c] & out if c != graph.root else given
             if new != must[c]:
                 must[c] = new
                 work.append(c)
@@ -93,6 +96,23 @@ def definite_assignment(graph: Graph) -> list[Diagnostic]:
                                         f"without assigning it", var.span, "unassigned"))
             if n.kind == CALC:
                 have |= 1 << n.targets[k]
+    return errors
+
+
+def pixels_outside_selections(graph: Graph) -> list[Diagnostic]:
+    """`pixels` has a value only while a selection is evaluated (the tracer computes it
+    for the instance being selected); anywhere else it would be a stale number."""
+    if PIXELS not in graph.params:
+        return []
+    errors = []
+    for n in graph.nodes:
+        if n.kind == SELECT:
+            continue
+        for expr in n.exprs:
+            if PIXELS in graph.exprs.reads(expr):
+                var = _first_var(graph.expr_ast[expr], PIXELS)
+                errors.append(_diag(graph, "error", PIXELS_ONLY_IN_SELECTIONS, var.span,
+                                    "pixels"))
     return errors
 
 
@@ -152,6 +172,8 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
     for m, s in enumerate(nodes):
         if s.kind != SELECT or not live[m] or table.uses_rand(s.exprs[0]):
             continue
+        if PIXELS in table.reads(s.exprs[0]):
+            continue             # it ends where the instances become small enough
         reads = {graph.params[p] for p in table.reads(s.exprs[0])}
         closing = []             # (parent, child number) of edges that close such a cycle
         seen, stack = {m}, [m]

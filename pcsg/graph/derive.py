@@ -8,6 +8,7 @@ import numpy as np
 
 from ..language import ast
 from ..language.errors import Diagnostic, PcsgError
+from ..language.names import PIXELS
 from ..trace import vm
 from ..trace.transforms import matrix
 from .model import Graph, SELECT
@@ -22,7 +23,7 @@ class State:
 
     def items(self, graph: Graph):
         for name, slot in graph.params.items():
-            if self.assigned >> slot & 1:
+            if self.assigned >> slot & 1 and name != PIXELS:
                 yield name, float(self.values[slot])
 
 
@@ -69,7 +70,14 @@ class Deriver:
         self.table = graph.exprs
 
     def initial(self) -> tuple[State, int]:
-        return State(np.full(len(self.g.params), np.nan), 0), int(vm.ROOT_HASH)
+        """No parameter assigned yet, except `pixels`: +inf, as no camera sees the
+        derivation here (every instance is large)."""
+        values = np.full(len(self.g.params), np.nan)
+        given = 0
+        if PIXELS in self.g.params:
+            values[self.g.params[PIXELS]] = np.inf
+            given = 1 << self.g.params[PIXELS]
+        return State(values, given), int(vm.ROOT_HASH)
 
     def value(self, expr: int, state: State, inst_hash: int) -> float:
         return float(self.table.evaluate(expr, state.values, inst_hash))

@@ -18,7 +18,11 @@ import struct
 import numpy as np
 
 from ..language import ast
+from ..language.names import PIXELS
 from ..trace import vm
+
+PIXELS_ONLY_IN_SELECTIONS = ("'pixels' (the instance's size in pixels) can only be read in a "
+                             "module's selection")
 
 # name -> (opcode, min args, max args or None for "any number")
 FUNCTIONS = {
@@ -134,6 +138,9 @@ class ExprTable:
                 return ('load', n.name)
             if n.name == 'pi':
                 return ('const', math.pi)
+            if n.name == PIXELS:
+                self.report(n.span, PIXELS_ONLY_IN_SELECTIONS, 'pixels')
+                return _NAN
             self.report(n.span, f"undefined name '{n.name}'", 'undefined-name')
             return _NAN
         if isinstance(n, ast.Unary):

@@ -5,7 +5,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..language.names import FRACTAL_PRIMITIVES, PRIMITIVES
+from ..language.names import FRACTAL_PRIMITIVES, PIXELS, PRIMITIVES
 from ..trace.fractals import ARG_WIDTH, fractal_row
 from ..trace.transforms import CODES as TRANSFORM_CODES
 from ..trace.transforms import matrix as transform_matrix
@@ -46,6 +46,7 @@ Flat = namedtuple("Flat", [
     "max_stack",     # int64        expression stack depth
     "max_children",  # int64
     "hashed",        # int64        1 if anything reads instance hashes (rand(), the table)
+    "pixels_slot",   # int64        the parameter slot of `pixels`, -1 if no selection reads it
 ])
 
 
@@ -102,6 +103,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None) -> Flat:
         max_children=np.int64(max(1, counts.max(initial=1))),
         hashed=np.int64(len(table[0]) > 2 or bool(np.any(vm["code"][:, 0] == RAND))
                         or bool(calc_cache.any())),
+        pixels_slot=np.int64(graph.params.get(PIXELS, -1)),
     )
 
 

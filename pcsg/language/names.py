@@ -16,6 +16,10 @@ PRIMITIVES = ("sphere", "cube", "cylinder", "cone", "tetrahedron", "plane", "tri
 FLAT_PRIMITIVES = frozenset({"tri1", "tri2"})
 UNION_ONLY_PRIMITIVES = FLAT_PRIMITIVES | frozenset(FRACTAL_PRIMITIVES)
 
+# read-only, in selections only: the projected size of the instance in pixels (+inf
+# where there is no camera: stats, expand, export, the reference)
+PIXELS = "pixels"
+
 FUNCTIONS = ("if", "min", "max", "abs", "sqrt", "pow", "exp", "ln", "log", "log10", "sin", "cos",
              "tan", "asin", "acos", "atan", "atan2", "deg", "rad", "floor", "ceil", "round",
              "clamp", "rand")
@@ -25,5 +29,6 @@ RESERVED = {
     **{n: "a primitive" for n in PRIMITIVES},
     **{n: "a function" for n in FUNCTIONS},
     "paint": "the paint operator", "material": "the material operator",
-    "pi": "a constant", "and": "an operator", "or": "an operator", "not": "an operator",
+    "pi": "a constant", PIXELS: "the instance's size in pixels, read-only",
+    "and": "an operator", "or": "an operator", "not": "an operator",
 }

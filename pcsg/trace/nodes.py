@@ -188,6 +188,27 @@ def world_size(boxes, b, F, f):
 
 
 @inline
+def world_diameter(boxes, b, F, f):
+    """The world length of the longest diagonal of this instance of boxes[b]: the
+    diameter of the parallelepiped it maps to."""
+    e0 = boxes[b, 3] - boxes[b, 0]
+    e1 = boxes[b, 4] - boxes[b, 1]
+    e2 = boxes[b, 5] - boxes[b, 2]
+    if not (math.isfinite(e0) and math.isfinite(e1) and math.isfinite(e2)):
+        return np.inf
+    best = 0.0
+    for s1 in (-1.0, 1.0):
+        for s2 in (-1.0, 1.0):
+            d = 0.0
+            for r in range(3):
+                c = (F[f, M0 + 3 * r] * e0 + s1 * F[f, M0 + 3 * r + 1] * e1
+                     + s2 * F[f, M0 + 3 * r + 2] * e2)
+                d += c * c
+            best = max(best, d)
+    return math.sqrt(best)
+
+
+@inline
 def expr(flat, params, slot, k, h, salt_slot, stack):
     """Evaluate expression number k of the flat table with the parameters of `slot`;
     rand() draws from the instance hash h salted with salt_slot."""

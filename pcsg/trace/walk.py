@@ -19,7 +19,7 @@ from .nodes import (CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SE
                     EV_SINGULAR, EV_STACK, EV_VISITS, F_WIDTH, I_WIDTH, LEVEL, M0, MAT, NODE, OX,
                     PAINT, PHASE, SLOT, T0, T1, box_normal, box_window, copy_frame, enter_paint,
                     enter_transform, instance_window, note, pick_rule, cached_calc, set_inverse,
-                    world_normal, world_size)
+                    world_diameter, world_normal, world_size)
 from .fractals import march
 from .primitives import FRACTAL_MIN, JULIA, intersect
 from .scratch import IV_WIDTH
@@ -38,7 +38,9 @@ R_WIDTH = 9
 def choose_rule(flat, node, F, I, H, f, S, lod, dnorm, max_depth, t_enter, ev):
     """The S-node's rule for frame f: >= 0 a rule, -1 the instance is empty, -2 hit its box.
     Past the depth bound or below the pixel footprint the walk stops refining and
-    follows the rule that ends soonest (graph/terminating.py). Past the ray's budget
+    follows the rule that ends soonest (graph/terminating.py). A selection that reads
+    `pixels` finds there the diameter of the instance's box over the pixel footprint
+    where the ray enters it. Past the ray's budget
     of instances every instance is empty, so that the walk ends."""
     params, stack, visits = S.params, S.stack, S.visits
     level = I[f, LEVEL] + 1
@@ -62,6 +64,10 @@ def choose_rule(flat, node, F, I, H, f, S, lod, dnorm, max_depth, t_enter, ev):
         if level > 4 * max_depth + 64:      # a terminating rule that keeps recursing
             return -1
         return r
+    if flat.pixels_slot >= 0:
+        foot = lod * dnorm * max(t_enter, 0.0)
+        params[I[f, SLOT], flat.pixels_slot] = (world_diameter(flat.box, node, F, f) / foot
+                                                if foot > 0.0 else np.inf)
     r = pick_rule(flat, node, params, I[f, SLOT], H[f], stack)
     if r < 0:
         note(ev, EV_SELECTION, node, level)
