@@ -77,7 +77,7 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("-o", "--output", metavar="DIR",
                    help="directory for frame_0000.png ... and NAME.png, the animated PNG "
                         "(default: NAME_frames here)")
-    a.add_argument("--fps", type=float, default=12.0, help="frames per second (default 12)")
+    a.add_argument("--fps", type=float, default=10.0, help="frames per second (default 10)")
     a.add_argument("--gif", action="store_true", help="also write NAME.gif")
     a.add_argument("-j", "--jobs", type=int, metavar="N",
                    help="frames rendered at once, each in its own process (default: one "

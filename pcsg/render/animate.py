@@ -41,7 +41,7 @@ class Animation:
     opts: Options                       # what every frame shares
     eye_path: np.ndarray | None = None  # Bezier control points, (k, 3)
     at_path: np.ndarray | None = None
-    fps: float = 12.0
+    fps: float = 10.0
     gif: bool = False
     jobs: int | None = None             # None: one per core
 
