@@ -1,6 +1,11 @@
 """`pcsg animate`: frames over t and a Bezier camera path, the same bytes as `pcsg render`
 of each frame at any job count, resuming without re-rendering finished frames."""
 import json
+import os
+import re
+import signal
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -9,7 +14,7 @@ from PIL import Image
 from pcsg.cli import main
 from pcsg.render.path import bezier, parse_points
 
-from .conftest import GRAMMARS
+from .conftest import GRAMMARS, ROOT
 
 # a ball that grows with t, and its shadow
 BALL = """#camera eye=(0,-6,3) at=(0,0,0.6) fov=40
@@ -186,3 +191,28 @@ def test_the_growing_tree_grows(capsys):
                      "--json"]) == 0
         counts.append(json.loads(capsys.readouterr().out)["primitives"])
     assert counts == sorted(set(counts)) and counts[0] < 100 < 50_000 < counts[-1]
+
+
+def test_ctrl_c_keeps_finished_frames_and_the_rerun_resumes(tmp_path):
+    """Ctrl-C at the terminal reaches the whole process group: the command and its workers."""
+    out = tmp_path / "a"
+    cmd = [sys.executable, "-m", "pcsg", "animate", str(GRAMMARS / "growing_tree.pcsg"),
+           "--frames", "16", "--size", "48x36", "--jobs", "2", "-o", str(out)]
+    p = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True, start_new_session=True)
+    first = p.stdout.readline()                 # a frame is finished: the workers are busy
+    os.killpg(p.pid, signal.SIGINT)
+    rest, err = p.communicate(timeout=300)
+    assert "frame_" in first and p.returncode == 130, err
+    assert "the same command resumes" in err and "Traceback" not in err
+    done = frames(out)
+    assert 1 <= len(done) < 16 and not list(out.glob(".*.part"))
+    for png in done:
+        with Image.open(png) as im:
+            im.verify()
+    r = subprocess.run(cmd + ["-q"], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    reused, rendered = map(int, re.search(r"\((\d+) reused, (\d+) rendered", r.stdout).groups())
+    # every finished frame is reused (but one whose record Ctrl-C cut short, if that struck
+    # while the manifest was being written)
+    assert reused + rendered == 16 and len(done) - 1 <= reused <= len(done)
