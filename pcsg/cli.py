@@ -1,4 +1,4 @@
-"""The `pcsg` command: check, expand, stats and graph .pcsg files."""
+"""The `pcsg` command: check, expand, stats, graph, render, animate and export .pcsg files."""
 from __future__ import annotations
 
 import argparse
@@ -57,10 +57,53 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("files", nargs="+", metavar="FILE")
     s.add_argument("--json", action="store_true", help="machine-readable output")
 
-    r = sub.add_parser("render", parents=[common], help="ray trace files to PNG images")
+    looks = _render_options()
+    r = sub.add_parser("render", parents=[common, looks], help="ray trace files to PNG images")
     r.add_argument("files", nargs="+", metavar="FILE")
     r.add_argument("-o", "--output", metavar="OUT",
                    help="the PNG (one file) or a directory (default: NAME.png here)")
+    r.add_argument("--depth", metavar="FILE.npy", help="also write float32 hit distances")
+
+    a = sub.add_parser("animate", parents=[common, looks],
+                       help="frames over time t and a camera path, to PNGs and an animation")
+    a.add_argument("file", metavar="FILE")
+    a.add_argument("--frames", type=int, default=24, metavar="N",
+                   help="frames; frame i sets t = i/(N-1) (default 24)")
+    a.add_argument("--path", type=_points, metavar="'X,Y,Z X,Y,Z ...'",
+                   help="the eye's path: a Bezier control polygon from t = 0 to 1 (write "
+                        "--path=... when the first number is negative)")
+    a.add_argument("--at-path", type=_points, metavar="'X,Y,Z X,Y,Z ...'",
+                   help="the path of the point looked at, likewise")
+    a.add_argument("-o", "--output", metavar="DIR",
+                   help="directory for frame_0000.png ... and NAME.png, the animated PNG "
+                        "(default: NAME_frames here)")
+    a.add_argument("--fps", type=float, default=10.0, help="frames per second (default 10)")
+    a.add_argument("--gif", action="store_true", help="also write NAME.gif")
+    a.add_argument("-j", "--jobs", type=int, metavar="N",
+                   help="frames rendered at once, each in its own process (default: one "
+                        "per core)")
+
+    x = sub.add_parser("export", parents=[common],
+                       help="the expanded derivation as a POV-Ray scene (small and medium orders)")
+    x.add_argument("file", metavar="FILE")
+    x.add_argument("--pov", required=True, metavar="OUT.pov", help="the POV-Ray scene to write")
+    x.add_argument("--size", type=_size, default=(640, 480), metavar="WxH",
+                   help="the image size the camera is framed for (default 640x480)")
+    x.add_argument("--shadow-samples", type=int, default=8, metavar="N",
+                   help="1: lights are points; more: area lights stay area lights")
+    x.add_argument("--no-shadows", action="store_true", help="lights cast no shadows")
+    x.add_argument("--bounces", type=int, default=3, metavar="N",
+                   help="reflection and refraction depth (default 3)")
+
+    g = sub.add_parser("graph", parents=[common], help="the cyclic CSG graph as Graphviz dot")
+    g.add_argument("file", metavar="FILE")
+    g.add_argument("-o", "--output", metavar="OUT", help="write to OUT instead of stdout")
+    return p
+
+
+def _render_options() -> argparse.ArgumentParser:
+    """What a picture looks like and how it is traced: shared by render and animate."""
+    r = argparse.ArgumentParser(add_help=False)
     r.add_argument("--size", type=_size, default=(640, 480), metavar="WxH",
                    help="image size (default 640x480)")
     r.add_argument("--samples", type=int, default=1, metavar="N",
@@ -71,7 +114,6 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--up", type=_vec, metavar="X,Y,Z", help="up direction (default 0,0,1)")
     r.add_argument("--fov", type=float, metavar="DEG", help="vertical field of view")
     r.add_argument("--alpha", action="store_true", help="transparent background")
-    r.add_argument("--depth", metavar="FILE.npy", help="also write float32 hit distances")
     r.add_argument("--max-depth", type=int, default=MAX_DEPTH, metavar="N",
                    help=f"derivation levels a ray may descend (default {MAX_DEPTH})")
     r.add_argument("--stack-depth", type=int, metavar="N",
@@ -93,7 +135,7 @@ def _parser() -> argparse.ArgumentParser:
                         "singular transformations) and full walk buffers fail the file instead "
                         "of emptying instances")
     r.add_argument("--timeout", type=float, metavar="SECONDS",
-                   help="stop a file's render after this long, writing nothing")
+                   help="stop an image's render after this long, writing nothing")
     r.add_argument("--bounces", type=int, default=3, metavar="N",
                    help="reflection and refraction depth (default 3; 0: off)")
     r.add_argument("--ao", type=int, metavar="N",
@@ -104,24 +146,8 @@ def _parser() -> argparse.ArgumentParser:
                         "#occlusion, else 15%% of the object's box diagonal)")
     r.add_argument("--reference", action="store_true",
                    help="trace the fully expanded system instead (small orders; for checking)")
-    r.add_argument("-q", "--quiet", action="store_true", help="no progress line")
-
-    x = sub.add_parser("export", parents=[common],
-                       help="the expanded derivation as a POV-Ray scene (small and medium orders)")
-    x.add_argument("file", metavar="FILE")
-    x.add_argument("--pov", required=True, metavar="OUT.pov", help="the POV-Ray scene to write")
-    x.add_argument("--size", type=_size, default=(640, 480), metavar="WxH",
-                   help="the image size the camera is framed for (default 640x480)")
-    x.add_argument("--shadow-samples", type=int, default=8, metavar="N",
-                   help="1: lights are points; more: area lights stay area lights")
-    x.add_argument("--no-shadows", action="store_true", help="lights cast no shadows")
-    x.add_argument("--bounces", type=int, default=3, metavar="N",
-                   help="reflection and refraction depth (default 3)")
-
-    g = sub.add_parser("graph", parents=[common], help="the cyclic CSG graph as Graphviz dot")
-    g.add_argument("file", metavar="FILE")
-    g.add_argument("-o", "--output", metavar="OUT", help="write to OUT instead of stdout")
-    return p
+    r.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    return r
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -139,6 +165,14 @@ def _vec(text: str) -> tuple[float, float, float]:
         return x, y, z
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected X,Y,Z, e.g. 3,-4,2, got '{text}'") from None
+
+
+def _points(text: str):
+    from .render.path import parse_points
+    try:
+        return parse_points(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
 
 
 def expand_globs(patterns: list[str]) -> list[str]:
@@ -254,13 +288,13 @@ def cmd_graph(args) -> int:
     return EXIT_OK
 
 
-def cmd_render(args) -> int:
-    import time
-    from .render.job import Options, RenderFailed, check_options, render_file
-    files = expand_globs(args.files)
+def _options(args):
+    """The render options of render and animate, checked before anything is compiled."""
+    from .render.job import Options, check_options
+    depth = getattr(args, "depth", None)
     opts = Options(size=args.size, samples=args.samples, overrides=dict(args.overrides),
                    eye=args.eye, at=args.at, up=args.up, fov=args.fov, alpha=args.alpha,
-                   depth=Path(args.depth) if args.depth else None, max_depth=args.max_depth,
+                   depth=Path(depth) if depth else None, max_depth=args.max_depth,
                    shadows=not args.no_shadows, bounces=max(0, args.bounces), quiet=args.quiet,
                    reference=args.reference, shadow_samples=args.shadow_samples,
                    adaptive=not args.no_adaptive, strict=args.strict, timeout=args.timeout,
@@ -270,6 +304,14 @@ def cmd_render(args) -> int:
     problem = check_options(opts)
     if problem:
         raise UsageError(problem)
+    return opts
+
+
+def cmd_render(args) -> int:
+    import time
+    from .render.job import RenderFailed, render_file
+    files = expand_globs(args.files)
+    opts = _options(args)
     outputs = _outputs(files, args.output)
     if opts.depth is not None and len(files) > 1:
         raise UsageError("--depth names one file; render one .pcsg file with it")
@@ -317,6 +359,32 @@ def _outputs(files: list[str], output: str | None) -> list[Path]:
     return [out]
 
 
+def cmd_animate(args) -> int:
+    from .render.animate import Animation, BadAnimation, animate
+    opts = _options(args)
+    if args.frames < 1:
+        raise UsageError(f"--frames {args.frames}: give 1 or more")
+    if not args.fps > 0:
+        raise UsageError(f"--fps {args.fps:g}: give a positive number")
+    if args.jobs is not None and args.jobs < 1:
+        raise UsageError(f"--jobs {args.jobs}: give 1 or more")
+    if args.path is not None and args.eye is not None:
+        raise UsageError("--eye and --path both place the eye; give one")
+    if args.at_path is not None and args.at is not None:
+        raise UsageError("--at and --at-path both place the point looked at; give one")
+    if args.gif and args.alpha:
+        raise UsageError("--gif cannot keep --alpha's transparency; leave one out")
+    source = Path(args.file)
+    out = Path(args.output) if args.output else Path(f"{source.stem}_frames")
+    anim = Animation(source, out, args.frames, opts, args.path, args.at_path, args.fps,
+                     args.gif, args.jobs)
+    try:
+        failed = animate(anim)
+    except BadAnimation as e:
+        raise UsageError(str(e)) from None
+    return EXIT_ERRORS if failed else EXIT_OK
+
+
 def cmd_export(args) -> int:
     import time
     from .povray import export_pov
@@ -341,7 +409,7 @@ def cmd_export(args) -> int:
 
 
 COMMANDS = {"check": cmd_check, "expand": cmd_expand, "stats": cmd_stats, "graph": cmd_graph,
-            "render": cmd_render, "export": cmd_export}
+            "render": cmd_render, "animate": cmd_animate, "export": cmd_export}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -4,3 +4,8 @@
 source "$(dirname "$0")/venv.sh"
 pcsg check grammars/*.pcsg
 pcsg render grammars/*.pcsg -o renders/ "$@"
+# the growing tree as an animation (renders/growing_tree_frames/growing_tree.png); a rerun
+# reuses the frames it finds finished
+pcsg animate grammars/growing_tree.pcsg --frames 24 --size 320x240 --shadow-samples 2 \
+    --path "1.6,1.2,0.4 -14,9,1.4 -8,-15,1.4 4.5,-10.5,1.6" \
+    --at-path "0,0,0.3 0,0,2.5 0.3,0,2.3" -o renders/growing_tree_frames -q

@@ -1,0 +1,265 @@
+"""`pcsg animate`: one grammar to numbered PNG frames and an animated PNG (or GIF).
+
+Frame i of N sets the parameter t = i/(N-1), as --set would, and takes its eye and
+look-at point from Bezier control polygons (Hong & Kook's camera paths); the rest of
+the camera is where `pcsg render` puts it for the file as written, for every frame, so
+that the picture does not reframe itself as the object grows. Frames render in worker
+processes; a manifest lets a rerun reuse every frame that is still what it would render.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import os
+import re
+import signal
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..language.errors import PcsgError
+from .job import Options, RenderFailed, render_file
+from .path import bezier
+from .resume import Manifest, frame_key
+
+TIME = "t"
+
+
+class BadAnimation(Exception):
+    """An animation that cannot be made as asked (a usage error)."""
+
+
+@dataclass
+class Animation:
+    source: Path
+    out_dir: Path
+    frames: int
+    opts: Options                       # what every frame shares
+    eye_path: np.ndarray | None = None  # Bezier control points, (k, 3)
+    at_path: np.ndarray | None = None
+    fps: float = 10.0
+    gif: bool = False
+    jobs: int | None = None             # None: one per core
+
+
+@dataclass
+class FrameJob:
+    index: int
+    t: float
+    source: Path
+    png: Path
+    opts: Options
+    key: str
+
+
+def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
+    """Every frame's options; and whether the file assigns t (else only the camera moves).
+    Raises PcsgError for a file with errors, BadAnimation for a still animation or a
+    camera that cannot look."""
+    from ..compiler import compile_file
+    from ..language.parser import read_source_text
+    from ..tracer import Traced
+    from .camera import Camera, make_camera
+    o = anim.opts
+    if TIME in o.overrides:
+        raise BadAnimation(f"--set {TIME}: animate sets {TIME} itself, from 0 to 1")
+    graph = compile_file(anim.source, o.overrides)
+    timed = _assigns_t(anim.source, o.overrides)
+    if not timed and anim.eye_path is None and anim.at_path is None:
+        raise BadAnimation(f"{anim.source} assigns no {TIME} in its axiom and no --path or "
+                           f"--at-path moves the camera: every frame would be the same")
+    traced = Traced(graph, o.max_depth, o.stack_depth, o.interval_rows, o.max_instances)
+    w, h = o.size
+    still = make_camera(traced, w / h, o.eye, o.at, o.up, o.fov)
+    sha = hashlib.sha256(read_source_text(anim.source).encode("utf-8")).hexdigest()
+    digits = max(4, len(str(anim.frames - 1)))
+    jobs = []
+    for i in range(anim.frames):
+        t = i / (anim.frames - 1) if anim.frames > 1 else 0.0
+        eye = still.eye if anim.eye_path is None else bezier(anim.eye_path, t)
+        at = still.at if anim.at_path is None else bezier(anim.at_path, t)
+        try:
+            Camera(eye, at, still.up, still.fov).basis()
+        except ValueError as e:
+            raise BadAnimation(f"frame {i} (t = {t:g}): {e}") from None
+        overrides = {**o.overrides, TIME: t} if timed else o.overrides
+        fo = dataclasses.replace(o, overrides=overrides, eye=_floats(eye), at=_floats(at),
+                                 up=_floats(still.up), fov=float(still.fov), quiet=True)
+        png = anim.out_dir / f"frame_{i:0{digits}d}.png"
+        jobs.append(FrameJob(i, t, anim.source, png, fo, frame_key(sha, fo)))
+    return jobs, timed
+
+
+def _floats(v) -> tuple[float, float, float]:
+    return tuple(float(x) for x in v)
+
+
+def _assigns_t(source: Path, overrides: dict) -> bool:
+    """--set t works only on a t the axiom assigns; compiling with it tells."""
+    from ..compiler import compile_file
+    try:
+        compile_file(source, {**overrides, TIME: 0.0})
+    except PcsgError as e:
+        if any(d.code == "set" for d in e.diagnostics):
+            return False
+        raise
+    return True
+
+
+def cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:
+        return os.cpu_count() or 1
+
+
+# ---- one frame, in this process or a worker ----------------------------------------
+
+_busy = False
+_interrupted = False
+
+
+def _init_worker(threads: int):
+    """A worker: its share of the cores for numba's threads; Ctrl-C (sent to the whole
+    process group) stops the frame it renders, which then writes nothing, and the frames
+    already queued for it; it never kills an idle worker mid-protocol."""
+    import numba
+    numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+
+    def on_sigint(signum, frame):
+        global _interrupted
+        _interrupted = True
+        if _busy:
+            raise KeyboardInterrupt
+    signal.signal(signal.SIGINT, on_sigint)
+
+
+def _render_job(job: FrameJob, in_worker: bool = True):
+    """(index, summary, notes, error): errors as text, so that nothing unpicklable crosses
+    back from a worker."""
+    global _busy
+    if _interrupted:
+        return job.index, None, [], "interrupted"
+    _busy = True
+    try:
+        summary, notes = render_file(job.source, job.png, job.opts)
+        return job.index, summary, notes, None
+    except PcsgError as e:
+        return job.index, None, [], "\n".join(d.format() for d in e.diagnostics)
+    except RenderFailed as e:
+        return job.index, None, [], str(e)
+    except OSError as e:
+        return job.index, None, [], f"{e.strerror or e}" + (f": {e.filename}"
+                                                             if e.filename else "")
+    except KeyboardInterrupt:
+        if not in_worker:
+            raise
+        return job.index, None, [], "interrupted"
+    finally:
+        _busy = False
+
+
+# ---- the whole animation -------------------------------------------------------------
+
+class _Reporter:
+    def __init__(self, anim: Animation, todo: list[FrameJob], timed: bool, total: int):
+        self.anim, self.timed, self.total = anim, timed, total
+        self.by_index = {j.index: j for j in todo}
+        self.todo = len(todo)
+        self.done = total - len(todo)
+        self.rendered = 0
+        self.failed: list[str] = []
+        self.seen: set[str] = set()
+        self.start = time.perf_counter()
+
+    def finished(self, manifest: Manifest, result):
+        index, summary, notes, error = result
+        job = self.by_index[index]
+        if error is not None:
+            if error != "interrupted":
+                print(f"pcsg animate: {job.png.name}: {error}", file=sys.stderr)
+            self.failed.append(job.png.name)
+            return
+        manifest.record(job.png, job.key)
+        self.done += 1
+        self.rendered += 1
+        for note in notes:
+            kind = re.sub(r"\d[\d,.]*", "#", note)    # the same note with other counts
+            if kind not in self.seen:
+                self.seen.add(kind)
+                print(f"{job.png}: {note}", file=sys.stderr)
+        if not self.anim.opts.quiet:
+            elapsed = time.perf_counter() - self.start
+            eta = elapsed / self.rendered * (self.todo - self.rendered)
+            print(f"{summary}{f', t = {job.t:.4g}' if self.timed else ''}  "
+                  f"[{self.done}/{self.total}, ETA {eta:.0f} s]", flush=True)
+
+
+def animate(anim: Animation) -> int:
+    """Renders what is missing, then the animation; returns the number of failed frames.
+    Ctrl-C keeps every finished frame (written whole, and in the manifest)."""
+    if anim.out_dir.exists() and not anim.out_dir.is_dir():
+        raise BadAnimation(f"-o {anim.out_dir}: not a directory")
+    jobs, timed = plan(anim)
+    anim.out_dir.mkdir(parents=True, exist_ok=True)
+    manifest = Manifest(anim.out_dir)
+    for name in manifest.forget_others({j.png.name for j in jobs}):
+        (anim.out_dir / name).unlink(missing_ok=True)   # frames of a longer earlier run
+    todo = [j for j in jobs if not manifest.is_done(j.png, j.key)]
+    workers = max(1, min(anim.jobs or cores(), len(todo)))
+    report = _Reporter(anim, todo, timed, len(jobs))
+    if report.done and not anim.opts.quiet:
+        print(f"{anim.out_dir}: {report.done} of {len(jobs)} frames are done already; "
+              f"rendering {len(todo)}", flush=True)
+    try:
+        if workers == 1:
+            for job in todo:
+                report.finished(manifest, _render_job(job, in_worker=False))
+        else:
+            _run_parallel(todo, workers, manifest, report)
+    except KeyboardInterrupt:
+        print(f"{anim.out_dir}: interrupted with {report.done} of {len(jobs)} frames done; "
+              f"the same command resumes", file=sys.stderr)
+        raise
+    made = ""
+    if not report.failed:
+        from .movie import write_apng, write_gif
+        stem = anim.source.stem
+        frames = [j.png for j in jobs]
+        write_apng(frames, anim.out_dir / f"{stem}.png", anim.fps)
+        made = f"; animation {anim.out_dir / f'{stem}.png'}"
+        if anim.gif:
+            write_gif(frames, anim.out_dir / f"{stem}.gif", anim.fps)
+            made += f" and {stem}.gif"
+    seconds = time.perf_counter() - report.start
+    how = f" with {workers} job{'s' if workers > 1 else ''}" if report.rendered else ""
+    print(f"{anim.out_dir}: {report.done} of {len(jobs)} frames ({len(jobs) - len(todo)} "
+          f"reused, {report.rendered} rendered{how}) in {seconds:.1f} s{made}"
+          + (f"; failed: {', '.join(report.failed)}" if report.failed else ""))
+    return len(report.failed)
+
+
+def _run_parallel(todo, workers, manifest, report):
+    import multiprocessing
+    threads = max(1, cores() // workers)
+    pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                               initializer=_init_worker, initargs=(threads,))
+    with pool:
+        pending = {pool.submit(_render_job, job) for job in todo}
+        try:
+            for f in as_completed(list(pending)):
+                pending.discard(f)
+                report.finished(manifest, f.result())
+        except KeyboardInterrupt:
+            # frames being rendered stop (the workers saw Ctrl-C too) or finish; either
+            # way what they wrote is whole, and finished ones go into the manifest
+            for f in pending:
+                f.cancel()
+            for f in pending:
+                if not f.cancelled():
+                    report.finished(manifest, f.result())
+            raise

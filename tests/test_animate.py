@@ -1,0 +1,218 @@
+"""`pcsg animate`: frames over t and a Bezier camera path, the same bytes as `pcsg render`
+of each frame at any job count, resuming without re-rendering finished frames."""
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from pcsg.cli import main
+from pcsg.render.path import bezier, parse_points
+
+from .conftest import GRAMMARS, ROOT
+
+# a ball that grows with t, and its shadow
+BALL = """#camera eye=(0,-6,3) at=(0,0,0.6) fov=40
+#light at=(3,-2,8)
+{t = 1; r = 0.3 + 0.7*t} (paint(0.9,0.3,0.2) move(0,0,1) uscale(r) sphere ∪
+                          paint(0.8,0.8,0.8) plane)
+"""
+# a quadratic control polygon whose de Casteljau points are exact binary fractions
+PATH = "0,-8,2 4,-8,2 4,-4,2"
+EYES = ["0,-8,2", "3,-7,2", "4,-4,2"]           # at t = 0, 1/2, 1
+TINY = ["--size", "32x24", "--shadow-samples", "1", "-q"]
+
+
+@pytest.fixture
+def ball(tmp_path):
+    p = tmp_path / "ball.pcsg"
+    p.write_text(BALL, encoding="utf-8")
+    return p
+
+
+def animate(capsys, src, out, *extra):
+    code = main(["animate", str(src), "-o", str(out), *TINY, *extra])
+    stdout, stderr = capsys.readouterr()
+    return code, stdout, stderr
+
+
+def frames(out):
+    return sorted(out.glob("frame_*.png"))
+
+
+def test_bezier_ends_at_the_first_and_last_control_points_and_follows_bernstein():
+    rng = np.random.default_rng(3)
+    for k in range(1, 7):
+        pts = rng.normal(size=(k, 3)) * 10
+        assert np.array_equal(bezier(pts, 0.0), pts[0])
+        assert np.array_equal(bezier(pts, 1.0), pts[-1])
+        s, n = 0.3, k - 1
+        from math import comb
+        bernstein = sum(comb(n, i) * s ** i * (1 - s) ** (n - i) * pts[i] for i in range(k))
+        assert np.allclose(bezier(pts, s), bernstein, atol=1e-12)
+
+
+def test_parse_points():
+    assert parse_points(" 1,2,3  4,5,6;7,8,9 ").tolist() == [[1, 2, 3], [4, 5, 6], [7, 8, 9]]
+    for bad in ("1,2", "1,2,x", "", "1,2,nan"):
+        with pytest.raises(ValueError):
+            parse_points(bad)
+
+
+def test_each_frame_is_the_render_of_its_t_and_eye(capsys, tmp_path, ball):
+    out = tmp_path / "a"
+    code, stdout, stderr = animate(capsys, ball, out, "--frames", "3", "--path=" + PATH,
+                                   "--jobs", "1")
+    assert code == 0, stderr
+    shots = frames(out)
+    assert [p.name for p in shots] == ["frame_0000.png", "frame_0001.png", "frame_0002.png"]
+    assert "3 of 3 frames (0 reused, 3 rendered with 1 job)" in stdout
+    data = [p.read_bytes() for p in shots]
+    assert len(set(data)) == 3
+    for i, (t, eye) in enumerate(zip(("0", "0.5", "1"), EYES)):
+        still = tmp_path / f"still{i}.png"
+        assert main(["render", str(ball), "-o", str(still), "--set", f"t={t}",
+                     f"--eye={eye}", *TINY]) == 0
+        assert still.read_bytes() == data[i], f"frame {i}"
+
+
+def test_the_ball_grows_with_t(capsys, tmp_path, ball):
+    out = tmp_path / "a"
+    assert animate(capsys, ball, out, "--frames", "2", "--jobs", "1")[0] == 0
+    first, last = (np.asarray(Image.open(p).convert("RGB"), float) for p in frames(out))
+    red = [((im[..., 0] - im[..., 1]) > 40).sum() for im in (first, last)]
+    assert 0 < red[0] < red[1] / 3      # the radius grows from 0.3 to 1: area about 11x
+
+
+def test_jobs_give_the_same_bytes(capsys, tmp_path, ball):
+    one, two = tmp_path / "one", tmp_path / "two"
+    assert animate(capsys, ball, one, "--frames", "4", "--path=" + PATH, "--jobs", "1")[0] == 0
+    code, stdout, stderr = animate(capsys, ball, two, "--frames", "4", "--path=" + PATH,
+                                   "--jobs", "2")
+    assert code == 0, stderr
+    assert "rendered with 2 jobs" in stdout
+    assert [p.read_bytes() for p in frames(one)] == [p.read_bytes() for p in frames(two)]
+
+
+def test_resume_renders_only_missing_or_broken_frames(capsys, tmp_path, ball):
+    out = tmp_path / "a"
+    args = ("--frames", "4", "--path=" + PATH, "--jobs", "1")
+    assert animate(capsys, ball, out, *args)[0] == 0
+    before = {p.name: (p.read_bytes(), p.stat().st_mtime_ns) for p in frames(out)}
+    broken, gone = out / "frame_0001.png", out / "frame_0002.png"
+    broken.write_bytes(broken.read_bytes()[:100])           # an interrupted copy, say
+    gone.unlink()
+    code, stdout, stderr = animate(capsys, ball, out, *args)
+    assert code == 0, stderr
+    assert "4 of 4 frames (2 reused, 2 rendered with 1 job)" in stdout
+    after = {p.name: (p.read_bytes(), p.stat().st_mtime_ns) for p in frames(out)}
+    assert {k: v[0] for k, v in after.items()} == {k: v[0] for k, v in before.items()}
+    for name in ("frame_0000.png", "frame_0003.png"):
+        assert after[name][1] == before[name][1], f"{name} was written again"
+    # nothing changed: nothing renders
+    code, stdout, _ = animate(capsys, ball, out, *args)
+    assert "(4 reused, 0 rendered)" in stdout
+
+
+def test_changed_options_or_source_render_again(capsys, tmp_path, ball):
+    out = tmp_path / "a"
+    args = ("--frames", "3", "--jobs", "1")
+    assert animate(capsys, ball, out, *args)[0] == 0
+    shadowed = [p.read_bytes() for p in frames(out)]
+    code, stdout, _ = animate(capsys, ball, out, *args, "--no-shadows")
+    assert "(0 reused, 3 rendered" in stdout
+    assert [p.read_bytes() for p in frames(out)] != shadowed
+    ball.write_text(BALL.replace("0.3 + 0.7*t", "0.3 + 0.6*t"), encoding="utf-8")
+    code, stdout, _ = animate(capsys, ball, out, *args, "--no-shadows")
+    assert "(0 reused, 3 rendered" in stdout
+    # two frames: t = 0 is still what it was, t = 1 is new, and the third frame goes
+    code, stdout, _ = animate(capsys, ball, out, "--frames", "2", "--jobs", "1",
+                              "--no-shadows")
+    assert "(1 reused, 1 rendered" in stdout
+    assert [p.name for p in frames(out)] == ["frame_0000.png", "frame_0001.png"]
+
+
+def test_animated_png_and_gif_hold_every_frame(capsys, tmp_path, ball):
+    out = tmp_path / "a"
+    code, stdout, stderr = animate(capsys, ball, out, "--frames", "4", "--path=" + PATH,
+                                   "--jobs", "1", "--gif", "--fps", "5")
+    assert code == 0, stderr
+    with Image.open(out / "ball.png") as apng:
+        assert apng.format == "PNG" and apng.is_animated and apng.n_frames == 4
+        assert apng.info.get("loop") == 0 and apng.info.get("duration") == 200
+        apng.seek(2)
+        same = Image.open(out / "frame_0002.png").convert("RGB")
+        assert np.array_equal(np.asarray(apng.convert("RGB")), np.asarray(same))
+    with Image.open(out / "ball.gif") as gif:
+        assert gif.n_frames == 4 and gif.info.get("loop") == 0
+
+
+def test_camera_only_when_the_file_has_no_t(capsys, tmp_path):
+    src = tmp_path / "still.pcsg"
+    src.write_text(BALL.replace("{t = 1; r = 0.3 + 0.7*t}", "{r = 0.6}"), encoding="utf-8")
+    out = tmp_path / "a"
+    code, stdout, stderr = animate(capsys, src, out, "--frames", "3", "--jobs", "1")
+    assert code == 2 and "assigns no t in its axiom" in stderr and not out.exists()
+    code, stdout, stderr = animate(capsys, src, out, "--frames", "3", "--jobs", "1",
+                                   "--path=" + PATH)
+    assert code == 0, stderr
+    assert len({p.read_bytes() for p in frames(out)}) == 3
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--set", "t=0.5"], "animate sets t itself"),
+    (["--eye", "1,2,3", "--path", "1,1,1 2,2,2"], "--eye and --path both"),
+    (["--at", "1,2,3", "--at-path", "1,1,1 2,2,2"], "--at and --at-path both"),
+    (["--frames", "0"], "--frames 0"),
+    (["--gif", "--alpha"], "--gif cannot keep --alpha"),
+    (["--path", "0,0,0.6 0,0,0.6", "--at", "0,0,0.6"], "frame 0 (t = 0): the camera's eye"),
+])
+def test_usage_errors(capsys, tmp_path, ball, extra, message):
+    code, stdout, stderr = animate(capsys, ball, tmp_path / "a", *extra)
+    assert code == 2 and message in stderr and "Traceback" not in stderr
+
+
+def test_a_bad_path_is_an_argument_error(capsys, tmp_path, ball):
+    with pytest.raises(SystemExit) as e:
+        main(["animate", str(ball), "--path", "1,2 3,4,5"])
+    assert e.value.code == 2 and "'1,2' is not a point X,Y,Z" in capsys.readouterr().err
+
+
+def test_the_growing_tree_grows(capsys):
+    """The sample's derivation gains primitives at every step of t (levels, then leaves)."""
+    counts = []
+    for t in (0, 0.25, 0.5, 0.75, 1):
+        assert main(["stats", str(GRAMMARS / "growing_tree.pcsg"), "--set", f"t={t}",
+                     "--json"]) == 0
+        counts.append(json.loads(capsys.readouterr().out)["primitives"])
+    assert counts == sorted(set(counts)) and counts[0] < 100 < 50_000 < counts[-1]
+
+
+def test_ctrl_c_keeps_finished_frames_and_the_rerun_resumes(tmp_path):
+    """Ctrl-C at the terminal reaches the whole process group: the command and its workers."""
+    out = tmp_path / "a"
+    cmd = [sys.executable, "-m", "pcsg", "animate", str(GRAMMARS / "growing_tree.pcsg"),
+           "--frames", "16", "--size", "48x36", "--jobs", "2", "-o", str(out)]
+    p = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True, start_new_session=True)
+    first = p.stdout.readline()                 # a frame is finished: the workers are busy
+    os.killpg(p.pid, signal.SIGINT)
+    rest, err = p.communicate(timeout=300)
+    assert "frame_" in first and p.returncode == 130, err
+    assert "the same command resumes" in err and "Traceback" not in err
+    done = frames(out)
+    assert 1 <= len(done) < 16 and not list(out.glob(".*.part"))
+    for png in done:
+        with Image.open(png) as im:
+            im.verify()
+    r = subprocess.run(cmd + ["-q"], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    reused, rendered = map(int, re.search(r"\((\d+) reused, (\d+) rendered", r.stdout).groups())
+    # every finished frame is reused (but one whose record Ctrl-C cut short, if that struck
+    # while the manifest was being written)
+    assert reused + rendered == 16 and len(done) - 1 <= reused <= len(done)
