@@ -1,0 +1,122 @@
+"""`pixels`: the read-only size of the instance on the screen, for selections that switch
+to an alternative geometry when an instance is small (Bekaert & Willems; Oppenheimer)."""
+import math
+
+import numpy as np
+import pytest
+
+import pcsg
+from pcsg.cli import main
+from pcsg.compiler import compile_text
+from pcsg.graph.bounds import hyper_boxes
+from pcsg.graph.stats import count_by_primitive
+from pcsg.language.errors import PcsgError
+
+from .oracle import assert_agrees, camera_rays
+
+# red sphere when large, a blue cube when small
+SWITCH = """
+T if(pixels < 50, 2, 1)
+1: T → paint(1, 0, 0) sphere
+2: T → paint(0, 0, 1) move(0, 0, 0) cube
+{ k = 1 } T
+"""
+
+
+def _paint_at(traced, distance, lod):
+    o = np.array([[0.0, -distance, 0.0]])
+    d = np.array([[0.0, 1.0, 0.0]])
+    hits = traced.trace(o, d, lod=lod)
+    assert hits.hit[0]
+    return tuple(hits.paint[0])
+
+
+def test_the_selection_sees_the_size_in_pixels():
+    """pixels = the diagonal of the instance's box over the footprint where the ray
+    enters it: 2*sqrt(3) / (lod * t_enter) for the unit sphere's box."""
+    traced = pcsg.loads(SWITCH)
+    lod = 0.01
+    diagonal = 2 * math.sqrt(3)
+    near = 1 + diagonal / lod / 60          # t_enter = distance - 1 gives 60 pixels
+    far = 1 + diagonal / lod / 40           # 40 pixels
+    assert _paint_at(traced, near, lod) == (1, 0, 0)
+    assert _paint_at(traced, far, lod) == (0, 0, 1)
+    # twice as large, at the same distance from the box: 80 pixels
+    bigger = pcsg.loads(SWITCH.replace("{ k = 1 } T", "{ k = 1 } uscale(2) T"))
+    assert _paint_at(bigger, far + 1, lod) == (1, 0, 0)     # 80 pixels
+
+
+def test_without_a_camera_pixels_is_infinite():
+    """lod 0 (no footprint), stats, the reference: every instance is large."""
+    traced = pcsg.loads(SWITCH)
+    assert _paint_at(traced, 1e6, 0.0) == (1, 0, 0)
+    assert count_by_primitive(traced.graph) == {"sphere": 1}
+    o, d = camera_rays(traced.bounds, 16, (1, -2, 1))
+    assert_agrees(traced, o, d)
+
+
+def test_the_bounds_hold_every_rule_the_size_can_pick():
+    graph = compile_text("T if(pixels < 8, 2, 1)\n1: T → sphere\n2: T → move(5, 0, 0) sphere\n"
+                         "{ k = 1 } T")
+    boxes = hyper_boxes(graph)[0]
+    root = boxes[graph.modules["T"]]
+    assert root[0] <= -1 and root[3] >= 6        # both spheres: [-1, 6] along x
+    far = pcsg.Traced(graph).trace(np.array([[5.0, -1e4, 0.0]]), np.array([[0.0, 1.0, 0.0]]),
+                                   lod=1e-3)
+    assert far.hit[0]                            # a small T is the moved sphere: not culled
+
+
+def test_a_render_switches_where_the_instances_are_small(tmp_path):
+    """Trees along a row: near ones branched, far ones the cheap geometry."""
+    src = tmp_path / "row.pcsg"
+    src.write_text("""
+#camera eye=(3, -6, 2) at=(0, 8, 2) fov=40
+{ n = 8 } ROW
+ROW if(n > 1, 2, 1)
+1: ROW → TREE
+2: ROW → { n = n / 2 } (ROW ∪ move(0, 3 * n, 0) ROW)
+TREE if(pixels < 60, 2, 1)
+1: TREE → paint(1, 0, 0) scale(0.1, 0.1, 4) cylinder
+2: TREE → paint(0, 0, 1) scale(0.1, 0.1, 4) cylinder
+""")
+    out = tmp_path / "row.png"
+    depth = tmp_path / "row.npy"
+    assert main(["render", str(src), "-o", str(out), "--size", "160x120", "--no-adaptive",
+                 "-q", "--depth", str(depth)]) == 0
+    from PIL import Image
+    rgb = np.asarray(Image.open(out).convert("RGB")).astype(int)
+    red = rgb[..., 0] > rgb[..., 2] + 40
+    blue = rgb[..., 2] > rgb[..., 0] + 40
+    assert red.sum() > 20 and blue.sum() > 5
+    z = np.load(depth)
+    assert np.nanmax(z[red]) < np.nanmin(z[blue])       # every red one is nearer
+
+
+@pytest.mark.parametrize("text, message", [
+    ("{ pixels = 2 } sphere", "'pixels' is a reserved name"),
+    ("T if(pixels < 4, 1, 1)\n1: T → uscale(pixels) sphere\n{ k = 1 } T",
+     "'pixels' (the instance's size in pixels) can only be read in a module's selection"),
+    ("T 1\n1: T → { a = pixels } uscale(a) sphere\n{ k = 1 } T",
+     "can only be read in a module's selection"),
+])
+def test_errors(text, message):
+    with pytest.raises(PcsgError) as e:
+        compile_text(text, "p.pcsg")
+    assert message in str(e.value) and "p.pcsg:" in str(e.value)
+
+
+def test_an_endless_cycle_that_the_size_ends_is_not_a_warning(capsys):
+    graph = compile_text("T if(pixels < 2, 1, 2)\n1: T → sphere\n"
+                         "2: T → uscale(0.5) T ∪ move(1, 0, 0) uscale(0.5) T\n{ k = 1 } T")
+    assert not [w for w in graph.warnings if w.code == "endless"]
+
+
+def test_expand_leaves_pixels_out(tmp_path, capsys):
+    src = tmp_path / "e.pcsg"
+    src.write_text(SWITCH)
+    assert main(["expand", str(src), "-n", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "pixels =" not in out
+    again = tmp_path / "again.pcsg"
+    again.write_text(out)
+    assert main(["check", "-q", str(again)]) == 0
