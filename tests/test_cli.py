@@ -61,6 +61,19 @@ def test_expand(capsys, sierpinski, tmp_path):
     assert code == 0
 
 
+def test_expand_to_the_end_keeps_what_the_rules_read(capsys, tmp_path):
+    """Fully derived, the word calls no module, but the rules stay in the file and read a
+    parameter that only the old axiom assigned: the new axiom keeps that assignment."""
+    src = tmp_path / "k.pcsg"
+    src.write_text("{k = 1} S\nS 1\n1: S → move(0, 0, k) cube\n")
+    assert main(["expand", str(src), "-n", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "{k = 1} (move(0, 0, 1) cube)" in out
+    again = tmp_path / "again.pcsg"
+    again.write_text(out)
+    assert main(["check", str(again)]) == 0
+
+
 def test_expand_refuses_huge_output(capsys, sierpinski):
     code, out, err = run(capsys, "expand", str(sierpinski), "-n", "8", "--max-chars", "1000")
     assert code == 2 and "longer than 1,000 characters" in err

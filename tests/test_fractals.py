@@ -196,7 +196,7 @@ def test_errors(text, message):
 
 def test_expand_and_export(tmp_path, capsys):
     src = tmp_path / "b.pcsg"
-    src.write_text("{k = 1} S\nS 1\n1: S → {k = k} move(0, 0, k) mandelbulb(4 * 2) ∪ "
+    src.write_text("{k = 1} S\nS 1\n1: S → move(0, 0, k) mandelbulb(4 * 2) ∪ "
                    "julia(-0.5, 0.5, 0, 0)\n")
     assert main(["expand", str(src), "-n", "1"]) == 0
     out = capsys.readouterr().out

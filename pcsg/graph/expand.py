@@ -20,6 +20,7 @@ class _Printer:
         self.steps = steps
         self.max_chars = max_chars
         self.size = 0
+        self.modules_left = 0
 
     def out(self, parts: list, text: str):
         parts.append(text)
@@ -66,6 +67,7 @@ class _Printer:
             self.word(node.children[0], state, h, steps, _PREFIX, parts)
 
     def _module(self, node, state: State, parts: list, need: int):
+        self.modules_left += 1
         values = "; ".join(f"{k} = {format_value(v)}" for k, v in state.items(self.g))
         self.out(parts, f"{{{values}}} {node.name}" if values else node.name)
 
@@ -82,7 +84,23 @@ def expand_axiom(graph: Graph, steps: int, max_chars: int = 50_000_000) -> str:
     state, h = p.d.initial()
     parts: list[str] = []
     p.word(graph.root, state, h, p.steps, 0, parts)
-    return "".join(parts)
+    word = "".join(parts)
+    if p.modules_left == 0:
+        # The rules stay in the file and read parameters that only the old axiom assigned:
+        # keep those assignments, or the file would read undefined names.
+        head = _axiom_head(graph, p.d)
+        if head:
+            word = f"{{{head}}} ({word})"
+    return word
+
+
+def _axiom_head(graph: Graph, d: Deriver) -> str:
+    state, h = d.initial()
+    i = graph.root
+    while graph.nodes[i].kind == CALC:
+        state = d.calc(i, state, h)
+        i = graph.nodes[i].children[0]
+    return "; ".join(f"{k} = {format_value(v)}" for k, v in state.items(graph))
 
 
 def expand_file(graph: Graph, steps: int, max_chars: int = 50_000_000) -> str:
