@@ -10,7 +10,7 @@ import numpy as np
 
 from .compiler import compile_file, compile_text
 from .graph.bounds import hyper_boxes
-from .graph.flat import flatten_graph
+from .graph.flat import NORMAL_DECAY, flatten_graph
 from .graph.model import KIND_NAMES, SELECT, Graph
 from .trace.kernel import CHUNK, trace_rays
 from .trace.nodes import (EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
@@ -48,7 +48,8 @@ class Traced:
     """A compiled, bounded, flattened PCSG object, ready to trace."""
 
     def __init__(self, graph: Graph, max_depth: int = MAX_DEPTH, stack_depth: int | None = None,
-                 interval_rows: int = INTERVAL_ROWS, max_instances: int = MAX_INSTANCES):
+                 interval_rows: int = INTERVAL_ROWS, max_instances: int = MAX_INSTANCES,
+                 average_normals: bool = True):
         self.graph = graph
         self.max_depth = int(max_depth)
         boxes, self.bounds_method, problems, table = hyper_boxes(graph, self.max_depth)
@@ -56,7 +57,9 @@ class Traced:
         self.boxes = boxes
         if table is not None:
             table = (table[0], table[1], _pad(table[2]))
-        self.flat = flatten_graph(graph, _pad(boxes), table)
+        # a graftal hit's normal: averaged over the boxes that led to it, else its box's
+        self.flat = flatten_graph(graph, _pad(boxes), table,
+                                  NORMAL_DECAY if average_normals else 0.0)
         self.events = no_events(len(graph.nodes))      # of all traces so far
         kids = int(self.flat.max_children)
         self.stack_depth = int(stack_depth or kids + (self.max_depth + 2) * min(kids, 16) + 32)

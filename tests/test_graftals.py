@@ -97,3 +97,32 @@ def test_finer_pixels_refine_the_fern_deeper(fern):
         assert h.hit[0]
         deepest.append(h.events[N_EVENTS + EV_LOD].max())
     assert 5 < deepest[0] < deepest[1]
+
+
+def test_averaged_normals_shade_the_fern_more_smoothly(fern):
+    """A hit on a sub-pixel box takes the average of the normals of the boxes that led to
+    it, the finer weighing more (Hart & DeFanti, as Bekaert & Willems do): neighbouring
+    rays then turn their normals less than with the last box's normal alone."""
+    plain = pcsg.Traced(fern.graph, average_normals=False)
+    eye = np.array([11.0, -16, 5])
+    box = fern.boxes[fern.graph.modules["FERN"]]
+    centre = (box[:3] + box[3:]) / 2
+    fwd = centre - eye
+    right = np.cross(fwd, [0, 0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, fwd / np.linalg.norm(fwd))
+    u = np.linspace(-0.12, 0.12, 120)
+    U, V = np.meshgrid(u, u * 1.5)
+    d = fwd + np.linalg.norm(fwd) * (U.ravel()[:, None] * right + V.ravel()[:, None] * up)
+    o = np.tile(eye, (len(d), 1))
+    turn = []
+    for traced in (fern, plain):
+        h = traced.trace(o, d, lod=2e-3)
+        n = h.normal.reshape(120, 120, 3)
+        hit = h.hit.reshape(120, 120)
+        assert hit.sum() > 500
+        assert np.allclose(np.linalg.norm(n[hit], axis=1), 1.0)
+        both = hit[:, 1:] & hit[:, :-1]
+        cos = np.sum(n[:, 1:] * n[:, :-1], axis=2)[both]
+        turn.append(np.mean(np.arccos(np.clip(cos, -1, 1))))
+    assert turn[0] < 0.9 * turn[1], turn          # measured: 0.35 against 0.43 rad

@@ -10,10 +10,11 @@ from ..trace.fractals import ARG_WIDTH, fractal_row
 from ..trace.transforms import CODES as TRANSFORM_CODES
 from ..trace.transforms import matrix as transform_matrix
 from ..trace.vm import RAND, SALT, STORE
-from .model import CALC, MATERIAL, PAINT, PRIMITIVE, TRANSFORM, Graph
+from .model import CALC, MATERIAL, PAINT, PRIMITIVE, SELECT, TRANSFORM, Graph
 from .peephole import fuse_operands
 from .terminating import terminating_rules
 
+NORMAL_DECAY = 0.85     # a graftal hit's normal: each coarser box weighs 0.85 of the next
 CACHED_CALC_ROWS = 24   # blocks at least this long are worth a cache lookup (nodes.cached_calc)
 
 Flat = namedtuple("Flat", [
@@ -47,10 +48,13 @@ Flat = namedtuple("Flat", [
     "max_children",  # int64
     "hashed",        # int64        1 if anything reads instance hashes (rand(), the table)
     "pixels_slot",   # int64        the parameter slot of `pixels`, -1 if no selection reads it
+    "normal_decay",  # float64      weight of a coarser box in a graftal hit's averaged normal
+                     #              (0: no module is a graftal, or the box normal alone)
 ])
 
 
-def flatten_graph(graph: Graph, boxes: np.ndarray, table=None) -> Flat:
+def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
+                  normal_decay: float = NORMAL_DECAY) -> Flat:
     nodes = graph.nodes
     n = len(nodes)
     kind = np.array([x.kind for x in nodes], dtype=np.int8)
@@ -104,6 +108,8 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None) -> Flat:
         hashed=np.int64(len(table[0]) > 2 or bool(np.any(vm["code"][:, 0] == RAND))
                         or bool(calc_cache.any())),
         pixels_slot=np.int64(graph.params.get(PIXELS, -1)),
+        normal_decay=np.float64(normal_decay if any(
+            graph.nodes[s].kind == SELECT and term[s] < 0 for s in range(n)) else 0.0),
     )
 
 

@@ -17,8 +17,9 @@ from .jit import inline, kernel
 from .transforms import affine
 
 # F columns; INV is 1/DX, kept so that box tests multiply instead of divide
-OX, DX, M0, T0, T1, PAINT, INV = 0, 3, 6, 15, 16, 17, 20
-F_WIDTH = 23
+# NAVG: the running average of the world normals of the boxes the walk entered
+OX, DX, M0, T0, T1, PAINT, INV, NAVG = 0, 3, 6, 15, 16, 17, 20, 23
+F_WIDTH = 26
 # I columns
 NODE, SLOT, LEVEL, MAT, CUT, PHASE = 0, 1, 2, 3, 4, 5
 I_WIDTH = 6
@@ -145,8 +146,37 @@ def instance_window(flat, node, h, F, f, t0, t1):
 
 @kernel
 def world_normal(F, f, nx, ny, nz, out, row, k):
-    """out[row, k:k+3] = unit world normal: the inverse transpose of M applied to n,
-    written as sign(det M) times the cofactor matrix, which needs no division."""
+    """out[row, k:k+3] = unit world normal of the local normal n."""
+    x, y, z = unit_world_normal(F, f, nx, ny, nz)
+    out[row, k] = x
+    out[row, k + 1] = y
+    out[row, k + 2] = z
+
+
+@inline
+def average_box_normal(flat, node, F, f, t):
+    """Fold the world normal of this box where the ray enters it into the frame's
+    running average (Hart & DeFanti, as Bekaert & Willems shade graftals): the finer the
+    box, the more it weighs; returns the average, normalised."""
+    nx, ny, nz = box_normal(flat.box, node, F, f, t)
+    x, y, z = unit_world_normal(F, f, nx, ny, nz)
+    d = flat.normal_decay
+    x += d * F[f, NAVG]
+    y += d * F[f, NAVG + 1]
+    z += d * F[f, NAVG + 2]
+    F[f, NAVG] = x
+    F[f, NAVG + 1] = y
+    F[f, NAVG + 2] = z
+    length = math.sqrt(x * x + y * y + z * z)
+    if length > 0.0:
+        return x / length, y / length, z / length
+    return 0.0, 0.0, 0.0
+
+
+@kernel
+def unit_world_normal(F, f, nx, ny, nz):
+    """The unit world normal of the local normal n: the inverse transpose of M applied
+    to n, written as sign(det M) times the cofactor matrix, which needs no division."""
     m0, m1, m2 = F[f, M0], F[f, M0 + 1], F[f, M0 + 2]
     m3, m4, m5 = F[f, M0 + 3], F[f, M0 + 4], F[f, M0 + 5]
     m6, m7, m8 = F[f, M0 + 6], F[f, M0 + 7], F[f, M0 + 8]
@@ -169,9 +199,7 @@ def world_normal(F, f, nx, ny, nz, out, row, k):
         x /= length
         y /= length
         z /= length
-    out[row, k] = x
-    out[row, k + 1] = y
-    out[row, k + 2] = z
+    return x, y, z
 
 
 @inline

@@ -19,7 +19,7 @@ from .nodes import (CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SE
                     EV_SINGULAR, EV_STACK, EV_VISITS, F_WIDTH, I_WIDTH, LEVEL, M0, MAT, NODE, OX,
                     PAINT, PHASE, SLOT, T0, T1, box_normal, box_window, copy_frame, enter_paint,
                     enter_transform, instance_window, note, pick_rule, cached_calc, set_inverse,
-                    world_diameter, world_normal, world_size)
+                    world_diameter, world_normal, world_size, average_box_normal, NAVG)
 from .fractals import march
 from .primitives import FRACTAL_MIN, JULIA, intersect
 from .scratch import IV_WIDTH
@@ -355,6 +355,7 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_
     F[0, T1] = tmax
     for k in range(3):
         F[0, PAINT + k] = np.nan
+        F[0, NAVG + k] = 0.0
     I[0, NODE] = flat.root
     I[0, SLOT] = 0
     I[0, LEVEL] = 0
@@ -418,6 +419,9 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_
                 t0, t1 = instance_window(flat, node, H[f], F, f, t0, t1)
                 if t0 > t1:
                     break
+                ax, ay, az = 0.0, 0.0, 0.0
+                if flat.normal_decay > 0.0:
+                    ax, ay, az = average_box_normal(flat, node, F, f, t0)
                 r = choose_rule(flat, node, F, I, H, f, S, lod, dnorm, max_depth,
                                 t0, ev)
                 if r == -2:
@@ -426,6 +430,10 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_
                         hit = True
                         nx, ny, nz = box_normal(flat.box, node, F, f, t0)
                         record_hit(res, ri, t0, F, I, f, nx, ny, nz)
+                        if flat.normal_decay > 0.0:
+                            res[ri, R_N] = ax
+                            res[ri, R_N + 1] = ay
+                            res[ri, R_N + 2] = az
                         if any_hit:
                             return True
                     break
