@@ -39,3 +39,17 @@ S if(c > 0,2,1) // declaration of the module S and its selection function
            move(0.5,-0.5,-0.5) uscale(0.5) S ∪
            move(-0.5,0.5,-0.5) uscale(0.5) S
 """
+
+
+def expand_and_recheck(tmp_path, capsys, text: str, steps: int) -> str:
+    """`pcsg expand` of `text`, checked that `pcsg check` accepts what it printed;
+    returns the printed file."""
+    from pcsg.cli import main
+    src = tmp_path / "source.pcsg"
+    src.write_text(text)
+    assert main(["expand", str(src), "-n", str(steps)]) == 0
+    out = capsys.readouterr().out
+    again = tmp_path / "again.pcsg"
+    again.write_text(out)
+    assert main(["check", "-q", str(again)]) == 0, capsys.readouterr().err
+    return out

@@ -8,7 +8,7 @@ import pytest
 
 from pcsg.cli import main
 
-from .conftest import GRAMMARS, SIERPINSKI
+from .conftest import GRAMMARS, SIERPINSKI, expand_and_recheck
 
 
 def run(capsys, *argv):
@@ -64,14 +64,8 @@ def test_expand(capsys, sierpinski, tmp_path):
 def test_expand_to_the_end_keeps_what_the_rules_read(capsys, tmp_path):
     """Fully derived, the word calls no module, but the rules stay in the file and read a
     parameter that only the old axiom assigned: the new axiom keeps that assignment."""
-    src = tmp_path / "k.pcsg"
-    src.write_text("{k = 1} S\nS 1\n1: S → move(0, 0, k) cube\n")
-    assert main(["expand", str(src), "-n", "1"]) == 0
-    out = capsys.readouterr().out
+    out = expand_and_recheck(tmp_path, capsys, "{k = 1} S\nS 1\n1: S → move(0, 0, k) cube\n", 1)
     assert "{k = 1} (move(0, 0, 1) cube)" in out
-    again = tmp_path / "again.pcsg"
-    again.write_text(out)
-    assert main(["check", str(again)]) == 0
 
 
 def test_expand_refuses_huge_output(capsys, sierpinski):

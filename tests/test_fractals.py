@@ -11,6 +11,8 @@ from pcsg.language.errors import PcsgError
 from pcsg.trace.fractals import JULIA_ITERATIONS, MANDELBULB_ITERATIONS, bound_radius
 from pcsg.trace.reference import Reference
 
+from .conftest import expand_and_recheck
+
 BAIL = 4.0
 
 
@@ -195,15 +197,11 @@ def test_errors(text, message):
 
 
 def test_expand_and_export(tmp_path, capsys):
-    src = tmp_path / "b.pcsg"
-    src.write_text("{k = 1} S\nS 1\n1: S → move(0, 0, k) mandelbulb(4 * 2) ∪ "
-                   "julia(-0.5, 0.5, 0, 0)\n")
-    assert main(["expand", str(src), "-n", "1"]) == 0
-    out = capsys.readouterr().out
+    text = "{k = 1} S\nS 1\n1: S → move(0, 0, k) mandelbulb(4 * 2) ∪ julia(-0.5, 0.5, 0, 0)\n"
+    out = expand_and_recheck(tmp_path, capsys, text, 1)
     assert "mandelbulb(8) ∪ julia(-0.5, 0.5, 0, 0)" in out
-    again = tmp_path / "again.pcsg"
-    again.write_text(out)
-    assert main(["check", str(again)]) == 0
+    src = tmp_path / "b.pcsg"
+    src.write_text(text)
     assert main(["export", str(src), "--pov", str(tmp_path / "b.pov")]) == 1
     err = capsys.readouterr().err
     assert "'mandelbulb' cannot be exported" in err and "b.pcsg:3:" in err

@@ -12,6 +12,7 @@ from pcsg.graph.bounds import hyper_boxes
 from pcsg.graph.stats import count_by_primitive
 from pcsg.language.errors import PcsgError
 
+from .conftest import expand_and_recheck
 from .oracle import assert_agrees, camera_rays
 
 # red sphere when large, a blue cube when small
@@ -112,11 +113,4 @@ def test_an_endless_cycle_that_the_size_ends_is_not_a_warning(capsys):
 
 
 def test_expand_leaves_pixels_out(tmp_path, capsys):
-    src = tmp_path / "e.pcsg"
-    src.write_text(SWITCH)
-    assert main(["expand", str(src), "-n", "0"]) == 0
-    out = capsys.readouterr().out
-    assert "pixels =" not in out
-    again = tmp_path / "again.pcsg"
-    again.write_text(out)
-    assert main(["check", "-q", str(again)]) == 0
+    assert "pixels =" not in expand_and_recheck(tmp_path, capsys, SWITCH, 0)

@@ -80,18 +80,15 @@ class ExpansionTooLarge(Exception):
 
 def expand_axiom(graph: Graph, steps: int, max_chars: int = 50_000_000) -> str:
     """The axiom after `steps` parallel derivation steps, as one CSG expression."""
+    return _expand(graph, steps, max_chars)[0]
+
+
+def _expand(graph: Graph, steps: int, max_chars: int) -> tuple[str, _Printer]:
     p = _Printer(graph, min(steps, MAX_LEVELS), max_chars)
     state, h = p.d.initial()
     parts: list[str] = []
     p.word(graph.root, state, h, p.steps, 0, parts)
-    word = "".join(parts)
-    if p.modules_left == 0:
-        # The rules stay in the file and read parameters that only the old axiom assigned:
-        # keep those assignments, or the file would read undefined names.
-        head = _axiom_head(graph, p.d)
-        if head:
-            word = f"{{{head}}} ({word})"
-    return word
+    return "".join(parts), p
 
 
 def _axiom_head(graph: Graph, d: Deriver) -> str:
@@ -106,7 +103,13 @@ def _axiom_head(graph: Graph, d: Deriver) -> str:
 def expand_file(graph: Graph, steps: int, max_chars: int = 50_000_000) -> str:
     """The whole file with its axiom replaced by the expansion: a file `pcsg check` accepts.
     Macros are shown expanded, since the axiom is printed from the expanded text."""
-    axiom = expand_axiom(graph, steps, max_chars)
+    axiom, p = _expand(graph, steps, max_chars)
+    if p.modules_left == 0:
+        # The rules stay in the file and read parameters that only the old axiom assigned:
+        # keep those assignments, or the file would read undefined names.
+        head = _axiom_head(graph, p.d)
+        if head:
+            axiom = f"{{{head}}} ({axiom})"
     text = graph.source.expanded
     start, end = graph.axiom_span
     header = f"// {graph.source.file} after {steps} derivation step{'s' if steps != 1 else ''}\n"
