@@ -1,4 +1,4 @@
-"""The `pcsg` command: check, expand, stats and graph .pcsg files."""
+"""The `pcsg` command: check, expand, stats, graph, render, sweep and export .pcsg files."""
 from __future__ import annotations
 
 import argparse
@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 from .language.errors import PcsgError
+from .distributed.sweep import sweep_set
 from .limits import INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
@@ -61,6 +62,39 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("files", nargs="+", metavar="FILE")
     r.add_argument("-o", "--output", metavar="OUT",
                    help="the PNG (one file) or a directory (default: NAME.png here)")
+    _render_arguments(r)
+
+    w = sub.add_parser("sweep", help="one image per value of a parameter (--set c=1..12)")
+    w.add_argument("file", metavar="FILE")
+    w.add_argument("--set", dest="overrides", metavar="NAME=A..B[..STEP]", action="append",
+                   type=sweep_set, default=[],
+                   help="the parameter to sweep (integers, B included); more --set NAME=VALUE "
+                        "fix other parameters")
+    w.add_argument("-o", "--output", metavar="DIR", default=".",
+                   help="the directory for FILE_NAME=VALUE.png (default: here)")
+    w.add_argument("--no-color", action="store_true", help=argparse.SUPPRESS)
+    _render_arguments(w)
+
+    x = sub.add_parser("export", parents=[common],
+                       help="the expanded derivation as a POV-Ray scene (small and medium orders)")
+    x.add_argument("file", metavar="FILE")
+    x.add_argument("--pov", required=True, metavar="OUT.pov", help="the POV-Ray scene to write")
+    x.add_argument("--size", type=_size, default=(640, 480), metavar="WxH",
+                   help="the image size the camera is framed for (default 640x480)")
+    x.add_argument("--shadow-samples", type=int, default=8, metavar="N",
+                   help="1: lights are points; more: area lights stay area lights")
+    x.add_argument("--no-shadows", action="store_true", help="lights cast no shadows")
+    x.add_argument("--bounces", type=int, default=3, metavar="N",
+                   help="reflection and refraction depth (default 3)")
+
+    g = sub.add_parser("graph", parents=[common], help="the cyclic CSG graph as Graphviz dot")
+    g.add_argument("file", metavar="FILE")
+    g.add_argument("-o", "--output", metavar="OUT", help="write to OUT instead of stdout")
+    return p
+
+
+def _render_arguments(r: argparse.ArgumentParser):
+    """The options of `render`, shared by `sweep`."""
     r.add_argument("--size", type=_size, default=(640, 480), metavar="WxH",
                    help="image size (default 640x480)")
     r.add_argument("--samples", type=int, default=1, metavar="N",
@@ -99,23 +133,18 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--reference", action="store_true",
                    help="trace the fully expanded system instead (small orders; for checking)")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress line")
-
-    x = sub.add_parser("export", parents=[common],
-                       help="the expanded derivation as a POV-Ray scene (small and medium orders)")
-    x.add_argument("file", metavar="FILE")
-    x.add_argument("--pov", required=True, metavar="OUT.pov", help="the POV-Ray scene to write")
-    x.add_argument("--size", type=_size, default=(640, 480), metavar="WxH",
-                   help="the image size the camera is framed for (default 640x480)")
-    x.add_argument("--shadow-samples", type=int, default=8, metavar="N",
-                   help="1: lights are points; more: area lights stay area lights")
-    x.add_argument("--no-shadows", action="store_true", help="lights cast no shadows")
-    x.add_argument("--bounces", type=int, default=3, metavar="N",
-                   help="reflection and refraction depth (default 3)")
-
-    g = sub.add_parser("graph", parents=[common], help="the cyclic CSG graph as Graphviz dot")
-    g.add_argument("file", metavar="FILE")
-    g.add_argument("-o", "--output", metavar="OUT", help="write to OUT instead of stdout")
-    return p
+    c = r.add_argument_group("across processes and machines (needs pip install 'pcsg[dask]')")
+    c.add_argument("--workers", type=int, metavar="N",
+                   help="render on a local Dask cluster of N worker processes")
+    c.add_argument("--scheduler", metavar="ADDRESS",
+                   help="render on an existing Dask cluster, e.g. tcp://10.0.0.5:8786")
+    c.add_argument("--tiles", type=int, default=1, metavar="N",
+                   help="split each image into N bands of rows, rendered apart (on the "
+                        "cluster's workers, or here one after another) and assembled into "
+                        "the same PNG bytes")
+    c.add_argument("--force", action="store_true",
+                   help="render again outputs that a cluster batch or a sweep would skip as "
+                        "already complete")
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -248,11 +277,9 @@ def cmd_graph(args) -> int:
     return EXIT_OK
 
 
-def cmd_render(args) -> int:
-    import time
-    from .render.job import Options, RenderFailed, check_options, render_file
-    files = expand_globs(args.files)
-    opts = Options(size=args.size, samples=args.samples, overrides=dict(args.overrides),
+def _render_options(args, overrides: dict):
+    from .render.job import Options, check_options
+    opts = Options(size=args.size, samples=args.samples, overrides=overrides,
                    eye=args.eye, at=args.at, up=args.up, fov=args.fov, alpha=args.alpha,
                    depth=Path(args.depth) if args.depth else None, max_depth=args.max_depth,
                    shadows=not args.no_shadows, bounces=max(0, args.bounces), quiet=args.quiet,
@@ -261,11 +288,40 @@ def cmd_render(args) -> int:
                    stack_depth=args.stack_depth, interval_rows=args.interval_rows,
                    max_instances=args.max_instances)
     problem = check_options(opts)
+    if problem and args.tiles > 1:
+        from .distributed.batch import check_tiles
+        problem = check_tiles(opts, args.tiles)
     if problem:
         raise UsageError(problem)
+    return opts
+
+
+def _distributed(args) -> bool:
+    """--workers, --scheduler or --tiles: the batch goes through pcsg.distributed."""
+    if args.workers is not None and args.scheduler:
+        raise UsageError("--workers starts a local cluster, --scheduler uses another: "
+                         "give one of them")
+    if args.workers is not None and not 1 <= args.workers <= 1024:
+        raise UsageError(f"--workers {args.workers}: use 1 to 1024")
+    if not 1 <= args.tiles <= args.size[1]:
+        raise UsageError(f"--tiles {args.tiles}: use 1 to the image height ({args.size[1]})")
+    if args.tiles > 1 and args.depth:
+        raise UsageError("--depth is not written for tiled images; render without --tiles")
+    return args.workers is not None or bool(args.scheduler) or args.tiles > 1
+
+
+def cmd_render(args) -> int:
+    import time
+    from .render.job import RenderFailed, render_file
+    files = expand_globs(args.files)
+    opts = _render_options(args, dict(args.overrides))
     outputs = _outputs(files, args.output)
     if opts.depth is not None and len(files) > 1:
         raise UsageError("--depth names one file; render one .pcsg file with it")
+    if _distributed(args):
+        from .distributed.batch import Job, run_jobs
+        jobs = [Job(f, out, opts) for f, out in zip(files, outputs)]
+        return _exit(run_jobs(jobs, args, resume=bool(args.workers or args.scheduler)))
     failed = []
     start = time.perf_counter()
     for path, out in zip(files, outputs):
@@ -291,6 +347,31 @@ def cmd_render(args) -> int:
         done = len(files) - len(failed)
         print(f"rendered {done} of {len(files)} files in {time.perf_counter() - start:.1f} s"
               + (f"; failed: {', '.join(failed)}" if failed else ""))
+    return EXIT_ERRORS if failed else EXIT_OK
+
+
+def cmd_sweep(args) -> int:
+    from .distributed.batch import Job, run_jobs
+    from .distributed.sweep import sweep_outputs
+    ranges = [(name, values) for name, values in args.overrides if len(values) > 1]
+    if len(ranges) != 1:
+        raise UsageError("give one parameter to sweep, e.g. --set c=1..12 "
+                         f"({len(ranges)} ranges given)")
+    if args.depth:
+        raise UsageError("--depth names one file; render one image with pcsg render")
+    name, values = ranges[0]
+    fixed = {n: v[0] for n, v in args.overrides if len(v) == 1}
+    _distributed(args)
+    out_dir = Path(args.output)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    jobs = []
+    for value, out in zip(values, sweep_outputs(args.file, out_dir, name, values)):
+        opts = _render_options(args, {**fixed, name: value})
+        jobs.append(Job(args.file, out, opts, name=out.name))
+    return _exit(run_jobs(jobs, args, resume=True, what="images"))
+
+
+def _exit(failed: int) -> int:
     return EXIT_ERRORS if failed else EXIT_OK
 
 
@@ -334,7 +415,7 @@ def cmd_export(args) -> int:
 
 
 COMMANDS = {"check": cmd_check, "expand": cmd_expand, "stats": cmd_stats, "graph": cmd_graph,
-            "render": cmd_render, "export": cmd_export}
+            "render": cmd_render, "sweep": cmd_sweep, "export": cmd_export}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,0 +1,97 @@
+"""Where units run: here, one after another, or on a Dask cluster. The only module that
+imports Dask, and only when a cluster is asked for."""
+from __future__ import annotations
+
+import logging
+import os
+
+INSTALL_HINT = ("--workers and --scheduler need Dask: pip install 'pcsg[dask]' "
+                "(in this repository: bash tools/test.sh sets up .venv with it)")
+RETRIES = 2             # a task that raised runs again, elsewhere if need be
+LOCAL = "this process"
+
+
+class ClusterUnavailable(Exception):
+    """Dask is not installed, or the scheduler cannot be reached: a usage error."""
+
+
+class LocalRunner:
+    """No cluster: the units in order, in this process (--tiles, sweeps)."""
+    workers = 1
+
+    def run(self, fn, items):
+        for item in items:
+            yield item, fn(item), LOCAL, None
+
+    def call(self, fn, *args):
+        return fn(*args)
+
+    def close(self):
+        pass
+
+
+def _on_worker(fn, item):
+    """Runs on a worker: the result and which worker it was, for the progress lines."""
+    from distributed import get_worker
+    return get_worker().address, fn(item)
+
+
+class DaskRunner:
+    """Units as Dask tasks; results stream back in the order they finish. A worker that
+    dies loses its tasks to the others (the scheduler reruns them); a task that raised
+    is retried RETRIES times."""
+
+    def __init__(self, client, cluster=None):
+        self.client, self.cluster = client, cluster
+
+    @property
+    def workers(self) -> int:
+        return len(self.client.scheduler_info(n_workers=-1)["workers"])
+
+    def run(self, fn, items):
+        from distributed import as_completed
+        pending = {self.client.submit(_on_worker, fn, item, retries=RETRIES, pure=False): item
+                   for item in items}
+        for future in as_completed(list(pending)):
+            item = pending.pop(future)      # dropping it lets the cluster free the result
+            try:
+                worker, result = future.result()
+                yield item, result, worker, None
+            except Exception as e:          # noqa: BLE001 -- one unit failed, not the batch
+                yield item, None, None, e
+            finally:
+                future.release()
+
+    def call(self, fn, *args):
+        return self.client.submit(fn, *args, retries=RETRIES, pure=False).result()
+
+    def close(self):
+        self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+
+
+def require_dask():
+    """Before any work: say how to install Dask rather than fail on an import."""
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        raise ClusterUnavailable(INSTALL_HINT) from None
+
+
+def connect(workers: int | None = None, scheduler: str | None = None) -> DaskRunner:
+    """A local cluster of `workers` processes, or the cluster at `scheduler`."""
+    require_dask()
+    from distributed import Client, LocalCluster
+    if scheduler:
+        try:
+            return DaskRunner(Client(scheduler, timeout="20s"))
+        except (OSError, TimeoutError) as e:
+            raise ClusterUnavailable(f"--scheduler {scheduler}: cannot connect ({e})") from None
+    # one thread per worker process: numba's own threads share the cores among the workers
+    threads = max(1, (os.cpu_count() or 1) // workers)
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                           host="127.0.0.1", dashboard_address=None,
+                           silence_logs=logging.ERROR,
+                           env={"NUMBA_NUM_THREADS": str(threads)})
+    return DaskRunner(Client(cluster), cluster)
