@@ -40,8 +40,11 @@ def read_sources(jobs: list[Job]) -> tuple[dict[str, str], list[str]]:
 
 
 class Batch:
-    def __init__(self, tiles: int = 1, resume: bool = False, quiet: bool = False):
-        self.tiles, self.resume, self.quiet = tiles, resume, quiet
+    def __init__(self, tiles: int = 1, manifest: bool = False, skip: bool = False,
+                 quiet: bool = False):
+        """manifest: record each output made, so that a restart can skip it (cluster
+        batches and sweeps); skip: skip those recorded and intact (unless --force)."""
+        self.tiles, self.manifest, self.skip, self.quiet = tiles, manifest, skip, quiet
         self.manifests: dict[Path, Manifest] = {}
         self.per_worker: Counter = Counter()
         self.failed: list[str] = []
@@ -64,7 +67,7 @@ class Batch:
                 self._fail(job, None)
                 continue
             key = job_key(sources[job.label], job.opts)
-            if self.resume and self._manifest(job.out).complete(job.out, key):
+            if self.skip and self._manifest(job.out).complete(job.out, key):
                 self.skipped += 1
                 continue
             rows = bands(job.opts.size[1], self.tiles) if self.tiles > 1 else [None]
@@ -145,7 +148,7 @@ class Batch:
 
     def _finished(self, job: Job, key: str, notes, seconds: float, rays: int, extra: str):
         from ..render.job import summary_line
-        if job.opts.depth is None:
+        if self.manifest and job.opts.depth is None:
             self._manifest(job.out).record(job.out, key)
         for note in notes:
             print(f"{job.label}: {note}", file=sys.stderr)
@@ -191,7 +194,7 @@ def run_jobs(jobs: list[Job], args, resume: bool, what: str = "files") -> int:
     try:
         if cluster:
             require_dask()
-        batch = Batch(args.tiles, resume and not args.force, args.quiet)
+        batch = Batch(args.tiles, resume, resume and not args.force, args.quiet)
         units = batch.plan(jobs)
         runner = None
         if units:
