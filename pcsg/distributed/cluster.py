@@ -85,9 +85,15 @@ def connect(workers: int | None = None, scheduler: str | None = None) -> DaskRun
     from distributed import Client, LocalCluster
     if scheduler:
         try:
-            return DaskRunner(Client(scheduler, timeout="20s"))
+            client = Client(scheduler, timeout="20s")
         except (OSError, TimeoutError) as e:
             raise ClusterUnavailable(f"--scheduler {scheduler}: cannot connect ({e})") from None
+        try:
+            _check_workers(client, scheduler)
+        except BaseException:
+            client.close()
+            raise
+        return DaskRunner(client)
     # one thread per worker process: numba's own threads share the cores among the workers
     threads = max(1, (os.cpu_count() or 1) // workers)
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
@@ -95,3 +101,29 @@ def connect(workers: int | None = None, scheduler: str | None = None) -> DaskRun
                            silence_logs=logging.ERROR,
                            env={"NUMBA_NUM_THREADS": str(threads)})
     return DaskRunner(Client(cluster), cluster)
+
+
+def _pcsg_version() -> str:
+    from .. import __version__
+    return __version__
+
+
+def _check_workers(client, scheduler: str, wait: float = 60):
+    """A cluster without workers would wait forever; one without pcsg (or another
+    version) would fail every task or draw other pictures."""
+    try:
+        client.wait_for_workers(1, timeout=wait)
+    except TimeoutError:
+        raise ClusterUnavailable(f"--scheduler {scheduler}: no worker joined within "
+                                 f"{wait:g} s (start some: dask worker {scheduler})") from None
+    try:
+        versions = client.run(_pcsg_version)
+    except Exception as e:          # noqa: BLE001 -- a worker that cannot import pcsg
+        raise ClusterUnavailable(f"--scheduler {scheduler}: the workers cannot run pcsg "
+                                 f"({type(e).__name__}: {e}); install the same pcsg on "
+                                 f"each") from None
+    mine = _pcsg_version()
+    other = sorted({f"{w} has {v}" for w, v in versions.items() if v != mine})
+    if other:
+        raise ClusterUnavailable(f"--scheduler {scheduler}: pcsg {mine} here, but "
+                                 + ", ".join(other))
