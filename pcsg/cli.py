@@ -8,8 +8,8 @@ import os
 import sys
 from pathlib import Path
 
-from .language.errors import PcsgError
 from .distributed.sweep import sweep_set
+from .language.errors import PcsgError
 from .limits import INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
@@ -133,6 +133,12 @@ def _render_arguments(r: argparse.ArgumentParser):
     r.add_argument("--reference", action="store_true",
                    help="trace the fully expanded system instead (small orders; for checking)")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+    cluster_arguments(r)
+
+
+def cluster_arguments(r: argparse.ArgumentParser):
+    """--workers, --scheduler, --tiles, --force: for any command that renders a batch
+    through pcsg.distributed.batch.run_jobs."""
     c = r.add_argument_group("across processes and machines (needs pip install 'pcsg[dask]')")
     c.add_argument("--workers", type=int, metavar="N",
                    help="render on a local Dask cluster of N worker processes")
@@ -314,11 +320,12 @@ def cmd_render(args) -> int:
     import time
     from .render.job import RenderFailed, render_file
     files = expand_globs(args.files)
+    distributed = _distributed(args)
     opts = _render_options(args, dict(args.overrides))
     outputs = _outputs(files, args.output)
     if opts.depth is not None and len(files) > 1:
         raise UsageError("--depth names one file; render one .pcsg file with it")
-    if _distributed(args):
+    if distributed:
         from .distributed.batch import Job, run_jobs
         jobs = [Job(f, out, opts) for f, out in zip(files, outputs)]
         return _exit(run_jobs(jobs, args, resume=bool(args.workers or args.scheduler)))
@@ -361,7 +368,7 @@ def cmd_sweep(args) -> int:
         raise UsageError("--depth names one file; render one image with pcsg render")
     name, values = ranges[0]
     fixed = {n: v[0] for n, v in args.overrides if len(v) == 1}
-    _distributed(args)
+    _distributed(args)          # its checks; a sweep always goes through pcsg.distributed
     out_dir = Path(args.output)
     out_dir.mkdir(parents=True, exist_ok=True)
     jobs = []

@@ -2,26 +2,27 @@
 (each by temporary file and rename), complete outputs skipped on a restart."""
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 from collections import Counter
-from dataclasses import dataclass
 from pathlib import Path
 
 from ..language.errors import PcsgError
 from ..language.parser import read_source_text
 from ..output import write_atomic
+from ..render.job import Options, check_options, strict_failure, summary_line
+from .cluster import LOCAL, ClusterUnavailable, LocalRunner, connect, require_dask
 from .resume import Manifest, job_key
-from .tiles import Assembler, bands
-from .cluster import LOCAL
+from .tiles import MAX_TILED_PIXELS, Assembler, bands
 from .units import Outcome, Unit, render_unit, report_unit
 
 
-@dataclass
+@dataclasses.dataclass
 class Job:
     label: str              # the .pcsg path as given
     out: Path
-    opts: "Options"         # noqa: F821 -- render.job.Options, its overrides included
+    opts: Options           # its overrides included
     name: str = ""          # how a failure is listed (default: the label)
 
 
@@ -87,10 +88,12 @@ class Batch:
                 job, key, tiles = self.by_unit[id(unit)]
                 if worker is not None:
                     self.per_worker[worker] += 1
-                self._progress(n, total, unit, outcome, worker, exc)
+                what = (job.name or job.label) + (f" rows {unit.rows[0]}-{unit.rows[1] - 1}"
+                                                  if unit.rows else "")
+                self._progress(n, total, what, outcome, worker)
                 if exc is not None:
-                    outcome = Outcome(error=f"pcsg render: {unit.describe()}: failed on the "
-                                            f"cluster: {type(exc).__name__}: {exc}")
+                    outcome = Outcome(error=f"pcsg render: {what}: failed on the cluster: "
+                                            f"{type(exc).__name__}: {exc}")
                 if unit.rows is None:
                     self._whole(job, key, outcome)
                 else:
@@ -100,11 +103,11 @@ class Batch:
                 if a.image is not None:
                     a.discard()
 
-    def _progress(self, n, total, unit, outcome, worker, exc):
+    def _progress(self, n, total, what, outcome, worker):
         if self.quiet:
             return
         took = f", {outcome.seconds:.2f} s" if outcome is not None and outcome.seconds else ""
-        print(f"[{n}/{total}] {unit.describe()} on {worker or 'a lost worker'}{took}",
+        print(f"[{n}/{total}] {what} on {worker or 'a lost worker'}{took}",
               file=sys.stderr)
 
     def _fail(self, job: Job, message: str | None):
@@ -141,13 +144,11 @@ class Batch:
         notes, errors = self.runner.call(report_unit, unit, a.events)
         if errors:
             a.discard()
-            from ..render.job import strict_failure
             return self._fail(job, f"pcsg render: {job.label}: {strict_failure(errors)}")
         a.write()
         self._finished(job, key, notes, a.seconds, a.rays, f", {tiles} tiles")
 
     def _finished(self, job: Job, key: str, notes, seconds: float, rays: int, extra: str):
-        from ..render.job import summary_line
         if self.manifest and job.opts.depth is None:
             self._manifest(job.out).record(job.out, key)
         for note in notes:
@@ -172,23 +173,18 @@ class Batch:
 
 def check_tiles(opts, tiles: int) -> str | None:
     """A tiled image may be larger than one render's limit: a worker holds one band."""
-    from dataclasses import replace
-
-    from ..render.job import check_options
-    from .tiles import MAX_TILED_PIXELS
     w, h = opts.size
     if w * h > MAX_TILED_PIXELS:
         return (f"--size {w}x{h}: a tiled image is assembled in memory, 4 bytes a pixel; "
                 f"pcsg assembles up to {MAX_TILED_PIXELS // 1_000_000} million pixels")
-    problem = check_options(replace(opts, size=(w, -(-h // tiles))))
+    problem = check_options(dataclasses.replace(opts, size=(w, -(-h // tiles))))
     return problem and f"{problem} (in one band of --tiles {tiles}; give more tiles)"
 
 
 def run_jobs(jobs: list[Job], args, resume: bool, what: str = "files") -> int:
     """The command line's batch: on the cluster that args ask for, else here. Returns
     how many jobs failed."""
-    from ..cli import UsageError
-    from .cluster import ClusterUnavailable, LocalRunner, connect, require_dask
+    from ..cli import UsageError       # cli imports this module lazily: no cycle at import
     start = time.perf_counter()
     cluster = args.workers is not None or bool(args.scheduler)
     try:

@@ -30,11 +30,6 @@ class Unit:
     opts: Options
     rows: tuple[int, int] | None = None     # a tile: rows y0..y1; None: the whole image
 
-    def describe(self) -> str:
-        if self.rows is None:
-            return self.label
-        return f"{self.label} rows {self.rows[0]}-{self.rows[1] - 1}"
-
 
 @dataclass
 class Outcome:
