@@ -309,7 +309,7 @@ def _distributed(args) -> bool:
                          "give one of them")
     if args.workers is not None and not 1 <= args.workers <= 1024:
         raise UsageError(f"--workers {args.workers}: use 1 to 1024")
-    if not 1 <= args.tiles <= args.size[1]:
+    if args.tiles != 1 and not 1 <= args.tiles <= args.size[1]:
         raise UsageError(f"--tiles {args.tiles}: use 1 to the image height ({args.size[1]})")
     if args.tiles > 1 and args.depth:
         raise UsageError("--depth is not written for tiled images; render without --tiles")
@@ -320,8 +320,8 @@ def cmd_render(args) -> int:
     import time
     from .render.job import RenderFailed, render_file
     files = expand_globs(args.files)
-    distributed = _distributed(args)
     opts = _render_options(args, dict(args.overrides))
+    distributed = _distributed(args)
     outputs = _outputs(files, args.output)
     if opts.depth is not None and len(files) > 1:
         raise UsageError("--depth names one file; render one .pcsg file with it")

@@ -25,7 +25,7 @@ SIERPINSKI = str(GRAMMARS / "sierpinski.pcsg")
 
 def local_cluster():
     return LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                        dashboard_address=None, env={"NUMBA_NUM_THREADS": "1"})
+                        dashboard_address=":0", env={"NUMBA_NUM_THREADS": "1"})
 
 
 @pytest.fixture(scope="module")
