@@ -115,3 +115,17 @@ def test_cluster_options_without_dask_say_how_to_install_it(capsys, monkeypatch,
     assert main(["render", SIERPINSKI, "--workers", "2", "-o", str(tmp_path / "x.png")]) == 2
     assert "pip install 'pcsg[dask]'" in capsys.readouterr().err
     assert not (tmp_path / "x.png").exists()
+
+
+def test_an_output_that_cannot_be_written_fails_alone(capsys, tmp_path):
+    out = tmp_path / "sweep"
+    out.mkdir()
+    (out / "sierpinski_c=2.png").mkdir()          # a directory where the image should go
+    code = main(["sweep", SIERPINSKI, "--set", "c=1..3", "--size", "32x24", "-o", str(out),
+                 "-q", "--tiles", "3"])
+    captured = capsys.readouterr()
+    assert code == 1
+    assert "rendered 2 of 3 images" in captured.out and "failed: sierpinski_c=2.png" in \
+        captured.out
+    assert (out / "sierpinski_c=3.png").is_file()
+    assert [p.name for p in out.glob(".*")] == [MANIFEST]     # no scratch file left

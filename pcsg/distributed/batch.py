@@ -94,10 +94,17 @@ class Batch:
                 if exc is not None:
                     outcome = Outcome(error=f"pcsg render: {what}: failed on the cluster: "
                                             f"{type(exc).__name__}: {exc}")
-                if unit.rows is None:
-                    self._whole(job, key, outcome)
-                else:
-                    self._tile(job, key, unit, outcome, tiles, assemblers)
+                try:
+                    if unit.rows is None:
+                        self._whole(job, key, outcome)
+                    else:
+                        self._tile(job, key, unit, outcome, tiles, assemblers)
+                except OSError as e:        # this output cannot be written; the others can
+                    a = assemblers.get(id(job))
+                    if a is not None and a.image is not None:
+                        a.discard()
+                    self._fail(job, f"pcsg render: {job.label}: {e.strerror or e}"
+                                    + (f": {e.filename}" if e.filename else ""))
         finally:
             for a in assemblers.values():
                 if a.image is not None:
