@@ -112,3 +112,18 @@ def test_a_worker_killed_mid_batch_loses_nothing(capsys, tmp_path):
                  "-o", str(here), "-q"]) == 0
     for o in outputs:
         assert o.read_bytes() == (here / o.name).read_bytes(), o.name
+
+
+def test_sweep_on_a_local_cluster_of_its_own(capfd, tmp_path):
+    # --workers starts and stops its own cluster; nothing of Dask's logging reaches the
+    # user, not even from worker processes racing the shutdown (capfd: their stderr too)
+    out = tmp_path / "sweep"
+    assert main(["sweep", SIERPINSKI, "--set", "c=1..4", "--size", "48x36", "-o", str(out),
+                 "--workers", "2"]) == 0
+    captured = capfd.readouterr()
+    assert "rendered 4 of 4 images" in captured.out
+    assert "Traceback" not in captured.err and "distributed." not in captured.err
+    assert captured.err.count("[") == 4 and "tasks per worker: tcp://127.0.0.1:" in captured.err
+    assert main(["render", SIERPINSKI, "--set", "c=3", "--size", "48x36", "-q",
+                 "-o", str(tmp_path / "c3.png")]) == 0
+    assert (out / "sierpinski_c=3.png").read_bytes() == (tmp_path / "c3.png").read_bytes()

@@ -98,7 +98,7 @@ def connect(workers: int | None = None, scheduler: str | None = None) -> DaskRun
     threads = max(1, (os.cpu_count() or 1) // workers)
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                            host="127.0.0.1", dashboard_address=":0",   # not 8787: it may be taken
-                           silence_logs=logging.ERROR,
+                           silence_logs=logging.CRITICAL,   # no tracebacks at shutdown
                            env={"NUMBA_NUM_THREADS": str(threads)})
     return DaskRunner(Client(cluster), cluster)
 
