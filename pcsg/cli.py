@@ -1,4 +1,5 @@
-"""The `pcsg` command: check, expand, stats, graph, render, animate and export .pcsg files."""
+"""The `pcsg` command: check, expand, stats, graph, render, sweep, animate and export .pcsg
+files."""
 from __future__ import annotations
 
 import argparse
@@ -8,6 +9,7 @@ import os
 import sys
 from pathlib import Path
 
+from .distributed.sweep import sweep_set
 from .language.errors import PcsgError
 from .limits import INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES
 
@@ -63,6 +65,19 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("-o", "--output", metavar="OUT",
                    help="the PNG (one file) or a directory (default: NAME.png here)")
     r.add_argument("--depth", metavar="FILE.npy", help="also write float32 hit distances")
+    cluster_arguments(r)
+
+    w = sub.add_parser("sweep", parents=[looks],
+                       help="one image per value of a parameter (--set c=1..12)")
+    w.add_argument("file", metavar="FILE")
+    w.add_argument("--set", dest="overrides", metavar="NAME=A..B[..STEP]", action="append",
+                   type=sweep_set, default=[],
+                   help="the parameter to sweep (integers, B included); more --set NAME=VALUE "
+                        "fix other parameters")
+    w.add_argument("-o", "--output", metavar="DIR", default=".",
+                   help="the directory for FILE_NAME=VALUE.png (default: here)")
+    w.add_argument("--no-color", action="store_true", help=argparse.SUPPRESS)
+    cluster_arguments(w)
 
     a = sub.add_parser("animate", parents=[common, looks],
                        help="frames over time t and a camera path, to PNGs and an animation")
@@ -102,7 +117,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _render_options() -> argparse.ArgumentParser:
-    """What a picture looks like and how it is traced: shared by render and animate."""
+    """What a picture looks like and how it is traced: shared by render, sweep and animate."""
     r = argparse.ArgumentParser(add_help=False)
     r.add_argument("--size", type=_size, default=(640, 480), metavar="WxH",
                    help="image size (default 640x480)")
@@ -148,6 +163,23 @@ def _render_options() -> argparse.ArgumentParser:
                    help="trace the fully expanded system instead (small orders; for checking)")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     return r
+
+
+def cluster_arguments(r: argparse.ArgumentParser):
+    """--workers, --scheduler, --tiles, --force: for any command that renders a batch
+    through pcsg.distributed.batch.run_jobs."""
+    c = r.add_argument_group("across processes and machines (needs pip install 'pcsg[dask]')")
+    c.add_argument("--workers", type=int, metavar="N",
+                   help="render on a local Dask cluster of N worker processes")
+    c.add_argument("--scheduler", metavar="ADDRESS",
+                   help="render on an existing Dask cluster, e.g. tcp://10.0.0.5:8786")
+    c.add_argument("--tiles", type=int, default=1, metavar="N",
+                   help="split each image into N bands of rows, rendered apart (on the "
+                        "cluster's workers, or here one after another) and assembled into "
+                        "the same PNG bytes")
+    c.add_argument("--force", action="store_true",
+                   help="render again outputs that a cluster batch or a sweep would skip as "
+                        "already complete")
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -288,11 +320,13 @@ def cmd_graph(args) -> int:
     return EXIT_OK
 
 
-def _options(args):
-    """The render options of render and animate, checked before anything is compiled."""
+def _options(args, overrides: dict | None = None):
+    """The render options of render, sweep and animate, checked before anything is
+    compiled."""
     from .render.job import Options, check_options
     depth = getattr(args, "depth", None)
-    opts = Options(size=args.size, samples=args.samples, overrides=dict(args.overrides),
+    opts = Options(size=args.size, samples=args.samples,
+                   overrides=dict(args.overrides) if overrides is None else overrides,
                    eye=args.eye, at=args.at, up=args.up, fov=args.fov, alpha=args.alpha,
                    depth=Path(depth) if depth else None, max_depth=args.max_depth,
                    shadows=not args.no_shadows, bounces=max(0, args.bounces), quiet=args.quiet,
@@ -302,9 +336,26 @@ def _options(args):
                    max_instances=args.max_instances, ao=args.ao,
                    ao_distance=args.ao_distance)
     problem = check_options(opts)
+    if problem and getattr(args, "tiles", 1) > 1:
+        from .distributed.batch import check_tiles
+        problem = check_tiles(opts, args.tiles)
     if problem:
         raise UsageError(problem)
     return opts
+
+
+def _distributed(args) -> bool:
+    """--workers, --scheduler or --tiles: the batch goes through pcsg.distributed."""
+    if args.workers is not None and args.scheduler:
+        raise UsageError("--workers starts a local cluster, --scheduler uses another: "
+                         "give one of them")
+    if args.workers is not None and not 1 <= args.workers <= 1024:
+        raise UsageError(f"--workers {args.workers}: use 1 to 1024")
+    if args.tiles != 1 and not 1 <= args.tiles <= args.size[1]:
+        raise UsageError(f"--tiles {args.tiles}: use 1 to the image height ({args.size[1]})")
+    if args.tiles > 1 and getattr(args, "depth", None):
+        raise UsageError("--depth is not written for tiled images; render without --tiles")
+    return args.workers is not None or bool(args.scheduler) or args.tiles > 1
 
 
 def cmd_render(args) -> int:
@@ -312,9 +363,14 @@ def cmd_render(args) -> int:
     from .render.job import RenderFailed, render_file
     files = expand_globs(args.files)
     opts = _options(args)
+    distributed = _distributed(args)
     outputs = _outputs(files, args.output)
     if opts.depth is not None and len(files) > 1:
         raise UsageError("--depth names one file; render one .pcsg file with it")
+    if distributed:
+        from .distributed.batch import Job, run_jobs
+        jobs = [Job(f, out, opts) for f, out in zip(files, outputs)]
+        return _exit(run_jobs(jobs, args, resume=bool(args.workers or args.scheduler)))
     failed = []
     start = time.perf_counter()
     for path, out in zip(files, outputs):
@@ -340,6 +396,29 @@ def cmd_render(args) -> int:
         done = len(files) - len(failed)
         print(f"rendered {done} of {len(files)} files in {time.perf_counter() - start:.1f} s"
               + (f"; failed: {', '.join(failed)}" if failed else ""))
+    return EXIT_ERRORS if failed else EXIT_OK
+
+
+def cmd_sweep(args) -> int:
+    from .distributed.batch import Job, run_jobs
+    from .distributed.sweep import sweep_outputs
+    ranges = [(name, values) for name, values in args.overrides if len(values) > 1]
+    if len(ranges) != 1:
+        raise UsageError("give one parameter to sweep, e.g. --set c=1..12 "
+                         f"({len(ranges)} ranges given)")
+    name, values = ranges[0]
+    fixed = {n: v[0] for n, v in args.overrides if len(v) == 1}
+    _distributed(args)          # its checks; a sweep always goes through pcsg.distributed
+    out_dir = Path(args.output)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    jobs = []
+    for value, out in zip(values, sweep_outputs(args.file, out_dir, name, values)):
+        opts = _options(args, {**fixed, name: value})
+        jobs.append(Job(args.file, out, opts, name=out.name))
+    return _exit(run_jobs(jobs, args, resume=True, what="images"))
+
+
+def _exit(failed: int) -> int:
     return EXIT_ERRORS if failed else EXIT_OK
 
 
@@ -409,7 +488,8 @@ def cmd_export(args) -> int:
 
 
 COMMANDS = {"check": cmd_check, "expand": cmd_expand, "stats": cmd_stats, "graph": cmd_graph,
-            "render": cmd_render, "animate": cmd_animate, "export": cmd_export}
+            "render": cmd_render, "sweep": cmd_sweep, "animate": cmd_animate,
+            "export": cmd_export}
 
 
 def main(argv: list[str] | None = None) -> int:

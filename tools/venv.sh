@@ -1,4 +1,5 @@
-# Sourced by the quick-start scripts: make ./.venv with pcsg and its test tools,
+# Sourced by the quick-start scripts: make ./.venv with pcsg, its test tools and the dask
+# extra (so that the cluster tests run),
 # reinstalling only when pyproject.toml changed. Needs only python3 (3.11+).
 set -eu
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -14,7 +15,7 @@ if [ ! -x "$VENV/bin/python" ] || [ "$(cat "$STAMP" 2>/dev/null)" != "$WANT" ]; 
   echo "setting up $VENV (once) ..." >&2
   "$PY" -m venv "$VENV"
   "$VENV/bin/python" -m pip install --quiet --upgrade pip >&2
-  "$VENV/bin/python" -m pip install --quiet -e "$ROOT[test]" >&2
+  "$VENV/bin/python" -m pip install --quiet -e "$ROOT[test,dask]" >&2
   echo "$WANT" > "$STAMP"
 fi
 export PATH="$VENV/bin:$PATH"

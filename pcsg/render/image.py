@@ -63,20 +63,28 @@ def _offsets(n: int, rng) -> np.ndarray:
 
 def render_frame(traced, camera: Camera, light: Lighting, width: int, height: int,
                  samples: int = 1, adaptive: bool = True, progress: Progress | None = None,
-                 check=None) -> Frame:
-    """`check()` runs between batches of rows and may raise to stop the render."""
+                 check=None, rows: tuple[int, int] | None = None) -> Frame:
+    """`check()` runs between batches of rows and may raise to stop the render.
+    `rows=(y0, y1)` renders only those rows of the width x height image (a tile), with
+    exactly the pixels the whole image has there."""
     t0 = time.perf_counter()
     light.lod = camera.pixel_angle(height)
     light.rays[0] = 0
-    rgb = np.zeros((height, width, 3))
-    cover = np.zeros((height, width))
-    depth = np.full((height, width), np.inf, dtype=np.float32)
+    refine = adaptive and samples <= 1
+    top, bottom = rows or (0, height)
+    # the adaptive pass compares each pixel with its neighbours: a tile renders one row
+    # more on each side (its apron) so that it sees the same neighbours as the whole image
+    a0, a1 = (max(0, top - 1), min(height, bottom + 1)) if refine else (top, bottom)
+    band = a1 - a0
+    rgb = np.zeros((band, width, 3))
+    cover = np.zeros((band, width))
+    depth = np.full((band, width), np.inf, dtype=np.float32)
     rng = np.random.default_rng(20240607)        # the same jitter every render
     offs = np.array([[0.5, 0.5]]) if samples <= 1 else _offsets(samples, rng)
-    obj = np.zeros((height, width, 3))
-    for y0 in range(0, height, ROWS_PER_BATCH):
-        y1 = min(height, y0 + ROWS_PER_BATCH)
-        ys, xs = np.mgrid[y0:y1, 0:width]
+    obj = np.zeros((band, width, 3))
+    for y0 in range(0, band, ROWS_PER_BATCH):       # rows of the band
+        y1 = min(band, y0 + ROWS_PER_BATCH)
+        ys, xs = np.mgrid[a0 + y0:a0 + y1, 0:width]
         acc = np.zeros(((y1 - y0) * width, 3))
         acc_obj = np.zeros(((y1 - y0) * width, 3))
         hit = np.zeros((y1 - y0) * width)
@@ -96,19 +104,22 @@ def render_frame(traced, camera: Camera, light: Lighting, width: int, height: in
             progress.update(y1 * width, light.rays[0])
         if check:
             check()
-    if adaptive and samples <= 1:
-        _refine(traced, camera, light, rgb, obj, cover, rng)
+    if refine:
+        _refine(traced, camera, light, rgb, obj, cover, rng, height, a0, (top - a0, bottom - a0))
     if progress:
         progress.close()
-    return Frame(rgb, obj, cover, depth, time.perf_counter() - t0, light.rays[0])
+    keep = slice(top - a0, bottom - a0)
+    return Frame(rgb[keep], obj[keep], cover[keep], depth[keep], time.perf_counter() - t0,
+                 light.rays[0])
 
 
-def _refine(traced, camera, light, rgb, obj, cover, rng):
+def _refine(traced, camera, light, rgb, obj, cover, rng, height, a0, keep):
     """The paper's adaptive oversampling: more samples only where a pixel differs from
-    a neighbour, so edges are smooth and flat areas cost nothing extra."""
-    h, w = cover.shape
+    a neighbour, so edges are smooth and flat areas cost nothing extra. The arrays hold
+    rows a0... of the image; only the rows `keep` (band rows) are refined."""
+    _, w = cover.shape
     s = to_srgb(rgb)
-    diff = np.zeros((h, w))
+    diff = np.zeros(cover.shape)
     for axis in (0, 1):
         delta = np.abs(np.diff(s, axis=axis)).max(axis=2)
         pad = [(0, 0), (0, 0)]
@@ -116,6 +127,7 @@ def _refine(traced, camera, light, rgb, obj, cover, rng):
         diff = np.maximum(diff, np.pad(delta, pad))
         pad[axis] = (1, 0)
         diff = np.maximum(diff, np.pad(delta, pad))
+    diff[:keep[0]] = diff[keep[1]:] = 0
     ys, xs = np.nonzero(diff > ADAPTIVE_THRESHOLD)
     if len(ys) == 0:
         return
@@ -123,10 +135,10 @@ def _refine(traced, camera, light, rgb, obj, cover, rng):
     acc = rgb[ys, xs] * 1.0
     hit = cover[ys, xs] * 1.0
     acc_obj = obj[ys, xs] * hit[:, None]
-    pixels = (ys * w + xs).astype(np.int64)
+    pixels = ((ys + a0) * w + xs).astype(np.int64)
     for k, (ox, oy) in enumerate(offs):
-        o, d = camera.rays(w, h, xs + ox, ys + oy)
-        c, _, hits = shade(traced, light, o, d, ids=sample_ids(pixels, 1 + k, w, h))
+        o, d = camera.rays(w, height, xs + ox, ys + a0 + oy)
+        c, _, hits = shade(traced, light, o, d, ids=sample_ids(pixels, 1 + k, w, height))
         acc += c
         acc_obj += c * hits.hit[:, None]
         hit += hits.hit
@@ -146,17 +158,27 @@ def to_srgb(linear: np.ndarray) -> np.ndarray:
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
 
 
-def png_bytes(frame: Frame, alpha: bool) -> bytes:
-    from PIL import Image
+def pixels(frame: Frame, alpha: bool) -> np.ndarray:
+    """The PNG's samples: (h, w, 3) uint8 sRGB, or (h, w, 4) with --alpha."""
     srgb = np.round(to_srgb(frame.object_rgb if alpha else frame.rgb) * 255).astype(np.uint8)
-    if alpha:
-        # the background is transparent: colour where the object covers the pixel
-        a = np.round(np.clip(frame.coverage, 0, 1) * 255).astype(np.uint8)
-        img = Image.fromarray(np.dstack([srgb, a]), "RGBA")
-    else:
-        img = Image.fromarray(srgb, "RGB")
+    if not alpha:
+        return srgb
+    # the background is transparent: colour where the object covers the pixel
+    a = np.round(np.clip(frame.coverage, 0, 1) * 255).astype(np.uint8)
+    return np.dstack([srgb, a])
+
+
+def save_png(f, samples: np.ndarray):
+    """Encode (h, w, 3|4) uint8 samples to the open binary file f. Pillow writes the
+    same bytes to any file object, so a tiled image equals the one written at once."""
+    from PIL import Image
+    img = Image.fromarray(samples, "RGBA" if samples.shape[2] == 4 else "RGB")
+    img.save(f, format="PNG", optimize=False)
+
+
+def png_bytes(frame: Frame, alpha: bool) -> bytes:
     buf = io.BytesIO()
-    img.save(buf, format="PNG", optimize=False)
+    save_png(buf, pixels(frame, alpha))
     return buf.getvalue()
 
 
@@ -164,7 +186,11 @@ def write_png(path: Path, frame: Frame, alpha: bool = False):
     write_atomic(path, png_bytes(frame, alpha))
 
 
-def write_depth(path: Path, frame: Frame):
+def depth_bytes(frame: Frame) -> bytes:
     buf = io.BytesIO()
     np.save(buf, frame.depth.astype(np.float32))
-    write_atomic(path, buf.getvalue())
+    return buf.getvalue()
+
+
+def write_depth(path: Path, frame: Frame):
+    write_atomic(path, depth_bytes(frame))

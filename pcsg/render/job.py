@@ -1,6 +1,7 @@
 """`pcsg render`: one .pcsg file to one PNG, with the options of the command line."""
 from __future__ import annotations
 
+import copy
 import math
 import time
 from dataclasses import dataclass, field
@@ -9,14 +10,15 @@ from pathlib import Path
 import numpy as np
 
 from ..compiler import compile_file
+from ..graph.model import Graph
 from ..trace.nodes import (EV_INTERVALS, EV_NONFINITE, EV_SELECTION, EV_SINGULAR, EV_STACK,
-                           EV_VISITS)
+                           EV_VISITS, no_events)
 from ..scene import MAX_AO_SAMPLES
 from ..limits import (INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, MAX_INTERVAL_ROWS,
                       MAX_STACK_DEPTH)
 from ..tracer import Hits, Traced
 from .camera import make_camera
-from .image import Progress, render_frame, write_depth, write_png
+from .image import Frame, Progress, render_frame, write_depth, write_png
 from .shade import make_lighting
 
 RUNTIME_ERRORS = (EV_SELECTION, EV_NONFINITE, EV_SINGULAR, EV_STACK, EV_INTERVALS, EV_VISITS)
@@ -94,46 +96,79 @@ def check_deadline(deadline: float | None, timeout: float | None):
         raise RenderFailed(f"stopped by --timeout {timeout:g} s; nothing written")
 
 
-def render_file(path: Path, out: Path, opts: Options) -> tuple[str, list[str]]:
-    """Render `path` to `out` (written atomically); returns the summary line and notes.
-    Raises RenderFailed, having written nothing, past --timeout or, with --strict, when
-    instances were empty because of runtime errors."""
-    deadline = None if opts.timeout is None else time.perf_counter() + opts.timeout
-    graph = compile_file(path, opts.overrides)
+@dataclass
+class Scene:
+    """A compiled, bounded file ready to render; a cluster worker keeps it across tasks."""
+    graph: Graph
+    traced: Traced
+    notes: list[str]            # compile and bounds warnings
+
+    def report(self, events, strict: bool) -> tuple[list[str], list[str]]:
+        """(notes, errors) after a render with these runtime events (None: not known);
+        errors only with --strict: runtime errors in the grammar fail the file."""
+        static = [x.format(show_source=False) for x in self.traced.warnings
+                  if x not in self.graph.warnings]
+        errors = []
+        if strict:
+            errors = static + ([] if events is None else
+                               self.traced.describe_events(events, RUNTIME_ERRORS))
+        notes = [] if events is None else self.traced.describe_events(events)
+        return notes, errors
+
+
+def prepare_scene(graph: Graph, opts: Options) -> Scene:
     notes = [w.format(show_source=False) for w in graph.warnings]
     traced = Traced(graph, opts.max_depth, opts.stack_depth, opts.interval_rows,
                     opts.max_instances)
     notes += [w.format(show_source=False) for w in traced.warnings
               if w not in graph.warnings]
-    target = traced
-    if opts.reference:
-        target = _ReferenceTarget(traced)
+    return Scene(graph, traced, notes)
+
+
+def render_scene(scene: Scene, label: str, opts: Options, deadline: float | None = None,
+                 rows: tuple[int, int] | None = None) -> tuple[Frame, np.ndarray | None]:
+    """The frame (or its rows y0..y1) and the runtime events of this render alone."""
+    traced = copy.copy(scene.traced)        # its own events, however often the scene is used
+    traced.events = no_events(len(scene.graph.nodes))
+    target = _ReferenceTarget(traced) if opts.reference else traced
     w, h = opts.size
     camera = make_camera(traced, w / h, opts.eye, opts.at, opts.up, opts.fov)
     light = make_lighting(traced, camera, opts.shadows, opts.shadow_samples, opts.bounces,
                           opts.ao, opts.ao_distance)
-    progress = Progress(Path(path).name, w * h, not opts.quiet)
+    y0, y1 = rows or (0, h)
+    progress = Progress(label, w * (y1 - y0), not opts.quiet)
     check_deadline(deadline, opts.timeout)
     frame = render_frame(target, camera, light, w, h, opts.samples, opts.adaptive, progress,
-                         lambda: check_deadline(deadline, opts.timeout))
-    events = getattr(target, "events", None)
-    if opts.strict:
-        errors = [x.format(show_source=False) for x in traced.warnings
-                  if x not in graph.warnings]
-        if events is not None:
-            errors += traced.describe_events(events, RUNTIME_ERRORS)
-        if errors:
-            raise RenderFailed("--strict: runtime errors in the grammar, nothing written:\n  "
-                               + "\n  ".join(errors))
+                         lambda: check_deadline(deadline, opts.timeout), rows)
+    return frame, getattr(target, "events", None)
+
+
+def strict_failure(errors: list[str]) -> RenderFailed:
+    return RenderFailed("--strict: runtime errors in the grammar, nothing written:\n  "
+                        + "\n  ".join(errors))
+
+
+def summary_line(out: Path, opts: Options, seconds: float, rays: int) -> str:
+    w, h = opts.size
+    rate = rays / max(seconds, 1e-9)
+    return (f"{out}: {w}x{h}, {seconds:.2f} s, {rate / 1e6:.2f} M rays/s"
+            f"{', reference tracer' if opts.reference else ''}")
+
+
+def render_file(path: Path, out: Path, opts: Options) -> tuple[str, list[str]]:
+    """Render `path` to `out` (written atomically); returns the summary line and notes.
+    Raises RenderFailed, having written nothing, past --timeout or, with --strict, when
+    instances were empty because of runtime errors."""
+    deadline = None if opts.timeout is None else time.perf_counter() + opts.timeout
+    scene = prepare_scene(compile_file(path, opts.overrides), opts)
+    frame, events = render_scene(scene, Path(path).name, opts, deadline)
+    notes, errors = scene.report(events, opts.strict)
+    if errors:
+        raise strict_failure(errors)
     write_png(out, frame, opts.alpha)
     if opts.depth is not None:
         write_depth(opts.depth, frame)
-    if events is not None:
-        notes += traced.describe_events(events)
-    rate = frame.rays / max(frame.seconds, 1e-9)
-    summary = (f"{out}: {w}x{h}, {frame.seconds:.2f} s, {rate / 1e6:.2f} M rays/s"
-               f"{', reference tracer' if opts.reference else ''}")
-    return summary, notes
+    return summary_line(out, opts, frame.seconds, frame.rays), scene.notes + notes
 
 
 class _ReferenceTarget:

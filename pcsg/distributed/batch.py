@@ -1,0 +1,217 @@
+"""A batch of images over a runner: units submitted, results written as they arrive
+(each by temporary file and rename), complete outputs skipped on a restart."""
+from __future__ import annotations
+
+import dataclasses
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+from ..language.errors import PcsgError
+from ..language.parser import read_source_text
+from ..output import write_atomic
+from ..render.job import Options, check_options, strict_failure, summary_line
+from .cluster import LOCAL, ClusterUnavailable, LocalRunner, connect, require_dask
+from .resume import Manifest, job_key
+from .tiles import MAX_TILED_PIXELS, Assembler, bands
+from .units import Outcome, Unit, render_unit, report_unit
+
+
+@dataclasses.dataclass
+class Job:
+    label: str              # the .pcsg path as given
+    out: Path
+    opts: Options           # its overrides included
+    name: str = ""          # how a failure is listed (default: the label)
+
+
+def read_sources(jobs: list[Job]) -> tuple[dict[str, str], list[str]]:
+    """Each distinct file's text, read here and sent with its tasks; the unreadable ones
+    are reported and failed."""
+    sources, failed = {}, []
+    for label in dict.fromkeys(j.label for j in jobs):
+        try:
+            sources[label] = read_source_text(label)
+        except PcsgError as e:
+            for d in e.diagnostics:
+                print(d.format(), file=sys.stderr)
+            failed.append(label)
+    return sources, failed
+
+
+class Batch:
+    def __init__(self, tiles: int = 1, manifest: bool = False, skip: bool = False,
+                 quiet: bool = False):
+        """manifest: record each output made, so that a restart can skip it (cluster
+        batches and sweeps); skip: skip those recorded and intact (unless --force)."""
+        self.tiles, self.manifest, self.skip, self.quiet = tiles, manifest, skip, quiet
+        self.manifests: dict[Path, Manifest] = {}
+        self.per_worker: Counter = Counter()
+        self.failed: list[str] = []
+        self.failed_jobs: set[int] = set()
+        self.skipped = self.done = 0
+
+    def _manifest(self, out: Path) -> Manifest:
+        d = out.parent.resolve()
+        if d not in self.manifests:
+            self.manifests[d] = Manifest(d)
+        return self.manifests[d]
+
+    def plan(self, jobs: list[Job]) -> list[Unit]:
+        """The units still to render: unreadable files fail here, complete outputs are
+        skipped (before any cluster is started for them)."""
+        sources, unreadable = read_sources(jobs)
+        units, self.by_unit = [], {}
+        for job in jobs:
+            if job.label in unreadable:
+                self._fail(job, None)
+                continue
+            key = job_key(sources[job.label], job.opts)
+            if self.skip and self._manifest(job.out).complete(job.out, key):
+                self.skipped += 1
+                continue
+            rows = bands(job.opts.size[1], self.tiles) if self.tiles > 1 else [None]
+            for r in rows:
+                unit = Unit(sources[job.label], job.label, job.opts, r)
+                units.append(unit)
+                self.by_unit[id(unit)] = (job, key, len(rows))
+        return units
+
+    def run(self, runner, units: list[Unit]):
+        """Render the planned units, writing each output as soon as it is complete."""
+        self.runner = runner
+        assemblers: dict[int, Assembler] = {}
+        total = len(units)
+        try:
+            for n, (unit, outcome, worker, exc) in enumerate(runner.run(render_unit, units), 1):
+                job, key, tiles = self.by_unit[id(unit)]
+                if worker is not None:
+                    self.per_worker[worker] += 1
+                what = (job.name or job.label) + (f" rows {unit.rows[0]}-{unit.rows[1] - 1}"
+                                                  if unit.rows else "")
+                self._progress(n, total, what, outcome, worker)
+                if exc is not None:
+                    outcome = Outcome(error=f"pcsg render: {what}: failed on the cluster: "
+                                            f"{type(exc).__name__}: {exc}")
+                try:
+                    if unit.rows is None:
+                        self._whole(job, key, outcome)
+                    else:
+                        self._tile(job, key, unit, outcome, tiles, assemblers)
+                except OSError as e:        # this output cannot be written; the others can
+                    a = assemblers.get(id(job))
+                    if a is not None and a.image is not None:
+                        a.discard()
+                    self._fail(job, f"pcsg render: {job.label}: {e.strerror or e}"
+                                    + (f": {e.filename}" if e.filename else ""))
+        finally:
+            for a in assemblers.values():
+                if a.image is not None:
+                    a.discard()
+
+    def _progress(self, n, total, what, outcome, worker):
+        if self.quiet:
+            return
+        took = f", {outcome.seconds:.2f} s" if outcome is not None and outcome.seconds else ""
+        print(f"[{n}/{total}] {what} on {worker or 'a lost worker'}{took}",
+              file=sys.stderr)
+
+    def _fail(self, job: Job, message: str | None):
+        """Reported once per job, however many of its bands fail."""
+        if id(job) in self.failed_jobs:
+            return
+        if message:
+            print(message, file=sys.stderr)
+        self.failed_jobs.add(id(job))
+        self.failed.append(job.name or job.label)
+
+    def _whole(self, job: Job, key: str, outcome: Outcome):
+        if outcome.error is not None:
+            return self._fail(job, outcome.error)
+        write_atomic(job.out, outcome.png)
+        if job.opts.depth is not None:
+            write_atomic(job.opts.depth, outcome.depth)
+        self._finished(job, key, outcome.notes, outcome.seconds, outcome.rays, "")
+
+    def _tile(self, job, key, unit, outcome, tiles, assemblers):
+        slot = id(job)
+        if slot not in assemblers and slot not in self.failed_jobs:
+            w, h = job.opts.size
+            assemblers[slot] = Assembler(job.out, w, h, 4 if job.opts.alpha else 3, tiles)
+        a = assemblers.get(slot)
+        if outcome.error is not None:
+            if a is not None and a.image is not None:
+                a.discard()
+            return self._fail(job, outcome.error)
+        if a is None or a.image is None:
+            return                          # an earlier band failed: nothing is written
+        if not a.add(unit.rows, outcome.pixels, outcome.seconds, outcome.rays, outcome.events):
+            return
+        notes, errors = self.runner.call(report_unit, unit, a.events)
+        if errors:
+            a.discard()
+            return self._fail(job, f"pcsg render: {job.label}: {strict_failure(errors)}")
+        a.write()
+        self._finished(job, key, notes, a.seconds, a.rays, f", {tiles} tiles")
+
+    def _finished(self, job: Job, key: str, notes, seconds: float, rays: int, extra: str):
+        if self.manifest and job.opts.depth is None:
+            self._manifest(job.out).record(job.out, key)
+        for note in notes:
+            print(f"{job.label}: {note}", file=sys.stderr)
+        print(summary_line(job.out, job.opts, seconds, rays) + extra)
+        self.done += 1
+
+    def summary(self, count: int, start: float, what: str = "files") -> str:
+        line = f"rendered {self.done} of {count} {what} in {time.perf_counter() - start:.1f} s"
+        if self.skipped:
+            line += f"; skipped {self.skipped} already complete (--force renders them again)"
+        if self.failed:
+            line += f"; failed: {', '.join(self.failed)}"
+        return line
+
+    def worker_line(self) -> str | None:
+        if not self.per_worker or set(self.per_worker) == {LOCAL}:
+            return None
+        return "tasks per worker: " + ", ".join(f"{w} {n}" for w, n in
+                                                sorted(self.per_worker.items()))
+
+
+def check_tiles(opts, tiles: int) -> str | None:
+    """A tiled image may be larger than one render's limit: a worker holds one band."""
+    w, h = opts.size
+    if w * h > MAX_TILED_PIXELS:
+        return (f"--size {w}x{h}: a tiled image is assembled in memory, 4 bytes a pixel; "
+                f"pcsg assembles up to {MAX_TILED_PIXELS // 1_000_000} million pixels")
+    problem = check_options(dataclasses.replace(opts, size=(w, -(-h // tiles))))
+    return problem and f"{problem} (in one band of --tiles {tiles}; give more tiles)"
+
+
+def run_jobs(jobs: list[Job], args, resume: bool, what: str = "files") -> int:
+    """The command line's batch: on the cluster that args ask for, else here. Returns
+    how many jobs failed."""
+    from ..cli import UsageError       # cli imports this module lazily: no cycle at import
+    start = time.perf_counter()
+    cluster = args.workers is not None or bool(args.scheduler)
+    try:
+        if cluster:
+            require_dask()
+        batch = Batch(args.tiles, resume, resume and not args.force, args.quiet)
+        units = batch.plan(jobs)
+        runner = None
+        if units:
+            runner = connect(args.workers, args.scheduler) if cluster else LocalRunner()
+    except ClusterUnavailable as e:
+        raise UsageError(str(e)) from None
+    if runner is not None:
+        try:
+            batch.run(runner, units)
+        finally:
+            runner.close()
+    line = batch.worker_line()
+    if line and not args.quiet:
+        print(line, file=sys.stderr)
+    if len(jobs) > 1 or batch.skipped:
+        print(batch.summary(len(jobs), start, what))
+    return len(batch.failed)

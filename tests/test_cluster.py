@@ -1,0 +1,129 @@
+"""Renders on a real Dask cluster: two worker processes on loopback (LocalCluster).
+
+Every output is compared byte for byte with the same render in this one process."""
+import os
+import signal
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("distributed")
+from distributed import Client, LocalCluster  # noqa: E402
+
+from pcsg.cli import main  # noqa: E402
+from pcsg.distributed.batch import Batch, Job  # noqa: E402
+from pcsg.distributed.cluster import DaskRunner  # noqa: E402
+from pcsg.distributed.sweep import sweep_outputs  # noqa: E402
+from pcsg.render.job import Options  # noqa: E402
+
+from .conftest import GRAMMARS  # noqa: E402
+
+pytestmark = pytest.mark.cluster
+SAMPLES = sorted(str(p) for p in GRAMMARS.glob("*.pcsg"))
+SIERPINSKI = str(GRAMMARS / "sierpinski.pcsg")
+
+
+def local_cluster():
+    return LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                        dashboard_address=":0", env={"NUMBA_NUM_THREADS": "1"})
+
+
+@pytest.fixture(scope="module")
+def scheduler():
+    with local_cluster() as cluster:
+        yield cluster.scheduler_address
+
+
+def render_here(tmp_path: Path, files, *options) -> Path:
+    out = tmp_path / "here"
+    out.mkdir(exist_ok=True)
+    for f in files:
+        assert main(["render", f, "-o", str(out / (Path(f).stem + ".png")), "-q",
+                     *options]) == 0
+    return out
+
+
+def test_batch_of_the_samples(capsys, tmp_path, scheduler):
+    bad = tmp_path / "broken.pcsg"
+    bad.write_text("sphere ∪\n∪ cube\n")
+    out = tmp_path / "cluster"
+    code = main(["render", *SAMPLES, str(bad), "-o", str(out), "--size", "64x48",
+                 "--scheduler", scheduler])
+    captured = capsys.readouterr()
+    assert code == 1                         # the broken file fails; the others are written
+    assert captured.err.count(f"{bad}:2:1: error") == 1
+    assert f"rendered {len(SAMPLES)} of {len(SAMPLES) + 1} files" in captured.out
+    per_worker = captured.err.split("tasks per worker: ")[1].splitlines()[0]
+    assert sum(int(w.rsplit(" ", 1)[1]) for w in per_worker.split(", ")) == len(SAMPLES) + 1
+    here = render_here(tmp_path, SAMPLES, "--size", "64x48")
+    for f in SAMPLES:
+        name = Path(f).stem + ".png"
+        assert (out / name).read_bytes() == (here / name).read_bytes(), name
+
+    # restarted: nothing left to do but the broken file
+    assert main(["render", *SAMPLES, "-o", str(out), "--size", "64x48", "-q",
+                 "--scheduler", scheduler]) == 0
+    assert f"skipped {len(SAMPLES)} already complete" in capsys.readouterr().out
+
+
+def test_tiled_image_equals_the_single_process_render(capsys, tmp_path, scheduler):
+    for f, extra in ((SIERPINSKI, []), (str(GRAMMARS / "fractal_garden.pcsg"), ["--alpha"])):
+        out = tmp_path / "tiled.png"
+        assert main(["render", f, "-o", str(out), "--size", "96x72", "--tiles", "9", "-q",
+                     "--scheduler", scheduler, "--force", *extra]) == 0
+        here = render_here(tmp_path, [f], "--size", "96x72", *extra)
+        assert out.read_bytes() == (here / (Path(f).stem + ".png")).read_bytes(), f
+        assert "9 tiles" in capsys.readouterr().out
+    assert not list(tmp_path.glob(".*.tiles"))        # no scratch file left behind
+
+
+class KillingRunner(DaskRunner):
+    """Kills (SIGKILL) a worker process that holds tasks, as soon as the first result
+    is in: the scheduler must run its tasks elsewhere, and the nanny starts a new one."""
+    killed = None
+
+    def run(self, fn, items):
+        pids = self.client.run(os.getpid)
+        for n, result in enumerate(super().run(fn, items)):
+            if n == 0:
+                busy = [w for w, tasks in self.client.processing().items() if tasks]
+                assert busy, "the batch was over before a worker could be killed"
+                self.killed = busy[0]
+                os.kill(pids[self.killed], signal.SIGKILL)
+            yield result
+
+
+def test_a_worker_killed_mid_batch_loses_nothing(capsys, tmp_path):
+    out = tmp_path / "sweep"
+    out.mkdir()
+    values = [float(c) for c in range(1, 11)]
+    outputs = sweep_outputs(SIERPINSKI, out, "c", values)
+    jobs = [Job(SIERPINSKI, o, Options(size=(160, 120), overrides={"c": c}, quiet=True))
+            for c, o in zip(values, outputs)]
+    with local_cluster() as cluster, Client(cluster) as client:
+        runner = KillingRunner(client)
+        batch = Batch(manifest=True)
+        batch.run(runner, batch.plan(jobs))
+    assert runner.killed is not None
+    assert batch.failed == [] and batch.done == len(jobs)
+    assert "a lost worker" not in capsys.readouterr().err
+    here = tmp_path / "here"
+    assert main(["sweep", SIERPINSKI, "--set", "c=1..10", "--size", "160x120",
+                 "-o", str(here), "-q"]) == 0
+    for o in outputs:
+        assert o.read_bytes() == (here / o.name).read_bytes(), o.name
+
+
+def test_sweep_on_a_local_cluster_of_its_own(capfd, tmp_path):
+    # --workers starts and stops its own cluster; nothing of Dask's logging reaches the
+    # user, not even from worker processes racing the shutdown (capfd: their stderr too)
+    out = tmp_path / "sweep"
+    assert main(["sweep", SIERPINSKI, "--set", "c=1..4", "--size", "48x36", "-o", str(out),
+                 "--workers", "2"]) == 0
+    captured = capfd.readouterr()
+    assert "rendered 4 of 4 images" in captured.out
+    assert "Traceback" not in captured.err and "distributed." not in captured.err
+    assert captured.err.count("[") == 4 and "tasks per worker: tcp://127.0.0.1:" in captured.err
+    assert main(["render", SIERPINSKI, "--set", "c=3", "--size", "48x36", "-q",
+                 "-o", str(tmp_path / "c3.png")]) == 0
+    assert (out / "sierpinski_c=3.png").read_bytes() == (tmp_path / "c3.png").read_bytes()
