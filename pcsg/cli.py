@@ -97,6 +97,7 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("-j", "--jobs", type=int, metavar="N",
                    help="frames rendered at once, each in its own process (default: one "
                         "per core)")
+    cluster_arguments(a)
 
     x = sub.add_parser("export", parents=[common],
                        help="the expanded derivation as a POV-Ray scene (small and medium orders)")
@@ -457,10 +458,21 @@ def cmd_animate(args) -> int:
     out = Path(args.output) if args.output else Path(f"{source.stem}_frames")
     anim = Animation(source, out, args.frames, opts, args.path, args.at_path, args.fps,
                      args.gif, args.jobs)
+    if args.tiles != 1:
+        raise UsageError("--tiles splits one image; animate sends whole frames to the workers")
+    if _distributed(args):
+        from .distributed.cluster import ClusterUnavailable, connect
+        try:
+            anim.cluster = connect(args.workers, args.scheduler)
+        except ClusterUnavailable as e:
+            raise UsageError(str(e)) from None
     try:
         failed = animate(anim)
     except BadAnimation as e:
         raise UsageError(str(e)) from None
+    finally:
+        if anim.cluster is not None:
+            anim.cluster.close()
     return EXIT_ERRORS if failed else EXIT_OK
 
 

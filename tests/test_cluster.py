@@ -127,3 +127,24 @@ def test_sweep_on_a_local_cluster_of_its_own(capfd, tmp_path):
     assert main(["render", SIERPINSKI, "--set", "c=3", "--size", "48x36", "-q",
                  "-o", str(tmp_path / "c3.png")]) == 0
     assert (out / "sierpinski_c=3.png").read_bytes() == (tmp_path / "c3.png").read_bytes()
+
+
+def test_animation_frames_on_the_cluster(capsys, tmp_path, scheduler):
+    """`pcsg animate --scheduler`: each frame a task; the frames and the animated PNG are
+    byte for byte those of the frames rendered here, and a rerun reuses them all."""
+    src = tmp_path / "ball.pcsg"
+    src.write_text("#camera eye=(0,-6,3) at=(0,0,0.6) fov=40\n#light at=(3,-2,8)\n"
+                   "{t = 1; r = 0.3 + 0.7*t} (paint(0.9,0.3,0.2) move(0,0,1) uscale(r) sphere ∪"
+                   " paint(0.8,0.8,0.8) plane)\n")
+    tiny = ["--size", "32x24", "--shadow-samples", "1", "-q", "--frames", "4"]
+    here, there = tmp_path / "here", tmp_path / "there"
+    assert main(["animate", str(src), "-o", str(here), "--jobs", "1", *tiny]) == 0
+    assert main(["animate", str(src), "-o", str(there), "--scheduler", scheduler, *tiny]) == 0
+    out = capsys.readouterr().out
+    assert "4 rendered with 2 workers" in out
+    names = sorted(p.name for p in here.glob("*.png"))
+    assert len(names) == 5                      # four frames and the animation
+    for name in names:
+        assert (here / name).read_bytes() == (there / name).read_bytes(), name
+    assert main(["animate", str(src), "-o", str(there), "--scheduler", scheduler, *tiny]) == 0
+    assert "4 reused, 0 rendered" in capsys.readouterr().out

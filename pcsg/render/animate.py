@@ -44,6 +44,7 @@ class Animation:
     fps: float = 10.0
     gif: bool = False
     jobs: int | None = None             # None: one per core
+    cluster: object = None              # a pcsg.distributed runner: the frames run there
 
 
 @dataclass
@@ -215,8 +216,12 @@ def animate(anim: Animation) -> int:
     if report.done and not anim.opts.quiet:
         print(f"{anim.out_dir}: {report.done} of {len(jobs)} frames are done already; "
               f"rendering {len(todo)}", flush=True)
+    if anim.cluster is not None:
+        workers = anim.cluster.workers
     try:
-        if workers == 1:
+        if anim.cluster is not None:
+            _run_on_cluster(todo, anim.cluster, manifest, report)
+        elif workers == 1:
             for job in todo:
                 report.finished(manifest, _render_job(job, in_worker=False))
         else:
@@ -236,11 +241,34 @@ def animate(anim: Animation) -> int:
             write_gif(frames, anim.out_dir / f"{stem}.gif", anim.fps)
             made += f" and {stem}.gif"
     seconds = time.perf_counter() - report.start
-    how = f" with {workers} job{'s' if workers > 1 else ''}" if report.rendered else ""
+    unit = "worker" if anim.cluster is not None else "job"
+    how = f" with {workers} {unit}{'s' if workers > 1 else ''}" if report.rendered else ""
     print(f"{anim.out_dir}: {report.done} of {len(jobs)} frames ({len(jobs) - len(todo)} "
           f"reused, {report.rendered} rendered{how}) in {seconds:.1f} s{made}"
           + (f"; failed: {', '.join(report.failed)}" if report.failed else ""))
     return len(report.failed)
+
+
+def _run_on_cluster(todo, runner, manifest, report):
+    """Each frame a task on the cluster's workers, its grammar text sent along (no shared
+    file system needed); the PNG comes back and is written here as it arrives."""
+    from ..language.parser import read_source_text
+    from ..output import write_atomic
+    from ..distributed.units import Unit, render_unit
+    by_png = {job.png: job for job in todo}
+    units = [Unit(read_source_text(job.source), str(job.source), job.opts) for job in todo]
+    pngs = {id(u): job.png for u, job in zip(units, todo)}
+    for unit, outcome, worker, crash in runner.run(render_unit, units):
+        job = by_png[pngs[id(unit)]]
+        error = crash or outcome.error
+        if error is None:
+            write_atomic(job.png, outcome.png)
+            rate = outcome.rays / max(outcome.seconds, 1e-9)
+            summary = (f"{job.png}: {job.opts.size[0]}x{job.opts.size[1]}, "
+                       f"{outcome.seconds:.2f} s, {rate / 1e6:.2f} M rays/s on {worker}")
+            report.finished(manifest, (job.index, summary, outcome.notes, None))
+        else:
+            report.finished(manifest, (job.index, None, [], str(error)))
 
 
 def _run_parallel(todo, workers, manifest, report):
