@@ -6,7 +6,7 @@ import pytest
 
 from pcsg.cli import main
 from pcsg.compiler import compile_file
-from pcsg.distributed.resume import MANIFEST
+from pcsg.resume import MANIFEST
 from pcsg.distributed.sweep import sweep_outputs, sweep_set
 from pcsg.distributed.tiles import bands
 from pcsg.render.image import pixels

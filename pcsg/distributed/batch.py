@@ -13,7 +13,7 @@ from ..language.parser import read_source_text
 from ..output import write_atomic
 from ..render.job import Options, check_options, strict_failure, summary_line
 from .cluster import LOCAL, ClusterUnavailable, LocalRunner, connect, require_dask
-from .resume import Manifest, job_key
+from ..resume import Manifest, output_key
 from .tiles import MAX_TILED_PIXELS, Assembler, bands
 from .units import Outcome, Unit, render_unit, report_unit
 
@@ -67,7 +67,7 @@ class Batch:
             if job.label in unreadable:
                 self._fail(job, None)
                 continue
-            key = job_key(sources[job.label], job.opts)
+            key = output_key(sources[job.label], job.opts)
             if self.skip and self._manifest(job.out).complete(job.out, key):
                 self.skipped += 1
                 continue

@@ -9,7 +9,6 @@ processes; a manifest lets a rerun reuse every frame that is still what it would
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import os
 import re
 import signal
@@ -24,7 +23,7 @@ import numpy as np
 from ..language.errors import PcsgError
 from .job import Options, RenderFailed, render_file
 from .path import bezier
-from .resume import Manifest, frame_key
+from ..resume import Manifest, output_key
 
 TIME = "t"
 
@@ -76,7 +75,7 @@ def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
     traced = Traced(graph, o.max_depth, o.stack_depth, o.interval_rows, o.max_instances)
     w, h = o.size
     still = make_camera(traced, w / h, o.eye, o.at, o.up, o.fov)
-    sha = hashlib.sha256(read_source_text(anim.source).encode("utf-8")).hexdigest()
+    text = read_source_text(anim.source)
     digits = max(4, len(str(anim.frames - 1)))
     jobs = []
     for i in range(anim.frames):
@@ -91,7 +90,7 @@ def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
         fo = dataclasses.replace(o, overrides=overrides, eye=_floats(eye), at=_floats(at),
                                  up=_floats(still.up), fov=float(still.fov), quiet=True)
         png = anim.out_dir / f"frame_{i:0{digits}d}.png"
-        jobs.append(FrameJob(i, t, anim.source, png, fo, frame_key(sha, fo)))
+        jobs.append(FrameJob(i, t, anim.source, png, fo, output_key(text, fo)))
     return jobs, timed
 
 
@@ -210,7 +209,7 @@ def animate(anim: Animation) -> int:
     manifest = Manifest(anim.out_dir)
     for name in manifest.forget_others({j.png.name for j in jobs}):
         (anim.out_dir / name).unlink(missing_ok=True)   # frames of a longer earlier run
-    todo = [j for j in jobs if not manifest.is_done(j.png, j.key)]
+    todo = [j for j in jobs if not manifest.complete(j.png, j.key)]
     workers = max(1, min(anim.jobs or cores(), len(todo)))
     report = _Reporter(anim, todo, timed, len(jobs))
     if report.done and not anim.opts.quiet:

@@ -1,0 +1,82 @@
+"""What an output directory already holds, so that a rerun of an interrupted batch,
+sweep or animation renders only what is missing.
+
+A manifest beside the PNGs records, per file, a key (a hash of the pcsg version, the
+grammar's text and every option that changes pixels) and the hash of the bytes
+written. A file counts as done only when both still match and Pillow reads it in
+full, so a truncated or edited PNG, an edited grammar or a changed option renders
+again. The PNG itself stays byte for byte what a plain render writes (no text chunk
+in it)."""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+from pathlib import Path
+
+from .output import write_atomic
+
+MANIFEST = ".pcsg-done.json"
+NOT_PIXELS = ("quiet", "timeout", "depth")      # options that never change the PNG's bytes
+
+
+def output_key(source: str, opts) -> str:
+    """The key of what a render of the grammar text `source` with options `opts` writes
+    (an animation frame's t and camera are in its options)."""
+    from . import __version__
+    fields = {k: v for k, v in dataclasses.asdict(opts).items() if k not in NOT_PIXELS}
+    blob = json.dumps([__version__, source, fields], sort_keys=True, default=str)
+    return hashlib.sha256(blob.encode("utf-8")).hexdigest()
+
+
+def _sha(path: Path) -> str | None:
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError:
+        return None
+
+
+def _valid_png(path: Path) -> bool:
+    from PIL import Image
+    try:
+        with Image.open(path) as im:
+            im.verify()
+        with Image.open(path) as im:        # verify() leaves the image unusable: load anew
+            im.load()
+        return True
+    except Exception:   # noqa: BLE001 -- whatever Pillow dislikes, the image is rendered again
+        return False
+
+
+class Manifest:
+    def __init__(self, directory: Path):
+        self.path = Path(directory) / MANIFEST
+        try:
+            entries = json.loads(self.path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            entries = {}                # none yet, or unreadable: everything renders
+        self.entries = {str(k): v for k, v in entries.items() if isinstance(v, dict)} \
+            if isinstance(entries, dict) else {}
+
+    def complete(self, out: Path, key: str) -> bool:
+        entry = self.entries.get(Path(out).name)
+        return (entry is not None and entry.get("key") == key
+                and entry.get("sha256") == _sha(out) and _valid_png(out))
+
+    def record(self, out: Path, key: str):
+        self.entries[Path(out).name] = {"key": key, "sha256": _sha(out)}
+        self.save()
+
+    def forget_others(self, keep: set[str]) -> list[str]:
+        """Drop the entries of files not in `keep` (an animation shorter than the last
+        run's); returns their names, so that the files can go too."""
+        stale = sorted(name for name in self.entries if name not in keep)
+        for name in stale:
+            del self.entries[name]
+        if stale:
+            self.save()
+        return stale
+
+    def save(self):
+        write_atomic(self.path, json.dumps(self.entries, indent=1, sort_keys=True)
+                     .encode("utf-8"))
