@@ -11,7 +11,7 @@ from pathlib import Path
 
 from .distributed.sweep import sweep_set
 from .language.errors import PcsgError
-from .limits import INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES
+from .limits import INTERVAL_ROWS, MAX_BOUNCES, MAX_DEPTH, MAX_INSTANCES
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
 
@@ -330,7 +330,7 @@ def _options(args, overrides: dict | None = None):
                    overrides=dict(args.overrides) if overrides is None else overrides,
                    eye=args.eye, at=args.at, up=args.up, fov=args.fov, alpha=args.alpha,
                    depth=Path(depth) if depth else None, max_depth=args.max_depth,
-                   shadows=not args.no_shadows, bounces=max(0, args.bounces), quiet=args.quiet,
+                   shadows=not args.no_shadows, bounces=args.bounces, quiet=args.quiet,
                    reference=args.reference, shadow_samples=args.shadow_samples,
                    adaptive=not args.no_adaptive, strict=args.strict, timeout=args.timeout,
                    stack_depth=args.stack_depth, interval_rows=args.interval_rows,
@@ -485,6 +485,8 @@ def cmd_export(args) -> int:
     out = Path(args.pov)
     if not out.parent.exists():
         raise UsageError(f"--pov {args.pov}: the directory {out.parent} does not exist")
+    if not 0 <= args.bounces <= MAX_BOUNCES:
+        raise UsageError(f"--bounces {args.bounces}: use 0 (off) to {MAX_BOUNCES}")
     start = time.perf_counter()
     graph = _compile(args.file, args.overrides)
     _report(None, graph.warnings)
@@ -492,7 +494,7 @@ def cmd_export(args) -> int:
     w, h = args.size
     camera = make_camera(traced, w / h)
     lighting = make_lighting(traced, camera, not args.no_shadows, args.shadow_samples,
-                             max(0, args.bounces))
+                             args.bounces)
     count = export_pov(traced, camera, lighting, out, args.size)
     print(f"{out}: {count:,} primitives, {out.stat().st_size / 1e6:.1f} MB, "
           f"{time.perf_counter() - start:.1f} s; render with: povray +I{out} +W{w} +H{h}")

@@ -177,3 +177,14 @@ def test_timeout_stops_the_render_and_keeps_the_old_image(capsys, tmp_path):
 def test_timeout_must_be_positive(capsys, value):
     assert main(["render", str(GRAMMARS / "sierpinski.pcsg"), "--timeout", value]) == 2
     assert "--timeout" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", ["render", "export"])
+@pytest.mark.parametrize("value", ["-1", "33"])
+def test_bounces_out_of_range_are_usage_errors(capsys, tmp_path, command, value):
+    out = (["--pov", str(tmp_path / "x.pov")] if command == "export"
+           else ["-o", str(tmp_path / "x.png")])
+    assert main([command, str(GRAMMARS / "sierpinski.pcsg"), "--bounces", value, *out]) == 2
+    err = capsys.readouterr().err
+    assert f"--bounces {value}: use 0 (off) to 32" in err and "Traceback" not in err
+    assert not any(tmp_path.iterdir())
