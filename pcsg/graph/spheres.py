@@ -26,8 +26,12 @@ from .model import SELECT, Graph
 
 NO_BALLS = np.zeros((0, 4))
 UNBOUNDED = np.array([[0.0, 0.0, 0.0, np.inf]])
-MAX_BALLS = 256         # balls kept per instance before they are merged into one
+MAX_BALLS = 128         # balls kept per instance before they are merged into one (cheaply)
 ROUNDS = 200            # Hutchinson rounds at most
+# the work spheres may take, so that a system with many states keeps its boxes alone
+MAX_STATES = 8          # re-entered states
+STATE_ROUNDS = 400      # rounds times re-entered states
+MAX_INSTANCES = 256     # S-node instances gathered into the nodes' spheres
 IDLE_ROUNDS = 8         # rounds without a smaller ball before the rounds stop
 STILL = 1e-7            # relative change of a round below which the balls have converged
 NEST_SLACK = 1e-5       # relative growth allowed to make converged balls nest
@@ -48,6 +52,17 @@ def reach(balls: np.ndarray, centre: np.ndarray) -> np.ndarray:
     """For each centre (m, 3), the radius of the ball about it that holds every ball."""
     d = np.linalg.norm(centre[:, None, :] - balls[None, :, :3], axis=2)
     return (d + balls[None, :, 3]).max(axis=1)
+
+
+def quick_ball(balls: np.ndarray) -> np.ndarray:
+    """A ball holding every ball of a non-empty list, about the centre of their box: cheap
+    and not the smallest (enclose is the careful one)."""
+    if not np.all(np.isfinite(balls)):
+        return UNBOUNDED[0].copy()
+    lo = (balls[:, :3] - balls[:, 3:]).min(axis=0)
+    hi = (balls[:, :3] + balls[:, 3:]).max(axis=0)
+    centre = (lo + hi) / 2
+    return np.append(centre, reach(balls, centre[None])[0])
 
 
 def enclose(balls: np.ndarray, near: np.ndarray | None = None) -> np.ndarray | None:
@@ -100,7 +115,7 @@ def _newton(balls, x, t, size):
         except np.linalg.LinAlgError:
             step = g * size
         a = 1.0
-        while a > 1e-12:
+        while a > 1e-9:
             fy, uy, dy, wy = _smooth(balls, x - a * step, t)
             if fy <= f - 1e-4 * a * float(g @ step):
                 break
@@ -180,14 +195,13 @@ class _BallWalker(_Walker):
     @staticmethod
     def unite(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         out = np.concatenate([a, b])
-        return out if len(out) <= MAX_BALLS else enclose(out)[None]
+        return out if len(out) <= MAX_BALLS else quick_ball(out)[None]
 
     @staticmethod
     def intersect(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        ea, eb = enclose(a), enclose(b)
-        if ea is None or eb is None:
+        if len(a) == 0 or len(b) == 0:
             return NO_BALLS
-        return a if ea[3] <= eb[3] else b        # either holds the intersection
+        return a if quick_ball(a)[3] <= quick_ball(b)[3] else b   # either holds it
 
     def record(self, i: int, b: np.ndarray) -> None:
         pass            # spheres are gathered per S-node from the memo at the end
@@ -208,12 +222,14 @@ def state_balls(w: _BallWalker, hulls: dict):
     """Re-entered state key -> a ball (4,) that holds its attractor, and whether one round
     maps the balls into themselves (the spheres nest); None if a state has no finite
     ball. `hulls` are the box walk's final bounds of the states (bounds._memoised)."""
+    if len(hulls) > MAX_STATES:
+        return None
     balls = {k: enclose(as_balls(v)) for k, v in hulls.items()}
     if any(b is None or not np.isfinite(b[3]) for b in balls.values()):
         return None
     best = dict(balls)
     idle = 0
-    for _ in range(ROUNDS):
+    for _ in range(min(ROUNDS, STATE_ROUNDS // max(1, len(balls)))):
         out = w.round(balls)
         if out is None or out.keys() != balls.keys():
             break
@@ -260,6 +276,8 @@ def node_spheres(graph: Graph, hulls: dict):
         return None
     balls, nested = found
     if w.round(balls) is None:
+        return None
+    if sum(graph.nodes[key[0]].kind == SELECT for key in w.memo) > MAX_INSTANCES:
         return None
     per_node = defaultdict(list)
     for key, b in w.memo.items():
