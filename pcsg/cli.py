@@ -301,16 +301,35 @@ def cmd_stats(args) -> int:
 def _stats_text(r: dict) -> str:
     kinds = ", ".join(f"{v} {k}" for k, v in r["node_kinds"].items() if v)
     modules = ", ".join(f"{m} ({n} rule{'s' if n != 1 else ''})" for m, n in r["modules"].items())
-    return "\n".join([
+    if r.get("endless"):
+        count = "endless: a graftal, refined to pixel size when rendered"
+    else:
+        count = f"{r['primitives']:,} in the complete derivation" + (
+            f" ({', '.join(f'{n:,} {k}' for k, n in r['primitives_by_kind'].items())})"
+            if len(r["primitives_by_kind"]) > 1 else "")
+    lines = [
         f"{r['file']}",
         f"  nodes        {r['nodes']} ({kinds})",
         f"  modules      {modules or 'none'}",
         f"  parameters   {', '.join(r['parameters']) or 'none'}",
         f"  expressions  {r['expressions']} ({r['bytecode_instructions']} instructions)",
-        f"  primitives   {r['primitives']:,} in the complete derivation"
-        + (f" ({', '.join(f'{n:,} {k}' for k, n in r['primitives_by_kind'].items())})"
-           if len(r["primitives_by_kind"]) > 1 else ""),
-    ])
+        f"  primitives   {count}",
+    ]
+    for k, (name, v) in enumerate(r.get("bounding_volumes", {}).items()):
+        lines.append(("  bounds       " if k == 0 else " " * 15) + _volume_text(name, v))
+    return "\n".join(lines)
+
+
+def _volume_text(name: str, v: dict) -> str:
+    """A graftal module's bounding volume: the one with the smaller mean projected area."""
+    box = "box " + " x ".join(f"{hi - lo:.3g}" for lo, hi in zip(v["box"][:3], v["box"][3:]))
+    if v["sphere"] is None:
+        return f"{name}: {box}, mean projected area {v['box_area']:.4g} (no finite sphere)"
+    sphere = f"sphere of radius {v['sphere'][3]:.4g}"
+    win, lose = (sphere, box) if v["volume"] == "sphere" else (box, sphere)
+    areas = (v["sphere_area"], v["box_area"]) if v["volume"] == "sphere" else \
+        (v["box_area"], v["sphere_area"])
+    return f"{name}: {win}, mean projected area {areas[0]:.4g} ({lose}: {areas[1]:.4g})"
 
 
 def cmd_graph(args) -> int:

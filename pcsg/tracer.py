@@ -9,8 +9,8 @@ import numba
 import numpy as np
 
 from .compiler import compile_file, compile_text
-from .graph.bounds import hyper_boxes
 from .graph.flat import NORMAL_DECAY, flatten_graph
+from .graph.volumes import bounding_volumes
 from .graph.model import KIND_NAMES, SELECT, Graph
 from .trace.kernel import CHUNK, trace_rays
 from .trace.nodes import (EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
@@ -44,6 +44,14 @@ def _pad(boxes: np.ndarray) -> np.ndarray:
     return out
 
 
+def _pad_spheres(spheres: np.ndarray) -> np.ndarray:
+    """The same hair for spheres (rows with radius -1 have none)."""
+    out = spheres.copy()
+    has = out[:, 3] >= 0
+    out[has, 3] += 1e-9 * (out[has, 3] + np.abs(out[has, :3]).max(axis=1)) + 1e-12
+    return out
+
+
 class Traced:
     """A compiled, bounded, flattened PCSG object, ready to trace."""
 
@@ -52,14 +60,20 @@ class Traced:
                  average_normals: bool = True):
         self.graph = graph
         self.max_depth = int(max_depth)
-        boxes, self.bounds_method, problems, table = hyper_boxes(graph, self.max_depth)
-        self.warnings = list(graph.warnings) + problems
-        self.boxes = boxes
+        volumes = bounding_volumes(graph, self.max_depth)
+        self.bounds_method = volumes.method
+        self.warnings = list(graph.warnings) + volumes.problems
+        self.boxes = boxes = volumes.boxes
+        # graftal nodes bounded by a sphere rather than a box (graph/volumes.py)
+        self.spheres = volumes.spheres
+        self.volume_choices = volumes.choices
+        table = volumes.table
         if table is not None:
             table = (table[0], table[1], _pad(table[2]))
+        spheres = None if self.spheres is None else _pad_spheres(self.spheres)
         # a graftal hit's normal: averaged over the boxes that led to it, else its box's
         self.flat = flatten_graph(graph, _pad(boxes), table,
-                                  NORMAL_DECAY if average_normals else 0.0)
+                                  NORMAL_DECAY if average_normals else 0.0, spheres)
         self.events = no_events(len(graph.nodes))      # of all traces so far
         kids = int(self.flat.max_children)
         self.stack_depth = int(stack_depth or kids + (self.max_depth + 2) * min(kids, 16) + 32)

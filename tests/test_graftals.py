@@ -42,17 +42,18 @@ CODE = {"FERN": [(STEM, "FERN"), (MAIN, "FERN"), (LEFT, "PINNA"), (RIGHT, "PINNA
         "LOBE": [(STEM, "LOBE"), (LOBE_MAIN, "LOBE"), (LEFT, "LOBE"), (RIGHT, "LOBE")]}
 
 
-def chaos_game(n, rng, p_main, length=60):
-    """n points of the frond's attractor: random words of maps along the hierarchy,
-    applied to a point of the lowest level's attractor (the fixed point of one of its
-    maps), so every point lies on the attractor exactly, up to rounding. The main map
-    is drawn with probability p_main: long runs of it reach the frond's far tip."""
+def chaos_game(n, rng, p_main, length=60, start="FERN"):
+    """n points of the frond's attractor (of module `start`'s): random words of maps
+    along the hierarchy, applied to a point of the lowest level's attractor (the fixed
+    point of one of its maps), so every point lies on the attractor exactly, up to
+    rounding. The main map is drawn with probability p_main: long runs of it reach the
+    frond's far tip."""
     a = LOBE_MAIN[:3, :3]
     x0 = np.linalg.solve(np.eye(3) - a, LOBE_MAIN[:3, 3])
     odds = np.array([0.02, p_main, (0.98 - p_main) / 2, (0.98 - p_main) / 2])
     points = np.empty((n, 3))
     for p in range(n):
-        module, m = "FERN", np.eye(4)
+        module, m = start, np.eye(4)
         steps = 0
         while steps < length or module != "LOBE":
             maps = CODE[module]

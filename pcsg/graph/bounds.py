@@ -120,6 +120,10 @@ class _Walker:
                               PIXELS in graph.exprs.reads(n.exprs[0]) for n in graph.nodes]
         self.estimate: dict = {}
         self.seed = NOTHING        # the first estimate of a re-entered state
+        # S-node -> the bound every instance of it gives its parents: a graftal whose
+        # bounding volume is a sphere is bounded above by that sphere (graph/volumes.py)
+        self.volumes: dict = {}
+        self.matrices: dict = {}   # T-node memo key -> its matrix, kept across rounds
         self.reset()
 
     def reset(self):
@@ -132,8 +136,8 @@ class _Walker:
     def box(self, i: int, state, h: int, level: int) -> np.ndarray:
         n = self.g.nodes[i]
         if n.kind == PRIMITIVE:
-            b = _corners(object_box(n.name, self.g.constant_args(i)))
-            self.boxes[i] = union_box(self.boxes[i], as_box(b))
+            b = self.leaf(n.name, self.g.constant_args(i))
+            self.record(i, b)
             return b
         key = self.key(i, state, h)
         hit = self.memo.get(key)
@@ -142,37 +146,56 @@ class _Walker:
             return hit
         if key in self.active:
             self.reentered.add(key)
-            return self.estimate.get(key, self.seed)
+            return self.volumes.get(i, self.estimate.get(key, self.seed))
         if len(self.memo) >= MAX_STATES or level >= MAX_LEVELS or \
                 (len(self.memo) >= PROBE_STATES and self.hits < len(self.memo) // 50):
             raise TooManyStates
         self.active.add(key)
         if n.kind == SELECT:
-            b = NOTHING
+            b = self.nothing
             for r in self.rules(i, state, h):
-                b = unite_bounds(b, self.box(n.children[r], state, self.d.edge(h, i, r),
-                                             level + 1))
+                b = self.unite(b, self.box(n.children[r], state, self.d.edge(h, i, r),
+                                           level + 1))
+            b = self.volumes.get(i, b)
         elif n.kind == CALC:
             b = self.box(n.children[0], self.d.calc(i, state, h), h, level)
         elif n.kind == TRANSFORM:
-            b = transform_bound(self.d.matrix(i, state, h),
-                                self.box(n.children[0], state, h, level))
+            m = self.matrices.get(key)
+            if m is None:       # the key fixes the matrix: rounds need not derive it again
+                m = self.matrices[key] = self.d.matrix(i, state, h)
+            b = self.transform(m, self.box(n.children[0], state, h, level))
         elif n.kind in (UNION, INTERSECTION, DIFFERENCE):
             parts = [self.box(c, state, self.d.edge(h, i, k), level)
                      for k, c in enumerate(n.children)]
             b = parts[0]
             for p in parts[1:]:
                 if n.kind == UNION:
-                    b = unite_bounds(b, p)
+                    b = self.unite(b, p)
                 elif n.kind == INTERSECTION:
-                    b = _corners(intersect_box(as_box(b), as_box(p)))
+                    b = self.intersect(b, p)
         else:       # paint, material
             b = self.box(n.children[0], state, h, level)
         self.active.discard(key)
         self.memo[key] = b
-        self.boxes[i] = union_box(self.boxes[i], as_box(b))
+        self.record(i, b)
         return b
 
+    # The bound algebra: corner points (k, 3) or boxes (6,). The sphere walker
+    # (graph/spheres.py) walks the same instances with balls instead.
+    nothing = NOTHING
+    unite = staticmethod(unite_bounds)
+    transform = staticmethod(transform_bound)
+
+    @staticmethod
+    def leaf(name: str, args) -> np.ndarray:
+        return _corners(object_box(name, args))
+
+    @staticmethod
+    def intersect(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return _corners(intersect_box(as_box(a), as_box(b)))
+
+    def record(self, i: int, b: np.ndarray) -> None:
+        self.boxes[i] = union_box(self.boxes[i], as_box(b))
 
     def rules(self, i: int, state, h: int) -> list[int]:
         """The rule the selection picks; for one that reads `pixels`, every rule it picks
@@ -193,10 +216,13 @@ class _Walker:
         return sorted(found)
 
 
-def _memoised(graph: Graph) -> np.ndarray:
+def _memoised(graph: Graph) -> tuple[np.ndarray, dict]:
     """Exact boxes by the memoised walk, iterated to a fixed point over re-entered
     states; TooManyStates when memoising cannot help. A re-entered state that stays
-    empty (a graftal: no primitive below its cycle) is bounded as an IFS attractor."""
+    empty (a graftal: no primitive below its cycle) is bounded as an IFS attractor.
+    Also returns the bounds the last round took for the re-entered states (state key ->
+    corner points whose hull holds that state's attractor), where bounding spheres
+    start (graph/spheres.py)."""
     w = _Walker(graph)
 
     def round_():
@@ -208,16 +234,16 @@ def _memoised(graph: Graph) -> np.ndarray:
     for _ in range(MAX_ROUNDS):
         new = round_()
         if not new:
-            return w.boxes
+            return w.boxes, {}
         if all(k in w.estimate and _same(as_box(new[k]), as_box(w.estimate[k])) for k in new):
             if any(_empty(as_box(v)) for v in new.values()):
                 return _attractor_boxes(w, round_)
-            return w.boxes
+            return w.boxes, {k: w.estimate[k] for k in new}
         w.estimate.update(new)
     raise TooManyStates
 
 
-def _attractor_boxes(w: _Walker, round_) -> np.ndarray:
+def _attractor_boxes(w: _Walker, round_) -> tuple[np.ndarray, dict]:
     """Boxes of a system whose cycles carry no primitive, by Hutchinson's theorem: a
     set that the system's maps take into itself holds the attractor. Each re-entered
     state's box grows from a point (and a hair each round) until a round from the
@@ -237,18 +263,18 @@ def _attractor_boxes(w: _Walker, round_) -> np.ndarray:
     # Each estimate's convex hull holds its attractor; the maps are affine, so a round's
     # corner points span hulls that hold it too, and these hulls (not their boxes) shrink
     # towards the attractor, past what boxes turned by the maps could reach.
-    boxes = w.boxes.copy()
+    boxes, used = w.boxes.copy(), est
     hulls = {k: _corners(b) for k, b in new.items()}
     for _ in range(TIGHTEN_ROUNDS):
         w.estimate = hulls
         tighter = round_()
         if not all(k in hulls for k in tighter):
             break           # a state the invariant round did not meet: keep that round
-        boxes = w.boxes.copy()
+        boxes, used = w.boxes.copy(), hulls
         if all(_same(as_box(v), as_box(hulls[k]), 1e-9) for k, v in tighter.items()):
             break
         hulls = tighter
-    return boxes
+    return boxes, used
 
 
 GROWTH = 1e-9           # relative widening per growing round: makes containment strict
@@ -280,11 +306,18 @@ def hyper_boxes(graph: Graph, max_depth: int = 64):
     them: 'memoised', 'every instance', or 'unbounded' when there were too many instances
     to visit (then no box culls anything: slow, never wrong); and the runtime errors met
     on the way (an invalid selection: that instance is empty)."""
+    return bound(graph, max_depth)[:4]
+
+
+def bound(graph: Graph, max_depth: int = 64):
+    """hyper_boxes and, for the memoised method, the re-entered states' final bounds
+    (see _memoised; empty otherwise)."""
     problems = []
     limit = sys.getrecursionlimit()
     sys.setrecursionlimit(max(limit, 20 * MAX_LEVELS))
     try:
-        return _memoised(graph), "memoised", problems, None
+        boxes, hulls = _memoised(graph)
+        return boxes, "memoised", problems, None, hulls
     except TooManyStates:
         pass
     except PcsgError as e:
@@ -295,6 +328,6 @@ def hyper_boxes(graph: Graph, max_depth: int = 64):
     from ..trace.boxwalk import empty_table, walk_boxes
     if PIXELS in graph.params:      # the instance walk knows no pixel sizes: no boxes
         n = len(graph.nodes)
-        return np.tile(-EMPTY, (n, 1)), "unbounded", problems, empty_table()
+        return np.tile(-EMPTY, (n, 1)), "unbounded", problems, empty_table(), {}
     boxes, complete, table = walk_boxes(graph, max_depth, instances=True)
-    return boxes, "every instance" if complete else "unbounded", problems, table
+    return boxes, "every instance" if complete else "unbounded", problems, table, {}

@@ -31,6 +31,9 @@ Flat = namedtuple("Flat", [
     "fixed_map",     # float64[n,24]  [L (9) | t (3) | L^-1 (9) | unused (3)], row-major;
                      #                paint: [r, g, b | unused]
     "box",           # float64[n,6] hyper-bounding box in the node's input frame
+    "sphere",        # float64[n,4] (centre, radius) bounding a graftal S-node instead of its
+                     #              box where that is smaller (radius < 0: the box); [0,4]
+                     #              when no node has one (graph/volumes.py)
     "fractal",       # float64[n,5] fractal primitives: arguments, bounding radius
     "inst_keys",     # uint64[s]    instance table: S-node instance hash ->
     "inst_used",     # int16[s]     0: empty, else the entry's level + 1
@@ -54,7 +57,7 @@ Flat = namedtuple("Flat", [
 
 
 def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
-                  normal_decay: float = NORMAL_DECAY) -> Flat:
+                  normal_decay: float = NORMAL_DECAY, spheres=None) -> Flat:
     nodes = graph.nodes
     n = len(nodes)
     kind = np.array([x.kind for x in nodes], dtype=np.int8)
@@ -98,6 +101,8 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
         expr_ids=np.array([e for x in nodes for e in x.exprs], dtype=np.int32),
         term_rule=term, fixed=fixed, fixed_map=fixed_map,
         box=np.ascontiguousarray(boxes, dtype=np.float64), fractal=fractal,
+        sphere=np.ascontiguousarray(np.zeros((0, 4)) if spheres is None else spheres,
+                                    dtype=np.float64),
         inst_keys=table[0], inst_used=table[1], inst_boxes=np.ascontiguousarray(table[2]),
         vm_code=vm_code, calc_start=calc_start, calc_end=calc_end, calc_cache=calc_cache,
         vm_consts=np.asarray(vm["consts"], dtype=np.float64),

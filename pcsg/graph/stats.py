@@ -103,8 +103,19 @@ def graph_stats(graph: Graph, count: bool = True) -> dict:
         "primitives": None,
         "primitives_by_kind": None,
     }
+    from .volumes import bounding_volumes, graftal_nodes, report
+    graftal = bool(graftal_nodes(graph))
     if count:
-        by_kind = count_by_primitive(graph)
-        out["primitives"] = sum(by_kind.values())
-        out["primitives_by_kind"] = by_kind
+        try:
+            by_kind = count_by_primitive(graph)
+            out["primitives"] = sum(by_kind.values())
+            out["primitives_by_kind"] = by_kind
+        except PcsgError as e:
+            # a graftal's derivation never ends by design: the tracer refines it to
+            # pixel size; anything else that never ends is still an error
+            if not (graftal and all(d.code == "endless" for d in e.diagnostics)):
+                raise
+            out["endless"] = True
+    if graftal:
+        out["bounding_volumes"] = report(bounding_volumes(graph))
     return out

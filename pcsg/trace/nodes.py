@@ -14,6 +14,7 @@ import numpy as np
 
 from . import vm
 from .jit import inline, kernel
+from .primitives import _roots
 from .transforms import affine
 
 # F columns; INV is 1/DX, kept so that box tests multiply instead of divide
@@ -97,6 +98,54 @@ def box_window(boxes, b, F, f):
     return t0, t1
 
 
+@inline
+def sphere_window(spheres, b, F, f):
+    """Where the frame's ray is inside the ball spheres[b] = (centre, radius): the sphere
+    primitive's quadratic in the ball's unit frame, where t is the same."""
+    r = spheres[b, 3]
+    ox = (F[f, OX] - spheres[b, 0]) / r
+    oy = (F[f, OX + 1] - spheres[b, 1]) / r
+    oz = (F[f, OX + 2] - spheres[b, 2]) / r
+    dx = F[f, DX] / r
+    dy = F[f, DX + 1] / r
+    dz = F[f, DX + 2] / r
+    a = dx * dx + dy * dy + dz * dz
+    c = ox * ox + oy * oy + oz * oz - 1.0
+    if a == 0.0:
+        return (-np.inf, np.inf) if c <= 0.0 else (np.inf, -np.inf)
+    cx = oy * dz - oz * dy
+    cy = oz * dx - ox * dz
+    cz = ox * dy - oy * dx
+    disc = a - (cx * cx + cy * cy + cz * cz)     # b^2 - a c, free of cancellation
+    if not (disc >= 0.0):
+        return np.inf, -np.inf
+    ok, t0, t1 = _roots(a, ox * dx + oy * dy + oz * dz, c, disc)
+    if not ok:
+        return np.inf, -np.inf
+    return t0, t1
+
+
+@inline
+def node_window(flat, node, F, f):
+    """Where the frame's ray is inside the node's bounding volume: the sphere of a
+    graftal that a sphere bounds better than a box (graph/volumes.py), else its box.
+    `sphere` is empty when no node has one, which spares the other systems the look."""
+    if flat.sphere.shape[0] > 0 and flat.sphere[node, 3] >= 0.0:
+        return sphere_window(flat.sphere, node, F, f)
+    return box_window(flat.box, node, F, f)
+
+
+@inline
+def volume_normal(flat, node, F, f, t):
+    """Outward local normal of the node's bounding volume (sphere or box) where the ray
+    is at t; not normalised."""
+    if flat.sphere.shape[0] > 0 and flat.sphere[node, 3] >= 0.0:
+        return (F[f, OX] + t * F[f, DX] - flat.sphere[node, 0],
+                F[f, OX + 1] + t * F[f, DX + 1] - flat.sphere[node, 1],
+                F[f, OX + 2] + t * F[f, DX + 2] - flat.sphere[node, 2])
+    return box_normal(flat.box, node, F, f, t)
+
+
 @kernel
 def box_normal(boxes, b, F, f, t):
     """Outward local normal of the box face the ray crosses at t."""
@@ -155,10 +204,10 @@ def world_normal(F, f, nx, ny, nz, out, row, k):
 
 @inline
 def average_box_normal(flat, node, F, f, t):
-    """Fold the world normal of this box where the ray enters it into the frame's
-    running average (Hart & DeFanti, as Bekaert & Willems shade graftals): the finer the
-    box, the more it weighs; returns the average, normalised."""
-    nx, ny, nz = box_normal(flat.box, node, F, f, t)
+    """Fold the world normal of this box (or sphere) where the ray enters it into the
+    frame's running average (Hart & DeFanti, as Bekaert & Willems shade graftals): the
+    finer the box, the more it weighs; returns the average, normalised."""
+    nx, ny, nz = volume_normal(flat, node, F, f, t)
     x, y, z = unit_world_normal(F, f, nx, ny, nz)
     d = flat.normal_decay
     x += d * F[f, NAVG]

@@ -17,9 +17,10 @@ from . import vm
 from .jit import inline, kernel
 from .nodes import (CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_STACK, EV_VISITS, F_WIDTH, I_WIDTH, LEVEL, M0, MAT, NODE, OX,
-                    PAINT, PHASE, SLOT, T0, T1, box_normal, box_window, copy_frame, enter_paint,
+                    PAINT, PHASE, SLOT, T0, T1, copy_frame, enter_paint, node_window,
                     enter_transform, instance_window, note, pick_rule, cached_calc, set_inverse,
-                    world_diameter, world_normal, world_size, average_box_normal, NAVG)
+                    world_diameter, world_normal, world_size, average_box_normal, NAVG,
+                    volume_normal)
 from .fractals import march
 from .primitives import FRACTAL_MIN, JULIA, intersect
 from .scratch import IV_WIDTH
@@ -212,7 +213,7 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, S, lod, dnorm, max_depth, ev):
         kind = flat.kind[node]
         phase = I[f, PHASE]
         if phase == 0:
-            b0, b1 = box_window(flat.box, node, F, f)
+            b0, b1 = node_window(flat, node, F, f)
             t0 = max(F[f, T0], b0)
             t1 = min(F[f, T1], b1)
             if t0 > t1:
@@ -246,12 +247,12 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, S, lod, dnorm, max_depth, ev):
                     continue
                 r = choose_rule(flat, node, F, I, H, f, S, lod, dnorm, max_depth,
                                 t0, ev)
-                if r == -2:         # a graftal below the footprint: its box is the solid
+                if r == -2:         # a graftal below the footprint: its box or sphere is the solid
                     n = 0
                     if top < cap_iv:
-                        nx, ny, nz = box_normal(flat.box, node, F, f, t0)
+                        nx, ny, nz = volume_normal(flat, node, F, f, t0)
                         set_end(iv, top, 0, t0, F, I, f, nx, ny, nz)
-                        nx, ny, nz = box_normal(flat.box, node, F, f, t1)
+                        nx, ny, nz = volume_normal(flat, node, F, f, t1)
                         set_end(iv, top, 1, t1, F, I, f, nx, ny, nz)
                         n = 1
                     else:
@@ -380,7 +381,7 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_
                 t0 = F[f, T0]
                 t1 = min(F[f, T1], best)
             else:
-                b0, b1 = box_window(flat.box, node, F, f)
+                b0, b1 = node_window(flat, node, F, f)
                 t0 = max(F[f, T0], b0)
                 t1 = min(F[f, T1], b1, best)
             if t0 > t1:
@@ -428,7 +429,7 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_
                     if t0 > tmin and t0 < best:
                         best = t0
                         hit = True
-                        nx, ny, nz = box_normal(flat.box, node, F, f, t0)
+                        nx, ny, nz = volume_normal(flat, node, F, f, t0)
                         record_hit(res, ri, t0, F, I, f, nx, ny, nz)
                         if flat.normal_decay > 0.0:
                             res[ri, R_N] = ax
@@ -452,7 +453,7 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_
                 m = 0
                 for k in range(n):
                     c = flat.children[flat.child_start[node] + k]
-                    e0, e1 = box_window(flat.box, c, F, f)
+                    e0, e1 = node_window(flat, c, F, f)
                     e0 = max(e0, t0)
                     e1 = min(e1, t1)
                     if e0 > e1:
