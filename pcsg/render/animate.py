@@ -276,7 +276,14 @@ def _run_parallel(todo, workers, manifest, report):
     pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
                                initializer=_init_worker, initargs=(threads,))
     with pool:
-        pending = {pool.submit(_render_job, job) for job in todo}
+        # the first submit starts the workers; a Ctrl-C that reached one before its
+        # initializer took SIGINT over would print a traceback from Python's start-up,
+        # so they start with SIGINT ignored (kept across exec), and _init_worker takes it
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        try:
+            pending = {pool.submit(_render_job, job) for job in todo}
+        finally:
+            signal.signal(signal.SIGINT, previous)
         try:
             for f in as_completed(list(pending)):
                 pending.discard(f)
