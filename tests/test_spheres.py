@@ -237,3 +237,12 @@ def test_stats_shows_each_graftal_modules_volume(capsys, tmp_path):
     assert data["primitives"] is None and data["endless"]
     o = data["bounding_volumes"]["O"]
     assert o["volume"] == "sphere" and o["nested"] and o["sphere_area"] < o["box_area"]
+
+
+@pytest.mark.parametrize("balls", [np.zeros((3, 4)), np.array([[1.0, 2.0, 3.0, 0.0]] * 5),
+                                   np.array([[1.0, 2.0, 3.0, 0.5]] * 2)])
+def test_enclosing_a_single_point_or_ball_ends(balls):
+    """A hull that is one point made the sharpness loop run forever (found by the fuzz
+    test through `pcsg stats`)."""
+    ball = enclose(balls)
+    assert np.allclose(ball[:3], balls[0, :3]) and ball[3] == balls[0, 3]

@@ -78,14 +78,16 @@ def enclose(balls: np.ndarray, near: np.ndarray | None = None) -> np.ndarray | N
         return balls[0].copy()
     lo = (balls[:, :3] - balls[:, 3:]).min(axis=0)
     hi = (balls[:, :3] + balls[:, 3:]).max(axis=0)
-    size = max((hi - lo).max(), 1e-300)
+    size = (hi - lo).max()
+    if not size > 1e-150 * (1.0 + np.abs(lo).max() + np.abs(hi).max()):
+        return quick_ball(balls)        # (nearly) one point: the sharpness would overflow
     centre = (lo + hi) / 2 if near is None else near[:3].copy()
     # the radius function max_j |x - c_j| + r_j is convex but has kinks; its smooth
     # stand-in, a log-sum-exp at sharpness t, is minimised by Newton's method as t grows
     # (each minimum starts the next); at the last t it is within log(k) / t of the max
-    t = (4.0 if near is None else WARM) / size
-    while t <= SHARPEST / size:
-        centre = _newton(balls, centre, t, size)
+    t = 4.0 if near is None else WARM            # in units of 1 / size
+    while t <= SHARPEST:
+        centre = _newton(balls, centre, t / size, size)
         t *= 10
     return np.append(centre, reach(balls, centre[None])[0])
 
