@@ -11,7 +11,7 @@ from pathlib import Path
 
 from .distributed.sweep import sweep_set
 from .language.errors import PcsgError
-from .limits import INTERVAL_ROWS, MAX_BOUNCES, MAX_DEPTH, MAX_INSTANCES
+from .limits import INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, bounces_problem
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
 
@@ -504,8 +504,8 @@ def cmd_export(args) -> int:
     out = Path(args.pov)
     if not out.parent.exists():
         raise UsageError(f"--pov {args.pov}: the directory {out.parent} does not exist")
-    if not 0 <= args.bounces <= MAX_BOUNCES:
-        raise UsageError(f"--bounces {args.bounces}: use 0 (off) to {MAX_BOUNCES}")
+    if bounces_problem(args.bounces):
+        raise UsageError(bounces_problem(args.bounces))
     start = time.perf_counter()
     graph = _compile(args.file, args.overrides)
     _report(None, graph.warnings)

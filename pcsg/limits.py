@@ -12,3 +12,10 @@ MAX_STACK_DEPTH = 100_000       # --stack-depth at most: ~40 MB of frames per wo
 MAX_INTERVAL_ROWS = 1_000_000   # --interval-rows at most: 128 MB per worker
 # the kernels take the three as one array: limits[LIM_STACK], ...
 LIM_STACK, LIM_ROWS, LIM_INSTANCES = 0, 1, 2
+
+
+def bounces_problem(bounces: int) -> str | None:
+    """The usage message for a --bounces out of range (render, animate and export)."""
+    if not 0 <= bounces <= MAX_BOUNCES:
+        return f"--bounces {bounces}: use 0 (off) to {MAX_BOUNCES}"
+    return None

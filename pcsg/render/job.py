@@ -14,8 +14,8 @@ from ..graph.model import Graph
 from ..trace.nodes import (EV_INTERVALS, EV_NONFINITE, EV_SELECTION, EV_SINGULAR, EV_STACK,
                            EV_VISITS, no_events)
 from ..scene import MAX_AO_SAMPLES
-from ..limits import (INTERVAL_ROWS, MAX_BOUNCES, MAX_DEPTH, MAX_INSTANCES, MAX_INTERVAL_ROWS,
-                      MAX_STACK_DEPTH)
+from ..limits import (INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, MAX_INTERVAL_ROWS,
+                      MAX_STACK_DEPTH, bounces_problem)
 from ..tracer import Hits, Traced
 from .camera import make_camera
 from .image import Frame, Progress, render_frame, write_depth, write_png
@@ -74,8 +74,8 @@ def check_options(o: Options) -> str | None:
         return f"--timeout {o.timeout}: give a positive number of seconds"
     if not 1 <= o.shadow_samples <= 256:
         return f"--shadow-samples {o.shadow_samples}: use 1 to 256"
-    if not 0 <= o.bounces <= MAX_BOUNCES:
-        return f"--bounces {o.bounces}: use 0 (off) to {MAX_BOUNCES}"
+    if bounces_problem(o.bounces):
+        return bounces_problem(o.bounces)
     if o.ao is not None and not 0 <= o.ao <= MAX_AO_SAMPLES:
         return f"--ao {o.ao}: use 0 (off) to {MAX_AO_SAMPLES} rays"
     if o.ao_distance is not None and not 0 < o.ao_distance < math.inf:
