@@ -59,8 +59,10 @@ class Traced:
                  interval_rows: int = INTERVAL_ROWS, max_instances: int = MAX_INSTANCES,
                  average_normals: bool = True):
         self.graph = graph
-        self.max_depth = int(max_depth)
-        volumes = bounding_volumes(graph, self.max_depth)
+        self.asked_depth = int(max_depth)
+        volumes = bounding_volumes(graph, self.asked_depth)
+        # less than asked where the instances are too many to bound deeper
+        self.max_depth = volumes.depth
         self.bounds_method = volumes.method
         self.warnings = list(graph.warnings) + volumes.problems
         self.boxes = boxes = volumes.boxes
@@ -134,8 +136,11 @@ class Traced:
         texts = {
             EV_LOD: "level of detail: {n:,} instances smaller than a pixel were finished with "
                     "their terminating rule ({w})",
-            EV_DEPTH: "depth limit: {n:,} instances reached --max-depth {d} and were finished "
-                      "with their terminating rule ({w}); raise --max-depth to refine further",
+            EV_DEPTH: ("depth limit: {n:,} instances reached --max-depth {d} and were finished "
+                       "with their terminating rule ({w}); raise --max-depth to refine further"
+                       if self.max_depth == self.asked_depth else
+                       "depth limit: {n:,} instances reached depth {d}, where the bounds stop, "
+                       "and were finished with their terminating rule ({w})"),
             EV_SELECTION: "{n:,} instances were empty because a selection was not a valid rule "
                           "number ({w})",
             EV_SINGULAR: "{n:,} instances were empty because of a singular transformation ({w})",

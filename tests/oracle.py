@@ -27,9 +27,10 @@ def camera_rays(bounds, n, direction, spread=0.5, seed=0):
     return np.tile(eye, (n * n, 1)), d
 
 
-def assert_agrees(traced, origins, directions, min_hits=1):
-    """The graph tracer and the brute-force reference agree ray by ray."""
-    ref = Reference(traced.graph).trace(origins, directions, exits=True)
+def assert_agrees(traced, origins, directions, min_hits=1, reference_graph=None):
+    """The graph tracer and the brute-force reference (of its own graph, or of
+    `reference_graph`) agree ray by ray."""
+    ref = Reference(reference_graph or traced.graph).trace(origins, directions, exits=True)
     got = traced.trace(origins, directions)
     bad = np.nonzero(got.hit != ref["hit"])[0]
     assert len(bad) == 0, (f"{len(bad)} of {len(origins)} rays disagree on hit/miss, e.g. ray "

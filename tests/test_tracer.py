@@ -9,7 +9,9 @@ import pcsg
 from pcsg.graph import bounds
 from pcsg.graph.bounds import hyper_boxes
 from pcsg.graph.flatten import flatten
+from pcsg.trace import boxwalk
 from pcsg.trace.boxwalk import walk_boxes
+from pcsg.trace.nodes import EV_DEPTH
 
 from .conftest import GRAMMARS
 from .oracle import assert_agrees, camera_rays
@@ -103,8 +105,8 @@ def test_hyper_boxes_contain_every_primitive(name, overrides, monkeypatch):
     g = pcsg.load(GRAMMARS / f"{name}.pcsg", **overrides).graph
     boxes, how, _, _ = hyper_boxes(g)
     assert how == "memoised"
-    walked, complete, _ = walk_boxes(g)
-    assert complete
+    walked, complete, _, depth = walk_boxes(g)
+    assert complete and depth == 64
     # nodes that the walk reaches (a constant T-node folded into its parent's map is not)
     reached = walked[:, 0] <= walked[:, 3]
     assert reached[g.root] and reached.sum() > len(g.nodes) // 2
@@ -225,6 +227,51 @@ def test_random_systems_agree_with_the_reference(text, view):
     obj = pcsg.loads(text)
     o, d = camera_rays(obj.bounds, 16, view, seed=7)
     assert_agrees(obj, o, d, min_hits=0)
+
+
+def test_too_many_instances_to_bound_stop_refining_where_the_bounds_stop(monkeypatch):
+    """Past the visit budget the boxes hold the instances down to the deepest depth that
+    fits, and the tracer finishes deeper instances with their terminating rule, as
+    --max-depth would; it says so. The terrain's calculations read cnt only in its
+    selections, so the order-7 terrain stopped at depth d is the order-(d-1) terrain:
+    ray by ray what the reference of that order sees."""
+    monkeypatch.setattr(bounds, "MAX_STATES", 0)
+    monkeypatch.setattr(boxwalk, "BUDGET", 150_000)
+    obj = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=7)
+    assert obj.bounds_method == "every instance"
+    assert 3 <= obj.max_depth <= 7 and obj.asked_depth == 64     # it ends at depth 9
+    warned = [w for w in obj.warnings if w.code == "depth-bounded"]
+    assert len(warned) == 1 and f"--max-depth {obj.max_depth}:" in warned[0].message
+    same = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=obj.max_depth - 1)
+    assert same.max_depth == 64 and not [w for w in same.warnings if w.code == "depth-bounded"]
+    bounds_ = _finite_bounds(same)
+    depth_events = 0
+    for view in VIEWS:
+        o, d = camera_rays(bounds_, 24, view, seed=5)
+        got = assert_agrees(obj, _outside_half_spaces(obj, o), d, min_hits=50,
+                            reference_graph=same.graph)
+        depth_events += got.events[EV_DEPTH].sum()
+    assert depth_events > 0
+    line = [x for x in obj.describe_events(obj.events) if x.startswith("depth limit")][0]
+    assert f"reached depth {obj.max_depth}, where the bounds stop" in line
+
+
+def test_a_system_that_ends_within_the_budget_is_not_cut(monkeypatch):
+    """The walks deepen until the depth bound changes no instance: the order-4 terrain
+    ends at depth 5 (its last instances select the terminating rule themselves), and
+    its boxes are those of one walk to the full depth, with no warning."""
+    monkeypatch.setattr(bounds, "MAX_STATES", 0)
+    g = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=4).graph
+    assert boxwalk.FIRST_DEPTH < 5                      # so the walks are stepped
+    stepped, complete, _, depth = walk_boxes(g, budget=400_000)
+    assert complete and depth == 64
+    monkeypatch.setattr(boxwalk, "FIRST_DEPTH", 64)     # one walk, to the full depth
+    whole, complete, _, depth = walk_boxes(g, budget=400_000)
+    assert complete and depth == 64
+    assert np.array_equal(stepped, whole)
+    # too small a budget for even the first walk: unbounded, as before
+    space, complete, _, depth = walk_boxes(g, budget=10)
+    assert not complete and depth == 64 and np.all(np.isinf(space))
 
 
 def test_instance_box_table_agrees_with_the_reference(monkeypatch):

@@ -310,14 +310,16 @@ def hyper_boxes(graph: Graph, max_depth: int = 64):
 
 
 def bound(graph: Graph, max_depth: int = 64):
-    """hyper_boxes and, for the memoised method, the re-entered states' final bounds
-    (see _memoised; empty otherwise)."""
+    """hyper_boxes, the instance table, for the memoised method the re-entered states'
+    final bounds (see _memoised; empty otherwise), and the derivation depth the boxes
+    hold: max_depth, or less where the instances are too many to visit (the tracer must
+    then stop refining there; a warning says so)."""
     problems = []
     limit = sys.getrecursionlimit()
     sys.setrecursionlimit(max(limit, 20 * MAX_LEVELS))
     try:
         boxes, hulls = _memoised(graph)
-        return boxes, "memoised", problems, None, hulls
+        return boxes, "memoised", problems, None, hulls, max_depth
     except TooManyStates:
         pass
     except PcsgError as e:
@@ -328,6 +330,12 @@ def bound(graph: Graph, max_depth: int = 64):
     from ..trace.boxwalk import empty_table, walk_boxes
     if PIXELS in graph.params:      # the instance walk knows no pixel sizes: no boxes
         n = len(graph.nodes)
-        return np.tile(-EMPTY, (n, 1)), "unbounded", problems, empty_table(), {}
-    boxes, complete, table = walk_boxes(graph, max_depth, instances=True)
-    return boxes, "every instance" if complete else "unbounded", problems, table, {}
+        return np.tile(-EMPTY, (n, 1)), "unbounded", problems, empty_table(), {}, max_depth
+    boxes, complete, table, depth = walk_boxes(graph, max_depth, instances=True)
+    if depth < max_depth:
+        problems.append(Diagnostic(
+            "warning", f"the instances below derivation depth {depth} are too many to bound "
+            f"one by one; refinement stops there, as with --max-depth {depth}: deeper "
+            f"instances are finished with their terminating rule", None, graph.source,
+            code="depth-bounded"))
+    return boxes, "every instance" if complete else "unbounded", problems, table, {}, depth

@@ -53,6 +53,7 @@ class Volumes:
     problems: list
     table: tuple | None
     choices: list[Choice]           # one per graftal node, in node order
+    depth: int                      # the derivation depth the boxes hold (bounds.bound)
 
 
 def box_area(box: np.ndarray) -> float:
@@ -66,8 +67,8 @@ def graftal_nodes(graph: Graph) -> list[int]:
 
 
 def bounding_volumes(graph: Graph, max_depth: int = 64) -> Volumes:
-    boxes, method, problems, table, hulls = bound(graph, max_depth)
-    out = Volumes(boxes, None, method, problems, table, [])
+    boxes, method, problems, table, hulls, depth = bound(graph, max_depth)
+    out = Volumes(boxes, None, method, problems, table, [], depth)
     graftals = [s for s in graftal_nodes(graph)
                 if boxes[s, 0] <= boxes[s, 3] and np.all(np.isfinite(boxes[s]))]
     if method != "memoised" or not hulls or not graftals:

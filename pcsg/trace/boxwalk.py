@@ -99,12 +99,13 @@ def _drop_level(level, keys, used, vals):
 
 
 @njit(cache=True, error_model="numpy")
-def walk(flat, max_depth, budget, capacity, boxes, table, keys, used, vals, per_level):
+def walk(flat, max_depth, budget, capacity, boxes, table, keys, used, vals, per_level, changed):
     """Fill boxes[n] (pre-set to empty) with the union of node n's instance boxes, and the
     table (keys, used, vals) with the box of every S-node instance and operator operand
     of the top derivation levels that fit (see _record; `table` is its bookkeeping),
-    keyed by its instance hash; per_level counts them by level.
-    Returns 0, or 1 if the visit budget or the stack capacity ran out."""
+    keyed by its instance hash; per_level counts them by level, changed[0] the instances
+    that the depth bound finished otherwise than their own selection would have.
+    Returns the node visits made, or -1 if the visit budget or the stack capacity ran out."""
     fr = np.zeros((capacity, 5), dtype=np.int64)
     hs = np.zeros(capacity, dtype=np.uint64)
     params = np.full((capacity, flat.n_params), np.nan)
@@ -125,7 +126,7 @@ def walk(flat, max_depth, budget, capacity, boxes, table, keys, used, vals, per_
         if phase == 0:
             visits += 1
             if visits > budget:
-                return 1
+                return -1
             acc[f, :3] = np.inf
             acc[f, 3:] = -np.inf
         child = -1
@@ -144,6 +145,8 @@ def walk(flat, max_depth, budget, capacity, boxes, table, keys, used, vals, per_
                     fr[f, CUT] = 1
                 if fr[f, CUT] == 1:
                     r = flat.term_rule[node]
+                    if r != pick_rule(flat, node, params, fr[f, SLOT], hs[f], stack):
+                        changed[0] += 1     # the bound changed what this instance is
                     if r < 0 or level > 4 * max_depth + 64:
                         r = -1          # a graftal: bounded by its own box (no growth)
                 else:
@@ -183,7 +186,7 @@ def walk(flat, max_depth, budget, capacity, boxes, table, keys, used, vals, per_
                 fr[f, PHASE] = phase + 1
         if child >= 0:
             if sp >= capacity:
-                return 1
+                return -1
             g = sp
             fr[g, :] = fr[f, :]
             fr[g, NODE] = flat.children[flat.child_start[node] + child]
@@ -201,10 +204,11 @@ def walk(flat, max_depth, budget, capacity, boxes, table, keys, used, vals, per_
             acc[f, 3:] = -np.inf
         _unite(boxes[node], acc[f])
         sp -= 1
-    return 0
+    return visits
 
 
 TABLE_SLOTS = 1 << 19      # instance boxes kept: ~30 MB at most, whatever the order
+BUDGET = 60_000_000        # node visits of one walk: about 12 s on one core
 
 
 def empty_table(slots: int = 2):
@@ -212,26 +216,70 @@ def empty_table(slots: int = 2):
             np.zeros((slots, 6)))
 
 
-def walk_boxes(graph, max_depth: int = 64, budget: int = 60_000_000, instances: bool = False):
-    """(n, 6) hyper boxes of every node by visiting every instance; nodes whose instances
-    could not all be visited (budget) are left unbounded, which is always safe. With
-    `instances`, also a table of per-instance boxes of the top derivation levels (as many
-    levels as fit half of TABLE_SLOTS): (keys, used, vals) for the tracer."""
+FIRST_DEPTH = 4        # the first walk, which measures how fast the instances grow
+
+
+def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances: bool = False):
+    """(n, 6) hyper boxes of every node by visiting every instance, whether they are
+    complete, the table of per-instance boxes of the top derivation levels (with
+    `instances`: as many levels as fit half of TABLE_SLOTS, as (keys, used, vals) for the
+    tracer), and the derivation depth they hold.
+
+    When the instances down to max_depth are more than `budget` node visits, the boxes
+    stop at the deepest depth whose instances fit, like --max-depth there: the tracer
+    must then finish instances at that depth too, or it would reach instances that no
+    box holds. The depth is found by walking to depth FIRST_DEPTH and one deeper, and then
+    as deep as the growth of the visits from walk to walk predicts will fit. If not even
+    the first walk fits, every node is left unbounded, which is always safe (and slow)."""
     from ..graph.flat import flatten_graph
+    budget = BUDGET if budget is None else budget
     n = len(graph.nodes)
     empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
     flat = flatten_graph(graph, empty)
+    # a graftal's instances are bounded at the depth bound by nothing: no shallower bound
+    graftal = (flat.term_rule[flat.kind == SELECT] < 0).any()
+    depth = max_depth if graftal else min(max_depth, FIRST_DEPTH)
+    best = last = None
+    while True:
+        boxes, visits, changed, table = _walk_to(flat, empty, depth, max_depth, budget,
+                                                 instances)
+        if visits < 0:
+            break
+        best = boxes, table, depth
+        if depth == max_depth or changed == 0:
+            # the bound changed nothing: these are the boxes of every depth
+            return boxes, True, table, max_depth
+        deeper = depth + 1
+        if last is not None:
+            growth = max(1.0, visits / max(last[1], 1)) ** (1.0 / (depth - last[0]))
+            deeper, cost = depth, float(visits)
+            while deeper < max_depth and cost * growth <= budget:
+                cost *= growth
+                deeper += 1
+            if deeper == depth:
+                break
+        last = depth, visits
+        depth = deeper
+    if best is None:
+        boxes = np.tile([-np.inf, -np.inf, -np.inf, np.inf, np.inf, np.inf], (n, 1))
+        return boxes, False, empty_table(), max_depth
+    return best[0], True, best[1], best[2]
+
+
+def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bool):
+    """One walk to `depth`: boxes, visits (-1: over budget), how many instances the depth
+    bound changed, table."""
+    n = empty.shape[0]
     boxes = empty.copy()
-    capacity = (max_depth + 2) * (n + 2) + 16
-    per_level = np.zeros(max_depth + 2, dtype=np.int64)
+    capacity = (max_depth + 2) * (n + 2) + 16     # as deep a stack as the full walk's
+    per_level = np.zeros(depth + 2, dtype=np.int64)
     table = empty_table(TABLE_SLOTS if instances else 2)
     # [deepest level kept, most entries, entries, entries by level...]
-    book = np.zeros(3 + max_depth + 2, dtype=np.int64)
-    book[0] = max_depth + 1 if instances else -1
+    book = np.zeros(3 + depth + 2, dtype=np.int64)
+    book[0] = depth + 1 if instances else -1
     book[1] = TABLE_SLOTS // 2
-    if walk(flat, max_depth, budget, capacity, boxes, book, *table, per_level) != 0:
-        boxes[:] = [-np.inf, -np.inf, -np.inf, np.inf, np.inf, np.inf]
-        return boxes, False, empty_table()
+    changed = np.zeros(1, dtype=np.int64)
+    visits = walk(flat, depth, budget, capacity, boxes, book, *table, per_level, changed)
     if instances and book[0] < 0:
         table = empty_table()           # not even the root's level fits
-    return boxes, True, table
+    return boxes, visits, int(changed[0]), table
