@@ -74,8 +74,10 @@ def pcsg_result(r: dict) -> dict:
     if r["wall"] is None:
         return {"wall": None, "timed_out_s": r["timeout"]}
     m = re.search(r"([\d.]+) s, ([\d.]+) M rays/s", r["output"])
+    # too many instances to bound: refined only to this derivation depth (a warning says so)
+    cut = re.search(r"refinement stops there, as with --max-depth (\d+)", r["output"])
     return {"wall": r["wall"], "rss_mb": r["rss_mb"], "trace_s": float(m.group(1)),
-            "rays_per_s": float(m.group(2)) * 1e6}
+            "rays_per_s": float(m.group(2)) * 1e6, "depth_bound": cut and int(cut.group(1))}
 
 
 def pov_result(r: dict) -> dict:
@@ -153,7 +155,9 @@ def main():
     for w in loads:
         p, v = results[w]["pcsg"], results[w]["pov"]
         row = {"object": w[0], "order": f"{w[1]}={w[2]}",
-               **{f"pcsg_{k}": median(p, k) for k in ("wall", "trace_s", "rays_per_s", "rss_mb")}}
+               **{f"pcsg_{k}": median(p, k) for k in ("wall", "trace_s", "rays_per_s", "rss_mb")},
+               "pcsg_depth_bound": next((x.get("depth_bound") for x in p if x.get("depth_bound")),
+                                        None)}
         if v:
             row.update({f"pov_{k}": median(v, k)
                         for k in ("wall", "parse_s", "trace_s", "rays_per_s", "rss_mb")})
@@ -189,14 +193,17 @@ def table(report: dict) -> str:
     for r in report["rows"]:
         def mega(x):
             return x and x / 1e6
+        cut = r.get("pcsg_depth_bound")
         lines.append(
-            f"| {r['object']} | {r['order']} | {f(r['pcsg_wall'], '.2f')} s | "
+            f"| {r['object']} | {r['order']}{f' (depth {cut})' if cut else ''} | "
+            f"{f(r['pcsg_wall'], '.2f')} s | "
             f"{f(r.get('pov_wall'), '.2f')} s | {f(r.get('wall_ratio'), '.1f')}x | "
             f"{f(mega(r['pcsg_rays_per_s']), '.2f')} M | "
             f"{f(mega(r.get('pov_rays_per_s')), '.2f')} M | "
             f"{f(r['pcsg_rss_mb'], '.0f')} MB | {f(r.get('pov_rss_mb'), '.0f')} MB |")
     lines.append("")
-    lines.append(f"— : not run, or past the {report['timeout_s']:.0f} s timeout")
+    lines.append(f"— : not run, or past the {report['timeout_s']:.0f} s timeout; (depth N): "
+                 f"too many instances to bound, refined to derivation depth N only")
     return "\n".join(lines)
 
 
