@@ -145,9 +145,11 @@ def walk(flat, max_depth, budget, capacity, boxes, table, keys, used, vals, per_
                     fr[f, CUT] = 1
                 if fr[f, CUT] == 1:
                     r = flat.term_rule[node]
+                    if level > 4 * max_depth + 64:
+                        r = -1          # a terminating rule that keeps recursing: stopped
                     if r != pick_rule(flat, node, params, fr[f, SLOT], hs[f], stack):
                         changed[0] += 1     # the bound changed what this instance is
-                    if r < 0 or level > 4 * max_depth + 64:
+                    if r < 0:
                         r = -1          # a graftal: bounded by its own box (no growth)
                 else:
                     r = pick_rule(flat, node, params, fr[f, SLOT], hs[f], stack)
