@@ -251,15 +251,16 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
         if depth == max_depth or changed == 0:
             # the bound changed nothing: these are the boxes of every depth
             return boxes, True, table, max_depth
-        deeper = depth + 1
-        if last is not None:
+        if last is None:
+            deeper = depth + 1          # a second walk, to see how the visits grow
+        else:
             growth = max(1.0, visits / max(last[1], 1)) ** (1.0 / (depth - last[0]))
             deeper, cost = depth, float(visits)
             while deeper < max_depth and cost * growth <= budget:
                 cost *= growth
                 deeper += 1
             if deeper == depth:
-                break
+                break                   # the next depth would not fit: stop here
         last = depth, visits
         depth = deeper
     if best is None:
