@@ -4,7 +4,7 @@ most that fit."""
 import numpy as np
 from hypothesis import given, settings, strategies as st
 
-from pcsg.trace.boxwalk import _drop_level, _record, empty_table
+from pcsg.trace.instance_table import drop_level, empty_table, record
 from pcsg.trace.nodes import table_slot
 
 
@@ -21,7 +21,7 @@ def test_dropping_a_level_keeps_the_others_reachable(entries, drop):
     for key, level in entries:
         slot = table_slot(keys, used, np.uint64(key))
         keys[slot], used[slot], vals[slot] = key, level + 1, key % 1000
-    _drop_level(drop, keys, used, vals)
+    drop_level(drop, keys, used, vals)
     for key, level in entries:
         slot = find(keys, used, key)
         if level == drop:
@@ -41,7 +41,7 @@ def test_record_keeps_the_most_levels_that_fit():
     for level in reversed(range(len(sizes))):
         for _ in range(sizes[level]):
             n += 1
-            _record(level, 1, np.uint64(n), box, book, keys, used, vals, per_level)
+            record(level, 1, np.uint64(n), box, book, keys, used, vals, per_level)
     assert list(per_level[:6]) == sizes
     assert book[0] == 3                      # 1 + 2 + 4 + 8 = 15 fit, + 16 would not
     assert book[2] == 15 == (used > 0).sum()

@@ -327,7 +327,8 @@ def bound(graph: Graph, max_depth: int = 64):
                                d.source, d.notes, d.code) for d in e.diagnostics]
     finally:
         sys.setrecursionlimit(limit)
-    from ..trace.boxwalk import empty_table, walk_boxes
+    from ..trace.boxwalk import walk_boxes
+    from ..trace.instance_table import empty_table
     if PIXELS in graph.params:      # the instance walk knows no pixel sizes: no boxes
         n = len(graph.nodes)
         return np.tile(-EMPTY, (n, 1)), "unbounded", problems, empty_table(), {}, max_depth

@@ -2,7 +2,9 @@
 instances are too many to memoise in Python: each instance's box is computed
 bottom-up in its own frame and united into its node's hyper box. The walk stops
 refining where the tracer does (the depth bound: terminating rules, or the box
-itself for a graftal), so the boxes bound exactly what the tracer can reach."""
+itself for a graftal), so the boxes bound exactly what the tracer can reach. The walk
+runs on every core, split below the first level with enough instances
+(trace/boxsplit.py)."""
 from __future__ import annotations
 
 import numpy as np
@@ -11,11 +13,13 @@ from numba import njit
 from ..graph.model import (CALC, INTERSECTION, MATERIAL, PAINT, PRIMITIVE, SELECT,
                            TRANSFORM, UNION)
 from . import vm
-from .nodes import node_affine, pick_rule, run_calc, table_slot
+from .instance_table import TABLE_SLOTS, append, empty_table, new_book, record
+from .nodes import node_affine, pick_rule, run_calc
 from .fractals import A_R
 from .primitives import BOXES, FRACTAL_MIN
 
 NODE, SLOT, LEVEL, PHASE, CUT = range(5)
+COLLECT, CONSUME = 1, 2    # split modes of walk
 
 
 @njit(cache=True, error_model="numpy")
@@ -46,66 +50,31 @@ def _unite(acc, b):
 
 
 @njit(cache=True, error_model="numpy")
-def _record(level, node, h, box, table, keys, used, vals, per_level):
-    """Count the instance at its level; keep its box in the table if its level is within
-    table[0], the deepest level kept. When the table would pass table[1] entries, its
-    deepest level is dropped (table[0] lowered): the levels kept in the end are the
-    most that fit, all of them complete, as if they had been known in advance."""
-    if level < per_level.shape[0]:
-        per_level[level] += 1
-    if level > table[0]:
-        return
-    while table[2] + 1 > table[1] and table[0] >= 0:
-        _drop_level(table[0], keys, used, vals)
-        table[2] -= table[3 + table[0]]
-        table[3 + table[0]] = 0
-        table[0] -= 1
-    if level > table[0]:
-        return
-    key = vm.mix(h, node)
-    slot = table_slot(keys, used, key)
-    if not used[slot]:
-        table[2] += 1
-        table[3 + level] += 1
-    used[slot] = 1 + level          # 0: empty; else the entry's level + 1
-    keys[slot] = key
-    vals[slot, :] = box
+def _keep(buffered, level, node, h, box, book, keys, used, vals, per_level):
+    if buffered:
+        append(level, node, h, box, book, keys, used, vals, per_level)
+    else:
+        record(level, node, h, box, book, keys, used, vals, per_level)
 
 
 @njit(cache=True, error_model="numpy")
-def _drop_level(level, keys, used, vals):
-    """Delete every entry of `level` (used == level + 1), keeping every other entry
-    reachable: linear-probing deletion that moves later entries of a run back (Knuth's
-    Algorithm R)."""
-    mask = keys.shape[0] - 1
-    for i in range(keys.shape[0]):
-        while used[i] == level + 1:
-            hole = i
-            j = i
-            while True:
-                j = (j + 1) & mask
-                if not used[j]:
-                    break
-                home = np.int64(keys[j] & np.uint64(mask))
-                # the entry at j may move into the hole unless its home lies cyclically
-                # in (hole, j]
-                if (hole <= j and (home <= hole or home > j)) or \
-                        (hole > j and home <= hole and home > j):
-                    keys[hole] = keys[j]
-                    used[hole] = used[j]
-                    vals[hole, :] = vals[j]
-                    hole = j
-            used[hole] = 0
-
-
-@njit(cache=True, error_model="numpy")
-def walk(flat, max_depth, budget, capacity, boxes, table, keys, used, vals, per_level, changed):
+def walk(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, per_level, changed,
+         split, items, item_hash, item_params, item_boxes, first):
     """Fill boxes[n] (pre-set to empty) with the union of node n's instance boxes, and the
     table (keys, used, vals) with the box of every S-node instance and operator operand
-    of the top derivation levels that fit (see _record; `table` is its bookkeeping),
-    keyed by its instance hash; per_level counts them by level, changed[0] the instances
-    that the depth bound finished otherwise than their own selection would have.
-    Returns the node visits made, or -1 if the visit budget or the stack capacity ran out."""
+    of the top derivation levels that fit (see instance_table.record; `book` is its
+    bookkeeping), keyed by its instance hash; per_level counts them by level, changed[0]
+    the instances that the depth bound finished otherwise than their own selection would
+    have. Returns the node visits made, or -1 if the visit budget or the stack capacity
+    ran out.
+
+    The walk starts at the root when `first` is -1, else at the S-node instance
+    items[first] (node, level above it, cut; its hash and parameters beside), leaves its
+    box in item_boxes[first] and appends its table entries to a buffer (`book`, `keys`,
+    ... as instance_table.append). split = [mode, level, count]: mode COLLECT stores the
+    instances that reach `level` in the items arrays instead of entering them (returns -2
+    when they are more than the arrays hold), CONSUME takes their boxes from item_boxes,
+    in the same order (trace/boxsplit.py)."""
     fr = np.zeros((capacity, 5), dtype=np.int64)
     hs = np.zeros(capacity, dtype=np.uint64)
     params = np.full((capacity, flat.n_params), np.nan)
@@ -114,8 +83,16 @@ def walk(flat, max_depth, budget, capacity, boxes, table, keys, used, vals, per_
     stack = np.empty(flat.max_stack)
     args = np.empty(12)
     m34 = np.empty((3, 4))
-    fr[0, NODE] = flat.root
-    hs[0] = vm.ROOT_HASH
+    buffered = first >= 0
+    if buffered:
+        fr[0, NODE] = items[first, 0]
+        fr[0, LEVEL] = items[first, 1]
+        fr[0, CUT] = items[first, 2]
+        hs[0] = item_hash[first]
+        params[0, :] = item_params[first]
+    else:
+        fr[0, NODE] = flat.root
+        hs[0] = vm.ROOT_HASH
     sp = 1
     visits = 0
     while sp > 0:
@@ -141,24 +118,41 @@ def walk(flat, max_depth, budget, capacity, boxes, table, keys, used, vals, per_
             if phase == 0:
                 level = fr[f, LEVEL] + 1
                 fr[f, LEVEL] = level
-                if level > max_depth:
-                    fr[f, CUT] = 1
-                if fr[f, CUT] == 1:
-                    r = flat.term_rule[node]
-                    if level > 4 * max_depth + 64:
-                        r = -1          # a terminating rule that keeps recursing: stopped
-                    if r != pick_rule(flat, node, params, fr[f, SLOT], hs[f], stack):
-                        changed[0] += 1     # the bound changed what this instance is
-                    if r < 0:
-                        r = -1          # a graftal: bounded by its own box (no growth)
+                if split[0] != 0 and level == split[1]:
+                    # an instance of the split level: its own walk enters and counts it
+                    visits -= 1
+                    i = split[2]
+                    split[2] += 1
+                    if split[0] == COLLECT:
+                        if i >= items.shape[0]:
+                            return -2
+                        items[i, 0] = node
+                        items[i, 1] = level - 1
+                        items[i, 2] = fr[f, CUT]
+                        item_hash[i] = hs[f]
+                        item_params[i, :] = params[fr[f, SLOT]]
+                    else:
+                        acc[f, :] = item_boxes[i]
                 else:
-                    r = pick_rule(flat, node, params, fr[f, SLOT], hs[f], stack)
-                if r >= 0:
-                    child = r
-                    fr[f, PHASE] = 1 + r
+                    if level > max_depth:
+                        fr[f, CUT] = 1
+                    if fr[f, CUT] == 1:
+                        r = flat.term_rule[node]
+                        if level > 4 * max_depth + 64:
+                            r = -1          # a terminating rule that keeps recursing: stopped
+                        if r != pick_rule(flat, node, params, fr[f, SLOT], hs[f], stack):
+                            changed[0] += 1     # the bound changed what this instance is
+                        if r < 0:
+                            r = -1          # a graftal: bounded by its own box (no growth)
+                    else:
+                        r = pick_rule(flat, node, params, fr[f, SLOT], hs[f], stack)
+                    if r >= 0:
+                        child = r
+                        fr[f, PHASE] = 1 + r
             else:
                 _unite(acc[f], acc[f + 1])
-                _record(fr[f, LEVEL], node, hs[f], acc[f], table, keys, used, vals, per_level)
+                _keep(buffered, fr[f, LEVEL], node, hs[f], acc[f], book, keys, used, vals,
+                      per_level)
         elif kind == TRANSFORM or kind == CALC or kind == PAINT or kind == MATERIAL:
             if phase == 0:
                 child = 0
@@ -176,7 +170,8 @@ def walk(flat, max_depth, budget, capacity, boxes, table, keys, used, vals, per_
             if phase > 0:
                 b = acc[f + 1]
                 # the operand's own box, in this operator's frame, for culling it unexpanded
-                _record(fr[f, LEVEL], node, hs[f + 1], b, table, keys, used, vals, per_level)
+                _keep(buffered, fr[f, LEVEL], node, hs[f + 1], b, book, keys, used, vals,
+                      per_level)
                 if phase == 1 or kind == UNION:
                     _unite(acc[f], b)
                 elif kind == INTERSECTION:
@@ -206,16 +201,12 @@ def walk(flat, max_depth, budget, capacity, boxes, table, keys, used, vals, per_
             acc[f, 3:] = -np.inf
         _unite(boxes[node], acc[f])
         sp -= 1
+    if buffered:
+        item_boxes[first, :] = acc[0]
     return visits
 
 
-TABLE_SLOTS = 1 << 19      # instance boxes kept: ~30 MB at most, whatever the order
-BUDGET = 60_000_000        # node visits of one walk: about 12 s on one core
-
-
-def empty_table(slots: int = 2):
-    return (np.zeros(slots, dtype=np.uint64), np.zeros(slots, dtype=np.int16),
-            np.zeros((slots, 6)))
+BUDGET = 60_000_000        # node visits of one walk: about 6 s on two cores
 
 
 FIRST_DEPTH = 4        # the first walk, which measures how fast the instances grow
@@ -270,19 +261,19 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
 
 
 def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bool):
-    """One walk to `depth`: boxes, visits (-1: over budget), how many instances the depth
-    bound changed, table."""
+    """One walk to `depth`, on every core: boxes, visits (-1: over budget), how many
+    instances the depth bound changed, table."""
+    import numba
+    from .boxsplit import walk_split
     n = empty.shape[0]
     boxes = empty.copy()
     capacity = (max_depth + 2) * (n + 2) + 16     # as deep a stack as the full walk's
     per_level = np.zeros(depth + 2, dtype=np.int64)
     table = empty_table(TABLE_SLOTS if instances else 2)
-    # [deepest level kept, most entries, entries, entries by level...]
-    book = np.zeros(3 + depth + 2, dtype=np.int64)
-    book[0] = depth + 1 if instances else -1
-    book[1] = TABLE_SLOTS // 2
+    book = new_book(depth + 1 if instances else -1, TABLE_SLOTS // 2)
     changed = np.zeros(1, dtype=np.int64)
-    visits = walk(flat, depth, budget, capacity, boxes, book, *table, per_level, changed)
+    visits = walk_split(flat, depth, budget, capacity, boxes, book, table, per_level, changed,
+                        numba.get_num_threads())
     if instances and book[0] < 0:
         table = empty_table()           # not even the root's level fits
     return boxes, visits, int(changed[0]), table

@@ -1,0 +1,106 @@
+"""The bounding walk on every core: one walk from the root down to the first derivation
+level with enough S-node instances (the split level) collects them; their subtrees,
+which share nothing, are walked on the threads, each into boxes, counts and a table
+buffer of its own; a second walk of the top levels takes their boxes where it meets
+them. Unions, sums and the table's kept levels do not depend on which thread walked
+what, so the results are those of one walk from the root, at any thread count."""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from .boxwalk import COLLECT, CONSUME, walk
+from .instance_table import merge
+
+MAX_ITEMS = 8192            # instances one split level may have
+ITEMS_PER_WORKER = 64       # enough that the threads' shares come out even
+
+
+def items_for(flat, count: int):
+    """Arrays for `count` split instances: (node, level above, cut), hash, parameters,
+    box."""
+    return (np.zeros((count, 3), dtype=np.int64), np.zeros(count, dtype=np.uint64),
+            np.zeros((count, flat.n_params)), np.zeros((count, 6)))
+
+
+def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, table, per_level,
+               changed, workers: int) -> int:
+    """walk from the root into the given boxes, table and counts, the subtrees below the
+    split level on `workers` threads; returns the visits (-1: over budget or stack)."""
+    level, count, items = _split_level(flat, depth, budget, capacity, workers)
+    if count < 2:
+        return walk(flat, depth, budget, capacity, boxes, book, *table, per_level, changed,
+                    np.zeros(3, dtype=np.int64), *items_for(flat, 0), -1)
+    # each thread's buffer may hold as many entries as the table: it may get them all
+    room = int(book[1]) if book[0] >= 0 else 0
+    bkeys = np.zeros((workers, room), dtype=np.uint64)
+    bused = np.zeros((workers, room), dtype=np.int16)
+    bvals = np.zeros((workers, room, 6))
+    bbook = np.zeros((workers, book.shape[0]), dtype=np.int64)
+    bbook[:, :2] = book[:2]
+    wboxes = np.repeat(boxes[None], workers, axis=0)
+    wlevels = np.zeros((workers, per_level.shape[0]), dtype=np.int64)
+    wchanged = np.zeros(workers, dtype=np.int64)
+    wvisits = np.zeros(workers, dtype=np.int64)
+    _walk_items(flat, depth, budget, capacity, count, *items, wboxes, bbook, bkeys, bused,
+                bvals, wlevels, wchanged, wvisits)
+    split = np.array([CONSUME, level, 0], dtype=np.int64)
+    top = walk(flat, depth, budget, capacity, boxes, book, *table, per_level, changed, split,
+               *items, -1)
+    if top < 0 or (wvisits < 0).any() or top + wvisits.sum() > budget:
+        return -1
+    np.minimum(boxes[:, :3], wboxes[:, :, :3].min(axis=0), out=boxes[:, :3])
+    np.maximum(boxes[:, 3:], wboxes[:, :, 3:].max(axis=0), out=boxes[:, 3:])
+    per_level += wlevels.sum(axis=0)
+    changed[0] += wchanged.sum()
+    if book[0] >= 0:
+        merge(per_level, book, *table, bkeys, bused, bvals, bbook)
+    return int(top + wvisits.sum())
+
+
+def _split_level(flat, depth: int, budget: int, capacity: int, workers: int):
+    """The shallowest level with ITEMS_PER_WORKER instances per thread (or the deepest
+    with at most MAX_ITEMS), its instance count and their items; count < 2 when the
+    walk is better not split."""
+    if workers < 2:
+        return 0, 0, None
+    items = items_for(flat, MAX_ITEMS)
+    boxes = np.empty((flat.box.shape[0], 6))
+    levels = np.zeros(depth + 2, dtype=np.int64)
+    book = np.array([-1, 0, 0], dtype=np.int64)         # keeps no entry
+    none = (np.zeros(1, dtype=np.uint64), np.zeros(1, dtype=np.int16), np.zeros((1, 6)))
+    best = last = 0
+    for level in range(1, depth + 2):
+        split = np.array([COLLECT, level, 0], dtype=np.int64)
+        got = walk(flat, depth, budget, capacity, boxes, book, *none, levels,
+                   np.zeros(1, dtype=np.int64), split, *items, -1)
+        if got < 0 or split[2] == 0:
+            break                   # too many to hold, over budget, or the system ended
+        best, last = level, split[2]
+        if last >= ITEMS_PER_WORKER * workers:
+            break
+    if best == 0:
+        return 0, 0, None
+    if split[1] != best:            # the arrays may hold some of a deeper level: again
+        split = np.array([COLLECT, best, 0], dtype=np.int64)
+        walk(flat, depth, budget, capacity, boxes, book, *none, levels,
+             np.zeros(1, dtype=np.int64), split, *items, -1)
+    return best, last, tuple(a[:last] for a in items)
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _walk_items(flat, depth, budget, capacity, count, items, item_hash, item_params,
+                item_boxes, wboxes, bbook, bkeys, bused, bvals, wlevels, wchanged, wvisits):
+    """The subtree of every split instance, thread w taking instances w, w + workers, ...;
+    wvisits[w] -1 when one of them ran out of budget or stack."""
+    workers = wboxes.shape[0]
+    split = np.zeros(3, dtype=np.int64)
+    for w in prange(workers):
+        for i in range(w, count, workers):
+            got = walk(flat, depth, budget - wvisits[w], capacity, wboxes[w], bbook[w],
+                       bkeys[w], bused[w], bvals[w], wlevels[w], wchanged[w:w + 1], split,
+                       items, item_hash, item_params, item_boxes, i)
+            if got < 0:
+                wvisits[w] = -1
+                break
+            wvisits[w] += got

@@ -1,0 +1,146 @@
+"""The bounding walk's instance table: the boxes of the S-node instances and operator
+operands of the top derivation levels, keyed by instance hash, for the tracer to cull
+by (nodes.instance_window). It keeps as many whole levels as fit: when it would pass
+its entry limit it drops its deepest level.
+
+A walk split over threads (trace/boxsplit.py) cannot share one open-addressing table,
+so each thread appends its entries to a buffer of its own under the same rule, and
+`merge` adds them to the table afterwards: a thread sees at most the instances the
+whole walk sees, so its buffer holds every level the table can keep."""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from . import vm
+from .nodes import table_slot
+
+TABLE_SLOTS = 1 << 19      # instance boxes kept: ~30 MB at most, whatever the order
+
+
+def empty_table(slots: int = 2):
+    return (np.zeros(slots, dtype=np.uint64), np.zeros(slots, dtype=np.int16),
+            np.zeros((slots, 6)))
+
+
+def new_book(deepest: int, most: int) -> np.ndarray:
+    """A table's bookkeeping: [deepest level kept, most entries, entries, entries by
+    level...]; deepest -1 keeps nothing."""
+    book = np.zeros(3 + max(deepest, 0) + 2, dtype=np.int64)
+    book[0] = deepest
+    book[1] = most
+    return book
+
+
+@njit(cache=True, error_model="numpy")
+def record(level, node, h, box, table, keys, used, vals, per_level):
+    """Count the instance at its level; keep its box in the table if its level is within
+    table[0], the deepest level kept. When the table would pass table[1] entries, its
+    deepest level is dropped (table[0] lowered): the levels kept in the end are the
+    most that fit, all of them complete, as if they had been known in advance."""
+    if level < per_level.shape[0]:
+        per_level[level] += 1
+    if level > table[0]:
+        return
+    while table[2] + 1 > table[1] and table[0] >= 0:
+        drop_level(table[0], keys, used, vals)
+        table[2] -= table[3 + table[0]]
+        table[3 + table[0]] = 0
+        table[0] -= 1
+    if level > table[0]:
+        return
+    key = vm.mix(h, node)
+    slot = table_slot(keys, used, key)
+    if not used[slot]:
+        table[2] += 1
+        table[3 + level] += 1
+    used[slot] = 1 + level          # 0: empty; else the entry's level + 1
+    keys[slot] = key
+    vals[slot, :] = box
+
+
+@njit(cache=True, error_model="numpy")
+def drop_level(level, keys, used, vals):
+    """Delete every entry of `level` (used == level + 1), keeping every other entry
+    reachable: linear-probing deletion that moves later entries of a run back (Knuth's
+    Algorithm R)."""
+    mask = keys.shape[0] - 1
+    for i in range(keys.shape[0]):
+        while used[i] == level + 1:
+            hole = i
+            j = i
+            while True:
+                j = (j + 1) & mask
+                if not used[j]:
+                    break
+                home = np.int64(keys[j] & np.uint64(mask))
+                # the entry at j may move into the hole unless its home lies cyclically
+                # in (hole, j]
+                if (hole <= j and (home <= hole or home > j)) or \
+                        (hole > j and home <= hole and home > j):
+                    keys[hole] = keys[j]
+                    used[hole] = used[j]
+                    vals[hole, :] = vals[j]
+                    hole = j
+            used[hole] = 0
+
+
+@njit(cache=True, error_model="numpy")
+def append(level, node, h, box, book, keys, used, vals, per_level):
+    """record's rule on a buffer (entries in order, not hashed): count the instance at its
+    level and keep its entry while its level fits, dropping the deepest level when the
+    buffer would pass book[1] entries."""
+    if level < per_level.shape[0]:
+        per_level[level] += 1
+    if level > book[0]:
+        return
+    while book[2] + 1 > book[1] and book[0] >= 0:
+        kept = 0
+        for i in range(book[2]):
+            if used[i] != book[0] + 1:
+                keys[kept] = keys[i]
+                used[kept] = used[i]
+                vals[kept, :] = vals[i]
+                kept += 1
+        book[2] = kept
+        book[3 + book[0]] = 0
+        book[0] -= 1
+    if level > book[0]:
+        return
+    i = book[2]
+    keys[i] = vm.mix(h, node)
+    used[i] = 1 + level
+    vals[i, :] = box
+    book[2] += 1
+    book[3 + level] += 1
+
+
+@njit(cache=True, error_model="numpy")
+def merge(per_level, book, keys, used, vals, bkeys, bused, bvals, bbook):
+    """Add the entries of the buffers (one per row of bkeys, bused, bvals, bbook) to the
+    table, keeping the deepest levels whose instances, counted by per_level over the
+    whole walk, fit book[1] entries, as record would have kept them."""
+    deepest = -1
+    total = 0
+    for level in range(min(book[0] + 1, per_level.shape[0])):
+        total += per_level[level]
+        if total > book[1]:
+            break
+        deepest = level
+    while book[0] > deepest:
+        drop_level(book[0], keys, used, vals)
+        book[2] -= book[3 + book[0]]
+        book[3 + book[0]] = 0
+        book[0] -= 1
+    for b in range(bkeys.shape[0]):
+        for i in range(bbook[b, 2]):
+            level = bused[b, i] - 1
+            if level > deepest:
+                continue
+            slot = table_slot(keys, used, bkeys[b, i])
+            if not used[slot]:
+                book[2] += 1
+                book[3 + level] += 1
+            used[slot] = bused[b, i]
+            keys[slot] = bkeys[b, i]
+            vals[slot, :] = bvals[b, i]

@@ -1,0 +1,70 @@
+"""The bounding walk split over threads gives what one walk from the root gives: the same
+boxes, visits, counts and instance-table entries, whatever the number of workers."""
+import numpy as np
+import pytest
+
+from pcsg.compiler import compile_file
+from pcsg.graph.flat import flatten_graph
+from pcsg.trace.boxsplit import _split_level, walk_split
+from pcsg.trace.instance_table import TABLE_SLOTS, empty_table, new_book
+
+from tests.conftest import GRAMMARS
+
+
+def split_walk(graph, depth, workers, budget=10**9, most=TABLE_SLOTS // 2, slots=TABLE_SLOTS):
+    n = len(graph.nodes)
+    empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
+    flat = flatten_graph(graph, empty)
+    boxes = empty.copy()
+    table = empty_table(slots)
+    book = new_book(depth + 1, most)
+    per_level = np.zeros(depth + 2, dtype=np.int64)
+    changed = np.zeros(1, dtype=np.int64)
+    capacity = (depth + 2) * (n + 2) + 16
+    visits = walk_split(flat, depth, budget, capacity, boxes, book, table, per_level, changed,
+                        workers)
+    keys, used, vals = table
+    kept = used > 0
+    entries = sorted(zip(keys[kept].tolist(), used[kept].tolist(), map(tuple, vals[kept])))
+    return visits, boxes, int(changed[0]), per_level.tolist(), int(book[0]), entries, flat
+
+
+CASES = [("carpenter_terrain", {"cnt": 6}, 64),        # every instance, table complete
+         ("carpenter_terrain", {"cnt": 8}, 6),         # cut by the depth bound
+         ("sympodial_tree", {"cnt": 9}, 64),
+         ("graftal_tree", {}, 7)]
+
+
+@pytest.mark.parametrize("name, params, depth", CASES)
+def test_split_walk_is_the_walk_from_the_root(name, params, depth):
+    graph = compile_file(GRAMMARS / f"{name}.pcsg", params)
+    one = split_walk(graph, depth, 1)
+    assert one[0] > 0
+    level, count, _ = _split_level(one[6], depth, 10**9, (depth + 2) * (len(graph.nodes) + 2)
+                                   + 16, 2)
+    assert count >= 2                   # the walk really is split
+    for workers in (2, 5):
+        got = split_walk(graph, depth, workers)
+        assert got[0] == one[0]                             # visits
+        assert np.array_equal(got[1], one[1])               # boxes
+        assert got[2:6] == one[2:6]         # changed, per level, deepest kept, entries
+
+
+def test_split_walk_keeps_the_levels_that_fit():
+    """With room for 300 entries the table keeps the levels whose instances, counted
+    over every thread, fit; the threads' buffers drop their own deepest levels on the way."""
+    graph = compile_file(GRAMMARS / "carpenter_terrain.pcsg", {"cnt": 6})
+    one = split_walk(graph, 64, 1, most=300, slots=1024)
+    assert 0 < one[4] < 6
+    assert sum(one[3][:one[4] + 1]) <= 300 < sum(one[3][:one[4] + 2])
+    assert len(one[5]) == sum(one[3][:one[4] + 1])
+    two = split_walk(graph, 64, 2, most=300, slots=1024)
+    assert two[0] == one[0] and np.array_equal(two[1], one[1]) and two[2:6] == one[2:6]
+
+
+def test_split_walk_over_budget_fails_like_the_walk():
+    graph = compile_file(GRAMMARS / "carpenter_terrain.pcsg", {"cnt": 6})
+    visits = split_walk(graph, 64, 1)[0]
+    for workers in (1, 2):
+        assert split_walk(graph, 64, workers, budget=visits)[0] == visits
+        assert split_walk(graph, 64, workers, budget=visits - 1)[0] == -1
