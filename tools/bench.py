@@ -107,6 +107,9 @@ def export(grammar: str, param: str, order: int) -> Path:
 
 
 def kernel_cache_state() -> str:
+    """'warm' if kernels compiled from the sources as they are now are cached."""
+    # importing pcsg.trace drops kernels compiled from older sources (trace/__init__.py)
+    subprocess.run([sys.executable, "-c", "import pcsg.trace"], cwd=ROOT, check=True)
     cache = ROOT / "pcsg" / "trace" / "__pycache__"
     return "warm" if any(cache.glob("shading.shade_rays-*.nbi")) else "cold"
 
