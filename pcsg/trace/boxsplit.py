@@ -69,22 +69,26 @@ def _split_level(flat, depth: int, budget: int, capacity: int, workers: int):
     levels = np.zeros(depth + 2, dtype=np.int64)
     book = np.array([-1, 0, 0], dtype=np.int64)         # keeps no entry
     none = (np.zeros(1, dtype=np.uint64), np.zeros(1, dtype=np.int16), np.zeros((1, 6)))
-    best = last = 0
-    for level in range(1, depth + 2):
+
+    def collect(level):
+        """The instances of `level` into items: (walk's result, how many)."""
         split = np.array([COLLECT, level, 0], dtype=np.int64)
         got = walk(flat, depth, budget, capacity, boxes, book, *none, levels,
                    np.zeros(1, dtype=np.int64), split, *items, -1)
-        if got < 0 or split[2] == 0:
+        return got, int(split[2])
+
+    best = last = 0
+    for level in range(1, depth + 2):
+        got, count = collect(level)
+        if got < 0 or count == 0:
             break                   # too many to hold, over budget, or the system ended
-        best, last = level, split[2]
+        best, last = level, count
         if last >= ITEMS_PER_WORKER * workers:
             break
     if best == 0:
         return 0, 0, None
-    if split[1] != best:            # the arrays may hold some of a deeper level: again
-        split = np.array([COLLECT, best, 0], dtype=np.int64)
-        walk(flat, depth, budget, capacity, boxes, book, *none, levels,
-             np.zeros(1, dtype=np.int64), split, *items, -1)
+    if level != best:               # the arrays may hold some of a deeper level: again
+        collect(best)
     return best, last, tuple(a[:last] for a in items)
 
 
