@@ -3,6 +3,7 @@ files."""
 from __future__ import annotations
 
 import argparse
+import atexit
 import glob
 import json
 import os
@@ -535,6 +536,11 @@ def main(argv: list[str] | None = None) -> int:
     except UsageError as e:
         print(f"pcsg {args.command}: error: {e}", file=sys.stderr)
         return EXIT_USAGE
+    except BrokenPipeError:
+        # e.g. `pcsg expand ... | head`: the reader left; that is not an error of ours
+        # (before OSError, which it is)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
     except OSError as e:
         what = f"{e.strerror or e}" + (f": {e.filename}" if e.filename else "")
         print(f"pcsg {args.command}: error: {what}", file=sys.stderr)
@@ -542,10 +548,6 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("pcsg: interrupted", file=sys.stderr)
         return 130
-    except BrokenPipeError:
-        # e.g. `pcsg expand ... | head`: the reader left; that is not an error of ours
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return EXIT_OK
     except Exception as e:  # noqa: BLE001 -- a user sees one line, never a traceback
         if os.environ.get("PCSG_DEBUG"):
             raise
@@ -554,5 +556,20 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_INTERNAL
 
 
+def run() -> None:
+    """The console command: main(), then exit without the interpreter's teardown.
+    Once main has returned every output is written and closed; what the teardown
+    does then is free numba's compiled code and the modules one by one, which took
+    0.15 to 0.25 s of every command (a fifth of a small render's wall time)."""
+    code = main()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):       # a reader that left, or a closed stream
+            pass
+    atexit._run_exitfuncs()     # what a normal exit runs first (logging, dask, multiprocessing)
+    os._exit(code)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

@@ -1,5 +1,6 @@
 """The pcsg command line: check, expand, stats, graph, --set, exit codes."""
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -129,6 +130,25 @@ def test_console_script_runs_without_traceback(tmp_path):
     r = subprocess.run([exe, "stats", str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=16"],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0 and "4,294,967,29" in r.stdout
+
+
+def test_console_command_delivers_all_output_before_its_fast_exit(capsys):
+    # run() ends the process with os._exit, past the interpreter's teardown: what main
+    # wrote must still arrive whole, through a pipe (block-buffered), from both entries
+    args = ["expand", str(GRAMMARS / "sierpinski.pcsg"), "-n", "7"]
+    code, want, _ = run(capsys, *args)
+    assert code == 0 and len(want) > 200_000      # several pipe buffers
+    exe = shutil.which("pcsg") or str(__import__("pathlib").Path(sys.executable).parent / "pcsg")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}   # as users run it
+    for cmd in ([exe], [sys.executable, "-m", "pcsg"]):
+        r = subprocess.run(cmd + args, capture_output=True, text=True, timeout=120, env=env)
+        assert (r.returncode, r.stderr) == (0, "")
+        assert r.stdout == want
+    # a reader that leaves early: no error, no traceback
+    p = subprocess.Popen([exe] + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+    assert len(p.stdout.read(10)) == 10
+    p.stdout.close()
+    assert p.wait(timeout=120) == 0 and p.stderr.read() == b""
 
 
 def test_written_files_get_ordinary_permissions(capsys, sierpinski, tmp_path):
