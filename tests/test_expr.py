@@ -140,17 +140,17 @@ def test_if_counts_only_executed_rand_calls():
     t, _ = table('c')
     i = t.add(B('+', C('if', V('c'), C('rand'), N(0)), C('rand')))
     h = 99
-    r = [vm.hash_to_unit(np.uint64(vm.mix(np.uint64(h), k))) for k in range(2)]
+    r = [vm.hash_to_unit(vm.mix(np.uint64(h), k)) for k in range(2)]
     assert t.evaluate(i, [1.0], h) == r[0] + r[1]
     assert t.evaluate(i, [0.0], h) == 0 + r[0]
 
 
 def test_and_or_short_circuit():
     t, _ = table('a')
-    first = vm.hash_to_unit(np.uint64(vm.mix(np.uint64(5), 0)))
+    first = vm.hash_to_unit(vm.mix(np.uint64(5), 0))
     # (a && rand() < 2) + rand(): the right operand of && runs only when a is true
     i = t.add(B('+', B('&&', V('a'), B('<', C('rand'), N(2))), C('rand')))
-    second = vm.hash_to_unit(np.uint64(vm.mix(np.uint64(5), 1)))
+    second = vm.hash_to_unit(vm.mix(np.uint64(5), 1))
     assert t.evaluate(i, [1.0], 5) == 1 + second
     assert t.evaluate(i, [0.0], 5) == 0 + first
     j = t.add(B('+', B('||', V('a'), B('<', C('rand'), N(2))), C('rand')))
@@ -178,7 +178,7 @@ def test_rand_depends_on_instance_and_call_index():
     t, _ = table()
     i = t.add(B('-', C('rand'), C('rand')))
     assert t.constant(i) is None and t.uses_rand(i) and t.reads(i) == frozenset()
-    r = lambda h, k: vm.hash_to_unit(np.uint64(vm.mix(np.uint64(h), k)))   # noqa: E731
+    r = lambda h, k: vm.hash_to_unit(vm.mix(np.uint64(h), k))   # noqa: E731
     assert t.evaluate(i, [], 1) == r(1, 0) - r(1, 1) != 0
     assert t.evaluate(i, [], 1) != t.evaluate(i, [], 2)
     one = t.add(C('rand'))

@@ -248,8 +248,7 @@ def test_edge_and_salt_hashes_are_distinct():
     seen = {int(vm.edge_hash(h, n, c)) for n in range(20) for c in range(4)}
     seen |= {int(vm.salt(h, s)) for s in range(10)}
     assert len(seen) == 20 * 4 + 10
-    a = vm.edge_hash(np.uint64(vm.edge_hash(h, 1, 0)), 1, 1)
-    assert a != vm.edge_hash(np.uint64(vm.edge_hash(h, 1, 1)), 1, 0)
+    assert vm.edge_hash(vm.edge_hash(h, 1, 0), 1, 1) != vm.edge_hash(vm.edge_hash(h, 1, 1), 1, 0)
 
 
 # ---- rule selection -------------------------------------------------------------

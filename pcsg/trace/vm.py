@@ -127,18 +127,16 @@ _NAN = math.nan
 _jit = njit(cache=True, error_model='numpy', nogil=True)
 
 
+def _jit_sig(signature):
+    # Fixed signatures for the small helpers: Python callers may pass plain ints
+    # of any size (a lazily typed int64 version would overflow on h >= 2**63).
+    return njit(signature, cache=True, error_model='numpy', nogil=True)
 
 
 # ---- hashing ---------------------------------------------------------------
-# The helpers below are typed lazily, like the rest: with fixed signatures numba
-# loaded each from its cache at import, 0.1 s of every start, though the kernels
-# inline them and need no loaded copy. Each casts its arguments itself (the types in
-# the comments), so an int32, int64 or uint64 caller gets the same bits. Python
-# callers pass hashes as np.uint64: they come back as Python ints, and one >= 2**63
-# does not convert to the int64 version that a smaller one compiled.
 
-@_jit
-def splitmix64(x):     # uint64(uint64)
+@_jit_sig('uint64(uint64)')
+def splitmix64(x):
     z = np.uint64(x) + _GOLDEN
     z = (z ^ (z >> _S30)) * _M1
     z = (z ^ (z >> _S27)) * _M2
@@ -157,30 +155,29 @@ def hash_to_unit_array(h: np.ndarray) -> np.ndarray:
     return (h >> _S11).astype(np.float64) * _INV_2_53
 
 
-@_jit
-def hash_to_unit(h):     # float64(uint64)
+@_jit_sig('float64(uint64)')
+def hash_to_unit(h):
     return np.float64(np.uint64(h) >> _S11) * _INV_2_53
 
 
-@_jit
-def mix(h, v):     # uint64(uint64, uint64)
+@_jit_sig('uint64(uint64, uint64)')
+def mix(h, v):
     return splitmix64(np.uint64(h) ^ splitmix64(np.uint64(v)))
 
 
-@_jit
-def edge_hash(h, node, child):     # uint64(uint64, uint64, uint64)
-    return mix(mix(np.uint64(h), np.uint64(node)), np.uint64(child))
+@_jit_sig('uint64(uint64, uint64, uint64)')
+def edge_hash(h, node, child):
+    return mix(mix(h, node), child)
 
 
-@_jit
-def salt(h, slot):     # uint64(uint64, uint64)
-    return mix(np.uint64(h) ^ SALT_KEY, np.uint64(slot))
+@_jit_sig('uint64(uint64, uint64)')
+def salt(h, slot):
+    return mix(np.uint64(h) ^ SALT_KEY, slot)
 
 
-@_jit
-def float_bits(x):     # uint64(float64)
+@_jit_sig('uint64(float64)')
+def float_bits(x):
     """The bit pattern of x, with -0.0 -> 0.0 and every nan -> one quiet nan."""
-    x = np.float64(x)
     if x != x:
         return _CANON_NAN
     if x == 0.0:
@@ -188,9 +185,9 @@ def float_bits(x):     # uint64(float64)
     return np.float64(x).view(np.uint64)
 
 
-@_jit
-def rand_seed(seed):     # float64(float64)
-    return hash_to_unit(splitmix64(float_bits(np.float64(seed))))
+@_jit_sig('float64(float64)')
+def rand_seed(seed):
+    return hash_to_unit(splitmix64(float_bits(seed)))
 
 
 # ---- scalar helpers ----------------------------------------------------------
@@ -222,10 +219,9 @@ def fmax(a, b):
     return a if a > b else b
 
 
-@_jit
-def select_rule(x, nrules):     # int64(float64, int64)
+@_jit_sig('int64(float64, int64)')
+def select_rule(x, nrules):
     """The rule number 1..nrules that x rounds to, or 0 if none does."""
-    x = np.float64(x)
     if not math.isfinite(x):
         return 0
     r = round_half_away(x)
