@@ -152,7 +152,6 @@ def test_console_command_delivers_all_output_before_its_fast_exit(capsys):
 
 
 def test_written_files_get_ordinary_permissions(capsys, sierpinski, tmp_path):
-    import os
     import stat
     out = tmp_path / "g.dot"
     assert run(capsys, "graph", str(sierpinski), "-o", str(out))[0] == 0
