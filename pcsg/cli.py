@@ -566,8 +566,11 @@ def run() -> None:
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
-        except (OSError, ValueError):       # a reader that left, or a closed stream
+        except (BrokenPipeError, ValueError):   # a reader that left, or a closed stream
             pass
+        except OSError as e:                    # a full disk: the output is cut short
+            print(f"pcsg: error: {e.strerror or e}", file=sys.stderr, flush=True)
+            code = code or EXIT_ERRORS
     atexit._run_exitfuncs()     # what a normal exit runs first (logging, dask, multiprocessing)
     os._exit(code)
 

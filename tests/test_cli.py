@@ -149,6 +149,11 @@ def test_console_command_delivers_all_output_before_its_fast_exit(capsys):
     assert len(p.stdout.read(10)) == 10
     p.stdout.close()
     assert p.wait(timeout=120) == 0 and p.stderr.read() == b""
+    # output that cannot be written (a full disk) fails the command
+    with open("/dev/full", "w") as full:
+        r = subprocess.run([exe, "stats", str(GRAMMARS / "sierpinski.pcsg")], stdout=full,
+                           stderr=subprocess.PIPE, text=True, timeout=120, env=env)
+    assert r.returncode == 1 and "No space left on device" in r.stderr
 
 
 def test_written_files_get_ordinary_permissions(capsys, sierpinski, tmp_path):
