@@ -505,8 +505,8 @@ def cmd_export(args) -> int:
     out = Path(args.pov)
     if not out.parent.exists():
         raise UsageError(f"--pov {args.pov}: the directory {out.parent} does not exist")
-    if bounces_problem(args.bounces):
-        raise UsageError(bounces_problem(args.bounces))
+    if problem := bounces_problem(args.bounces):
+        raise UsageError(problem)
     start = time.perf_counter()
     graph = _compile(args.file, args.overrides)
     _report(None, graph.warnings)

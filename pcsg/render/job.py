@@ -74,8 +74,8 @@ def check_options(o: Options) -> str | None:
         return f"--timeout {o.timeout}: give a positive number of seconds"
     if not 1 <= o.shadow_samples <= 256:
         return f"--shadow-samples {o.shadow_samples}: use 1 to 256"
-    if bounces_problem(o.bounces):
-        return bounces_problem(o.bounces)
+    if problem := bounces_problem(o.bounces):
+        return problem
     if o.ao is not None and not 0 <= o.ao <= MAX_AO_SAMPLES:
         return f"--ao {o.ao}: use 0 (off) to {MAX_AO_SAMPLES} rays"
     if o.ao_distance is not None and not 0 < o.ao_distance < math.inf:
