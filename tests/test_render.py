@@ -184,3 +184,27 @@ material(glass) sphere ∪ paint(0,0.8,0) move(0,3,0) scale(5,0.1,5) cube"""
     _, _, fr = frame_of(scene, adaptive=False)
     centre = fr.rgb[36, 48]
     assert centre[1] > 2 * centre[0] and centre[1] > 0.2   # the green wall, through the glass
+
+
+def test_tile_order_covers_every_pixel_block_by_block():
+    from pcsg.render.image import TILE, tile_order
+    rows, width = TILE + 5, 3 * TILE + 7           # partial blocks at the right and bottom
+    order = tile_order(rows, width)
+    assert np.array_equal(np.sort(order), np.arange(rows * width))
+    first = order[:TILE * TILE]
+    assert set(first // width) == set(range(TILE)) and set(first % width) == set(range(TILE))
+    blocks = (order // width // TILE) * width + (order % width) // TILE
+    runs = blocks[np.r_[True, blocks[1:] != blocks[:-1]]]
+    assert len(runs) == len(set(runs.tolist()))       # each block's pixels come together
+
+
+def test_the_order_rays_are_traced_in_does_not_change_the_picture(monkeypatch):
+    """Tiles only change which calculated states a worker's cache still holds."""
+    text = (GRAMMARS / "carpenter_terrain.pcsg").read_text().replace("cnt = 8;", "cnt = 4;")
+    size = (70, 40)                                 # partial tiles
+    _, _, tiled = frame_of(text, size)
+    monkeypatch.setattr("pcsg.render.image.TILE", 1)     # 1x1 tiles: row after row
+    _, _, rows = frame_of(text, size)
+    assert rows.rays == tiled.rays
+    assert np.array_equal(rows.rgb, tiled.rgb) and np.array_equal(rows.depth, tiled.depth)
+    assert np.array_equal(rows.coverage, tiled.coverage)
