@@ -18,15 +18,18 @@ import numpy as np
 
 import pcsg
 from pcsg.render.camera import make_camera
+from pcsg.render.image import tile_order
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLES = ["sierpinski", "sympodial_tree", "carpenter_terrain"]
 
 
 def primary_rays(obj, width, height):
+    """In the order a render traces them: block after block (image.tile_order)."""
     cam = make_camera(obj, width / height)
     ys, xs = np.mgrid[0:height, 0:width]
-    return cam, *cam.rays(width, height, xs.ravel() + 0.5, ys.ravel() + 0.5)
+    order = tile_order(height, width)
+    return cam, *cam.rays(width, height, xs.ravel()[order] + 0.5, ys.ravel()[order] + 0.5)
 
 
 def main():

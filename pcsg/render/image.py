@@ -1,6 +1,7 @@
 """A whole image: samples per pixel, progress, sRGB PNG (Pillow), alpha, depth."""
 from __future__ import annotations
 
+import functools
 import io
 import sys
 import time
@@ -136,6 +137,8 @@ def _refine(traced, camera, light, rgb, obj, cover, rng, height, a0, keep):
     ys, xs = np.nonzero(diff > ADAPTIVE_THRESHOLD)
     if len(ys) == 0:
         return
+    blocks = np.lexsort((xs // TILE, ys // TILE))      # as tile_order, and for its reason
+    ys, xs = ys[blocks], xs[blocks]
     offs = _offsets(ADAPTIVE_SAMPLES, rng)
     acc = rgb[ys, xs] * 1.0
     hit = cover[ys, xs] * 1.0
@@ -157,8 +160,15 @@ def tile_order(rows: int, width: int) -> np.ndarray:
     Neighbouring rays enter the same patches: traced together they find each other's
     calculated states in a worker's cache, which rows of the whole width would evict
     (the terrain at 9 renders 10 to 15 % faster)."""
+    return _blocks(rows, width, TILE)
+
+
+@functools.lru_cache(maxsize=4)
+def _blocks(rows: int, width: int, tile: int) -> np.ndarray:
     ys, xs = np.mgrid[0:rows, 0:width]
-    return np.lexsort((xs.ravel(), ys.ravel(), xs.ravel() // TILE, ys.ravel() // TILE))
+    order = np.lexsort((xs.ravel(), ys.ravel(), xs.ravel() // tile, ys.ravel() // tile))
+    order.flags.writeable = False       # shared by every batch of that shape
+    return order
 
 
 def sample_ids(pixels: np.ndarray, k: int, width: int, height: int) -> np.ndarray:
