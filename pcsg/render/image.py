@@ -137,7 +137,7 @@ def _refine(traced, camera, light, rgb, obj, cover, rng, height, a0, keep):
     ys, xs = np.nonzero(diff > ADAPTIVE_THRESHOLD)
     if len(ys) == 0:
         return
-    blocks = np.lexsort((xs // TILE, ys // TILE))      # as tile_order, and for its reason
+    blocks = block_order(ys, xs, TILE)                 # as tile_order, and for its reason
     ys, xs = ys[blocks], xs[blocks]
     offs = _offsets(ADAPTIVE_SAMPLES, rng)
     acc = rgb[ys, xs] * 1.0
@@ -166,9 +166,15 @@ def tile_order(rows: int, width: int) -> np.ndarray:
 @functools.lru_cache(maxsize=4)
 def _blocks(rows: int, width: int, tile: int) -> np.ndarray:
     ys, xs = np.mgrid[0:rows, 0:width]
-    order = np.lexsort((xs.ravel(), ys.ravel(), xs.ravel() // tile, ys.ravel() // tile))
+    order = block_order(ys.ravel(), xs.ravel(), tile)
     order.flags.writeable = False       # shared by every batch of that shape
     return order
+
+
+def block_order(ys: np.ndarray, xs: np.ndarray, tile: int) -> np.ndarray:
+    """The indices that take pixels given row after row block after block; lexsort is
+    stable, so a block keeps their order."""
+    return np.lexsort((xs // tile, ys // tile))
 
 
 def sample_ids(pixels: np.ndarray, k: int, width: int, height: int) -> np.ndarray:
