@@ -130,6 +130,9 @@ def _render_options() -> argparse.ArgumentParser:
     r.add_argument("--at", type=_vec, metavar="X,Y,Z", help="point looked at")
     r.add_argument("--up", type=_vec, metavar="X,Y,Z", help="up direction (default 0,0,1)")
     r.add_argument("--fov", type=float, metavar="DEG", help="vertical field of view")
+    r.add_argument("--light", type=_vec, metavar="X,Y,Z",
+                   help="one point light at X,Y,Z instead of the file's #light lines (default: "
+                        "those, else a sun above and to the left of the camera)")
     r.add_argument("--alpha", action="store_true", help="transparent background")
     r.add_argument("--max-depth", type=int, default=MAX_DEPTH, metavar="N",
                    help=f"derivation levels a ray may descend (default {MAX_DEPTH})")
@@ -348,7 +351,8 @@ def _options(args, overrides: dict | None = None):
     depth = getattr(args, "depth", None)
     opts = Options(size=args.size, samples=args.samples,
                    overrides=dict(args.overrides) if overrides is None else overrides,
-                   eye=args.eye, at=args.at, up=args.up, fov=args.fov, alpha=args.alpha,
+                   eye=args.eye, at=args.at, up=args.up, fov=args.fov, light=args.light,
+                   alpha=args.alpha,
                    depth=Path(depth) if depth else None, max_depth=args.max_depth,
                    shadows=not args.no_shadows, bounces=args.bounces, quiet=args.quiet,
                    reference=args.reference, shadow_samples=args.shadow_samples,

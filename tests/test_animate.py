@@ -164,6 +164,29 @@ def test_camera_only_when_the_file_has_no_t(capsys, tmp_path):
     assert len({p.read_bytes() for p in frames(out)}) == 3
 
 
+def test_the_default_sun_stays_put_while_the_camera_moves(capsys, tmp_path):
+    """A file without #light: every frame has the sun of the unmoved camera, and the
+    summary names it, so each frame is the render of its eye with that --light."""
+    src = tmp_path / "nolight.pcsg"
+    src.write_text(BALL.replace("#light at=(3,-2,8)\n", ""), encoding="utf-8")
+    out = tmp_path / "a"
+    code, stdout, stderr = animate(capsys, src, out, "--frames", "3", "--jobs", "1",
+                                   "--path=" + PATH)
+    assert code == 0, stderr
+    sun = re.search(r"the default sun stood at --light=(\S+)", stdout).group(1)
+    data = [p.read_bytes() for p in frames(out)]
+    for i, t in enumerate(("0", "0.5", "1")):
+        common = [str(src), "--set", f"t={t}", f"--eye={EYES[i]}", *TINY]
+        fixed, moving = tmp_path / f"fixed{i}.png", tmp_path / f"moving{i}.png"
+        assert main(["render", *common, "-o", str(fixed), f"--light={sun}"]) == 0
+        assert fixed.read_bytes() == data[i], f"frame {i}"
+        assert main(["render", *common, "-o", str(moving)]) == 0
+        # the path never passes the file's camera: a sun placed from the frame's own
+        # camera stands elsewhere and lights the ball otherwise
+        assert moving.read_bytes() != data[i], f"frame {i}"
+    capsys.readouterr()
+
+
 @pytest.mark.parametrize("extra, message", [
     (["--set", "t=0.5"], "animate sets t itself"),
     (["--eye", "1,2,3", "--path", "1,1,1 2,2,2"], "--eye and --path both"),

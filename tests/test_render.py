@@ -208,3 +208,27 @@ def test_the_order_rays_are_traced_in_does_not_change_the_picture(monkeypatch):
     assert rows.rays == tiled.rays
     assert np.array_equal(rows.rgb, tiled.rgb) and np.array_equal(rows.depth, tiled.depth)
     assert np.array_equal(rows.coverage, tiled.coverage)
+
+
+def test_light_option_replaces_the_files_lights(tmp_path):
+    """--light X,Y,Z is one point light in the default sun's colour, in place of #light."""
+    moved = tmp_path / "moved.pcsg"
+    moved.write_text(BALL.replace("#light at=(3,-2,8)",
+                                  "#light at=(-4,-1,6) color=(1.0,0.97,0.92)"), encoding="utf-8")
+    ball = tmp_path / "ball.pcsg"
+    ball.write_text(BALL, encoding="utf-8")
+    tiny = ["--size", "48x36", "-q"]
+    a, b, c = tmp_path / "a.png", tmp_path / "b.png", tmp_path / "c.png"
+    assert main(["render", str(ball), "-o", str(a), *tiny, "--light=-4,-1,6"]) == 0
+    assert main(["render", str(moved), "-o", str(b), *tiny]) == 0
+    assert main(["render", str(ball), "-o", str(c), *tiny]) == 0
+    assert a.read_bytes() == b.read_bytes() != c.read_bytes()
+
+
+def test_a_light_that_is_not_a_point_is_a_usage_error(tmp_path, capsys):
+    ball = tmp_path / "ball.pcsg"
+    ball.write_text(BALL, encoding="utf-8")
+    assert main(["render", str(ball), "-o", str(tmp_path / "x.png"), "--light=1,nan,2"]) == 2
+    err = capsys.readouterr().err
+    assert "--light 1,nan,2: give a point with finite coordinates" in err
+    assert not (tmp_path / "x.png").exists()

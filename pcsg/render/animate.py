@@ -64,6 +64,7 @@ def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
     from ..language.parser import read_source_text
     from ..tracer import Traced
     from .camera import Camera, make_camera
+    from .shade import default_light
     o = anim.opts
     if TIME in o.overrides:
         raise BadAnimation(f"--set {TIME}: animate sets {TIME} itself, from 0 to 1")
@@ -75,6 +76,11 @@ def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
     traced = Traced(graph, o.max_depth, o.stack_depth, o.interval_rows, o.max_instances)
     w, h = o.size
     still = make_camera(traced, w / h, o.eye, o.at, o.up, o.fov)
+    # the default sun stands where the unmoved camera would put it, in every frame: one
+    # that followed the camera path would move the shadows with it
+    sun = o.light
+    if sun is None and not graph.scene.lights:
+        sun = _floats(default_light(still).position)
     text = read_source_text(anim.source)
     digits = max(4, len(str(anim.frames - 1)))
     jobs = []
@@ -88,7 +94,8 @@ def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
             raise BadAnimation(f"frame {i} (t = {t:g}): {e}") from None
         overrides = {**o.overrides, TIME: t} if timed else o.overrides
         fo = dataclasses.replace(o, overrides=overrides, eye=_floats(eye), at=_floats(at),
-                                 up=_floats(still.up), fov=float(still.fov), quiet=True)
+                                 up=_floats(still.up), fov=float(still.fov), light=sun,
+                                 quiet=True)
         png = anim.out_dir / f"frame_{i:0{digits}d}.png"
         jobs.append(FrameJob(i, t, anim.source, png, fo, output_key(text, fo)))
     return jobs, timed
@@ -242,8 +249,11 @@ def animate(anim: Animation) -> int:
     seconds = time.perf_counter() - report.start
     unit = "worker" if anim.cluster is not None else "job"
     how = f" with {workers} {unit}{'s' if workers > 1 else ''}" if report.rendered else ""
+    sun = jobs[0].opts.light
+    placed = (f"; the default sun stood at --light={','.join(repr(v) for v in sun)}"
+              if sun is not None and anim.opts.light is None else "")
     print(f"{anim.out_dir}: {report.done} of {len(jobs)} frames ({len(jobs) - len(todo)} "
-          f"reused, {report.rendered} rendered{how}) in {seconds:.1f} s{made}"
+          f"reused, {report.rendered} rendered{how}) in {seconds:.1f} s{made}{placed}"
           + (f"; failed: {', '.join(report.failed)}" if report.failed else ""))
     return len(report.failed)
 

@@ -37,6 +37,7 @@ class Options:
     at: tuple | None = None
     up: tuple | None = None
     fov: float | None = None
+    light: tuple | None = None      # one point light here instead of the file's or the default
     alpha: bool = False
     depth: Path | None = None
     max_depth: int = MAX_DEPTH
@@ -88,6 +89,8 @@ def check_options(o: Options) -> str | None:
         return f"--interval-rows {o.interval_rows}: use 16 to {MAX_INTERVAL_ROWS}"
     if not 1 <= o.max_instances <= 2 ** 62:
         return f"--max-instances {o.max_instances}: give a positive number"
+    if o.light is not None and not all(math.isfinite(v) for v in o.light):
+        return f"--light {','.join(f'{v:g}' for v in o.light)}: give a point with finite coordinates"
     if o.fov is not None and not 0 < o.fov < 180:
         return f"--fov {o.fov}: the vertical field of view is between 0 and 180 degrees"
     return None
@@ -136,7 +139,7 @@ def render_scene(scene: Scene, label: str, opts: Options, deadline: float | None
     w, h = opts.size
     camera = make_camera(traced, w / h, opts.eye, opts.at, opts.up, opts.fov)
     light = make_lighting(traced, camera, opts.shadows, opts.shadow_samples, opts.bounces,
-                          opts.ao, opts.ao_distance)
+                          opts.ao, opts.ao_distance, opts.light)
     y0, y1 = rows or (0, h)
     progress = Progress(label, w * (y1 - y0), not opts.quiet)
     check_deadline(deadline, opts.timeout)

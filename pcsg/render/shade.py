@@ -22,6 +22,7 @@ FINISH_KEYS = ("diffuse", "specular", "shininess", "reflect", "ior", "transmit")
 DEFAULT_COLOR = np.array([0.78, 0.76, 0.72])       # an unpainted object: warm light grey
 DEFAULT_HORIZON = np.array([0.86, 0.90, 0.96])
 DEFAULT_ZENITH = np.array([0.32, 0.52, 0.84])
+SUN_COLOR = np.array([1.0, 0.97, 0.92])            # the default sun's, and --light's
 AMBIENT = 0.22
 AO_DISTANCE = 0.15          # default --ao-distance, a fraction of the object's box diagonal
 EPS = 1e-6
@@ -56,9 +57,10 @@ class Lighting:
 
 
 def make_lighting(traced, camera, shadows=True, shadow_samples=8, max_bounces=3, ao=None,
-                  ao_distance=None) -> Lighting:
+                  ao_distance=None, light_at=None) -> Lighting:
     """`ao` / `ao_distance` None: the file's #occlusion, else no occlusion and a distance
-    of AO_DISTANCE times the object's (finite) box diagonal."""
+    of AO_DISTANCE times the object's (finite) box diagonal. `light_at`: one point light
+    there, in the default sun's colour, instead of the file's lights (--light)."""
     scene = traced.graph.scene
     sky = scene.sky
     horizon = np.array(sky.get("horizon", sky.get("color", DEFAULT_HORIZON)), float)
@@ -66,7 +68,9 @@ def make_lighting(traced, camera, shadows=True, shadow_samples=8, max_bounces=3,
     lights = [Light(np.array(l.get("at", (0.0, 0.0, 10.0)), float),
                     np.array(l.get("color", (1.0, 1.0, 1.0)), float), float(l.get("radius", 0.0)))
               for l in scene.lights]
-    if not lights:
+    if light_at is not None:
+        lights = [Light(np.array(light_at, float), SUN_COLOR.copy())]
+    elif not lights:
         lights = [default_light(camera)]
     mats = np.array([[*scene.materials[name]["color"],
                       *(scene.materials[name][k] for k in FINISH_KEYS)]
@@ -86,7 +90,7 @@ def default_light(camera) -> Light:
     dist = np.linalg.norm(camera.at - camera.eye)
     pos = camera.at + (-0.6 * right + 1.1 * up - 0.4 * fwd) * 10 * max(dist, 1.0)
     pos[2] = max(pos[2], camera.at[2] + 5 * max(dist, 1.0))
-    return Light(pos, np.array([1.0, 0.97, 0.92]), 0.0)
+    return Light(pos, SUN_COLOR.copy(), 0.0)
 
 
 def _finish(light: Lighting, material: np.ndarray, paint: np.ndarray):
