@@ -90,7 +90,8 @@ def check_options(o: Options) -> str | None:
     if not 1 <= o.max_instances <= 2 ** 62:
         return f"--max-instances {o.max_instances}: give a positive number"
     if o.light is not None and not all(math.isfinite(v) for v in o.light):
-        return f"--light {','.join(f'{v:g}' for v in o.light)}: give a point with finite coordinates"
+        point = ",".join(f"{v:g}" for v in o.light)
+        return f"--light {point}: give a point with finite coordinates"
     if o.fov is not None and not 0 < o.fov < 180:
         return f"--fov {o.fov}: the vertical field of view is between 0 and 180 degrees"
     return None
