@@ -232,3 +232,19 @@ def test_a_light_that_is_not_a_point_is_a_usage_error(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--light 1,nan,2: give a point with finite coordinates" in err
     assert not (tmp_path / "x.png").exists()
+
+
+def test_srgb_follows_the_standards_two_pieces():
+    """to_srgb works in place where it can; it is still the sRGB transfer function:
+    12.92 x up to 0.0031308, 1.055 x^(1/2.4) - 0.055 above, clipped to [0, 1], and it
+    leaves its input alone."""
+    from pcsg.render.image import to_srgb
+    x = np.array([[-0.5, 0.0, 0.001, 0.0031308], [0.0031309, 0.18, 1.0, 7.0]])
+    before = x.copy()
+    got = to_srgb(x)
+    assert np.array_equal(x, before)
+    want = [[0.0, 0.0, 0.01292, 12.92 * 0.0031308],
+            [1.055 * 0.0031309 ** (1 / 2.4) - 0.055, 1.055 * 0.18 ** (1 / 2.4) - 0.055,
+             1.0, 1.0]]
+    assert np.allclose(got, want, rtol=0, atol=1e-15)
+    assert abs(got[1, 1] - 0.4613561295) < 1e-9        # mid grey

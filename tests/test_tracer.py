@@ -274,6 +274,35 @@ def test_a_system_that_ends_within_the_budget_is_not_cut(monkeypatch):
     assert not complete and depth == 64 and np.all(np.isinf(space))
 
 
+def table_entries(table):
+    keys, used, vals = table
+    return {int(keys[i]): (int(used[i]), tuple(vals[i])) for i in np.flatnonzero(used)}
+
+
+def test_a_deeper_walk_over_budget_falls_back_to_the_last_walks_table(monkeypatch):
+    """While a deeper walk runs, the last walk's table is kept compact (its entries
+    only); when the deeper walk goes over budget, the table is built again from them:
+    the same entries as a walk to that depth makes."""
+    monkeypatch.setattr(bounds, "MAX_STATES", 0)
+    g = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=6).graph
+    real = boxwalk._walk_to
+
+    def over_budget_below_5(flat, empty, depth, max_depth, budget, instances):
+        if depth > 5:
+            return empty.copy(), -1, 0, boxwalk.empty_table(boxwalk.TABLE_SLOTS)
+        return real(flat, empty, depth, max_depth, budget, instances)
+
+    monkeypatch.setattr(boxwalk, "_walk_to", over_budget_below_5)
+    boxes, complete, table, depth = walk_boxes(g, instances=True)
+    assert complete and depth == 5
+    monkeypatch.setattr(boxwalk, "FIRST_DEPTH", 5)      # one walk, straight to depth 5
+    direct, complete, direct_table, depth = walk_boxes(g, max_depth=5, instances=True)
+    assert complete and depth == 5
+    assert np.array_equal(boxes, direct)
+    got = table_entries(table)
+    assert len(got) > 1000 and got == table_entries(direct_table)
+
+
 def test_instance_box_table_agrees_with_the_reference(monkeypatch):
     """Systems with too many states for memoising get per-instance boxes from the compiled
     walk; culling by them must not lose anything the reference sees."""
@@ -304,3 +333,24 @@ def test_a_walk_that_never_meets_a_state_twice_gives_up_early():
     finally:
         bounds._Walker.box = real
     assert bounds.PROBE_STATES <= max(seen) < bounds.MAX_STATES
+
+
+def test_padding_in_place_and_by_slices_widens_every_box_alike(monkeypatch):
+    """The instance table's boxes are padded in place, a slice of rows at a time; the
+    result is the same as padding a copy in one piece, infinite and empty sides too."""
+    from pcsg import tracer
+    rng = np.random.default_rng(7)
+    boxes = rng.normal(size=(50, 6)) * 10.0 ** rng.integers(-6, 6, size=(50, 6))
+    boxes[::5, 2] = np.inf
+    boxes[::7, 3] = -np.inf
+    boxes[::9] = [np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf]     # empty
+    whole = tracer._pad(boxes)
+    assert not np.array_equal(whole, boxes)
+    finite = np.isfinite(boxes)
+    assert np.all(whole[:, :3][finite[:, :3]] < boxes[:, :3][finite[:, :3]])
+    assert np.all(whole[:, 3:][finite[:, 3:]] > boxes[:, 3:][finite[:, 3:]])
+    assert np.array_equal(whole[~finite], boxes[~finite])
+    monkeypatch.setattr(tracer, "PAD_ROWS", 7)          # slices that do not divide 50
+    inplace = boxes.copy()
+    assert tracer._pad(inplace, out=inplace) is inplace
+    assert np.array_equal(inplace, whole)

@@ -184,13 +184,22 @@ def sample_ids(pixels: np.ndarray, k: int, width: int, height: int) -> np.ndarra
 
 
 def to_srgb(linear: np.ndarray) -> np.ndarray:
+    # in place where it can be: whole-image temporaries were the peak of a render's memory
     x = np.clip(linear, 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+    low = x <= 0.0031308
+    out = np.power(x, 1 / 2.4)
+    out *= 1.055
+    out -= 0.055
+    x *= 12.92
+    np.copyto(out, x, where=low)
+    return out
 
 
 def pixels(frame: Frame, alpha: bool) -> np.ndarray:
     """The PNG's samples: (h, w, 3) uint8 sRGB, or (h, w, 4) with --alpha."""
-    srgb = np.round(to_srgb(frame.object_rgb if alpha else frame.rgb) * 255).astype(np.uint8)
+    srgb = to_srgb(frame.object_rgb if alpha else frame.rgb)
+    srgb *= 255
+    srgb = np.round(srgb, out=srgb).astype(np.uint8)
     if not alpha:
         return srgb
     # the background is transparent: colour where the object covers the pixel

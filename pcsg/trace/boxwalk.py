@@ -13,7 +13,8 @@ from numba import njit
 from ..graph.model import (CALC, INTERSECTION, MATERIAL, PAINT, PRIMITIVE, SELECT,
                            TRANSFORM, UNION)
 from . import vm
-from .instance_table import TABLE_SLOTS, append, empty_table, new_book, record
+from .instance_table import (TABLE_SLOTS, append, compact, empty_table, expand, new_book,
+                             record)
 from .nodes import node_affine, pick_rule, run_calc
 from .fractals import A_R
 from .primitives import BOXES, FRACTAL_MIN
@@ -237,8 +238,8 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
         boxes, visits, changed, table = _walk_to(flat, empty, depth, max_depth, budget,
                                                  instances)
         if visits < 0:
+            table = None            # over budget: best's table is built again below
             break
-        best = boxes, table, depth
         if depth == max_depth or changed == 0:
             # the bound changed nothing: these are the boxes of every depth
             return boxes, True, table, max_depth
@@ -251,13 +252,16 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
                 cost *= growth
                 deeper += 1
             if deeper == depth:
-                break                   # the next depth would not fit: stop here
+                return boxes, True, table, depth    # the next depth would not fit
+        # kept compact, so that its slots are free while the next walk fills its own
+        best = boxes, compact(table), depth
+        table = None
         last = depth, visits
         depth = deeper
     if best is None:
         boxes = np.tile([-np.inf, -np.inf, -np.inf, np.inf, np.inf, np.inf], (n, 1))
         return boxes, False, empty_table(), max_depth
-    return best[0], True, best[1], best[2]
+    return best[0], True, expand(best[1]), best[2]
 
 
 def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bool):
