@@ -1,0 +1,130 @@
+"""Where the tracing kernel spends its time: a `perf` profile of primary rays, mapped
+onto the kernel's machine code.
+
+    python tools/profile_trace.py [SAMPLE] [--set NAME=VALUE] [--repeat 3] [--top 15]
+
+numba loads the kernel from its cache as an object file with no symbols that `perf`
+can see, so this keeps that object file as numba loads it, records the samples of this
+process while it traces the camera rays of SAMPLE (default carpenter_terrain) on one
+thread, and prints the share of samples in each run of 16 instructions, with the
+instructions of the hottest runs. Needs `perf` (Debian: linux-perf) and binutils.
+"""
+from __future__ import annotations
+
+import argparse
+import collections
+import os
+import re
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numba
+from numba.core.codegen import CPUCodeLibrary
+
+import pcsg
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_trace import primary_rays  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+RUN = 16                    # instructions per reported run
+
+
+def loaded_objects(action):
+    """(library, object code) of every compiled library numba loads during action()."""
+    seen = []
+    original = CPUCodeLibrary._set_compiled_object
+
+    def keep(self, value):
+        seen.append((self, value))
+        return original(self, value)
+
+    CPUCodeLibrary._set_compiled_object = keep
+    try:
+        action()
+    finally:
+        CPUCodeLibrary._set_compiled_object = original
+    return seen
+
+
+def code_range(library, path: Path):
+    """(runtime address, size) of the object file's code section as numba loaded it: the
+    section is loaded in one piece, so a function's address less its offset in the file
+    is the section's address (the walk is inlined into an unnamed part of it)."""
+    out = subprocess.run(["nm", "--defined-only", str(path)], capture_output=True,
+                         text=True, check=True).stdout
+    engine = library._codegen._engine._ee
+    base = None
+    for line in out.splitlines():
+        parts = line.split()
+        if len(parts) == 3 and parts[1] == "T":
+            address = engine.get_function_address(parts[2])
+            if address:
+                base = address - int(parts[0], 16)
+                break
+    sections = subprocess.run(["size", "-A", str(path)], capture_output=True, text=True,
+                              check=True).stdout
+    size = max(int(m.group(1)) for m in re.finditer(r"^\.l?text\s+(\d+)", sections, re.M))
+    return base, size
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("sample", nargs="?", default="carpenter_terrain")
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--top", type=int, default=15)
+    ap.add_argument("--size", default="640x480")
+    args = ap.parse_args()
+    width, height = map(int, args.size.split("x"))
+    overrides = {k: float(v) for k, v in (s.split("=") for s in args.set)}
+    obj = pcsg.load(ROOT / "grammars" / f"{args.sample}.pcsg", **overrides)
+    _, o, d = primary_rays(obj, width, height)
+    objects = loaded_objects(lambda: obj.trace(o[:64], d[:64]))
+    if not objects:
+        sys.exit("numba compiled the kernel instead of loading it: run this once more")
+    library, code = max(objects, key=lambda x: len(x[1]))
+    work = Path(tempfile.mkdtemp(prefix="pcsg-profile-"))
+    (work / "kernel.o").write_bytes(code)
+    base, size = code_range(library, work / "kernel.o")
+    numba.set_num_threads(1)
+    perf = subprocess.Popen(["perf", "record", "-q", "-F", "4000", "-o", str(work / "perf.data"),
+                             "-p", str(os.getpid())],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    time.sleep(1.0)                                     # perf attaches
+    start = time.perf_counter()
+    for _ in range(args.repeat):
+        obj.trace(o, d)
+    seconds = (time.perf_counter() - start) / args.repeat
+    perf.send_signal(signal.SIGINT)
+    perf.wait()
+    ips = subprocess.run(["perf", "script", "-i", str(work / "perf.data"), "-F", "ip"],
+                         capture_output=True, text=True, check=True).stdout.split()
+    counts = collections.Counter(int(ip, 16) - base for ip in ips
+                                 if 0 <= int(ip, 16) - base < size)
+    asm = []
+    dump = subprocess.run(["objdump", "-d", "--no-show-raw-insn", str(work / "kernel.o")],
+                          capture_output=True, text=True, check=True).stdout
+    for line in dump.splitlines():
+        m = re.match(r"\s*([0-9a-f]+):\s+(.*)", line)
+        if m:
+            asm.append((int(m.group(1), 16), re.sub(r"<[^>]*>", "", m.group(2)).strip()))
+    inside = sum(counts.values())
+    print(f"{args.sample} {overrides or ''} {width}x{height}: {seconds:.3f} s a trace on one "
+          f"thread; {len(ips)} samples, {inside} in the kernel")
+    runs = collections.Counter()
+    for k, (a, _) in enumerate(asm):
+        runs[k // RUN] += counts.get(a, 0)
+    for k, c in runs.most_common(args.top):
+        print(f"\n{100 * c / max(inside, 1):5.1f} % at {asm[k * RUN][0]:x}:")
+        for a, ins in asm[k * RUN:(k + 1) * RUN]:
+            share = 100 * counts.get(a, 0) / max(inside, 1)
+            print(f"   {share:5.1f} {a:6x}  {ins}")
+
+
+if __name__ == "__main__":
+    main()
