@@ -24,10 +24,10 @@ def empty_table(slots: int = 2):
 
 
 def compact(table):
-    """The table's entries without its empty slots, and its slot count: what a table kept
-    in case the next walk fails costs while that walk fills a table of its own. A hashed
-    table touches a page in every few slots, so it is resident in full even with few
-    entries (26 MiB at the terrain's depth 5)."""
+    """The table's entries without its empty slots, and its slot count. A table kept in
+    case the next walk fails would otherwise stay resident while that walk fills a table
+    of its own, and hashing touches a page every few slots: even a table of few entries is
+    resident in full (26 MiB at the terrain's depth 5)."""
     keys, used, vals = table
     kept = np.flatnonzero(used)
     return keys[kept], used[kept], vals[kept], len(keys)
