@@ -35,16 +35,13 @@ class Hits:
 PAD_ROWS = 1 << 15          # rows padded at a time: bounds the temporaries
 
 
-def _pad(boxes: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+def _pad(boxes: np.ndarray, in_place: bool = False) -> np.ndarray:
     """Widen every box by a relative hair so that rounding in the slab test can never
     cull a primitive whose own exact test would hit (boxes must be conservative).
-    Into `out`, a copy by default; `out=boxes` pads in place. The instance table's boxes
-    are padded in place and a slice at a time: a copy and whole-table temporaries made
-    this the terrain's peak of memory (41 MiB over the rest at order 9)."""
-    if out is None:
-        out = boxes.copy()
-    elif out is not boxes:
-        out[...] = boxes
+    A copy, or `boxes` itself with `in_place`. The instance table's boxes are padded in
+    place and a slice at a time: a copy and whole-table temporaries made this the
+    terrain's peak of memory (41 MiB over the rest at order 9)."""
+    out = boxes if in_place else boxes.copy()
     for r in range(0, len(out), PAD_ROWS):
         part = out[r:r + PAD_ROWS]
         finite = np.isfinite(part)
@@ -82,7 +79,7 @@ class Traced:
         self.volume_choices = volumes.choices
         table = volumes.table
         if table is not None:
-            table = (table[0], table[1], _pad(table[2], out=table[2]))   # nothing else keeps it
+            table = (table[0], table[1], _pad(table[2], in_place=True))   # nothing else keeps it
         spheres = None if self.spheres is None else _pad_spheres(self.spheres)
         # a graftal hit's normal: averaged over the boxes that led to it, else its box's
         self.flat = flatten_graph(graph, _pad(boxes), table,

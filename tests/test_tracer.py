@@ -352,5 +352,5 @@ def test_padding_in_place_and_by_slices_widens_every_box_alike(monkeypatch):
     assert np.array_equal(whole[~finite], boxes[~finite])
     monkeypatch.setattr(tracer, "PAD_ROWS", 7)          # slices that do not divide 50
     inplace = boxes.copy()
-    assert tracer._pad(inplace, out=inplace) is inplace
+    assert tracer._pad(inplace, in_place=True) is inplace
     assert np.array_equal(inplace, whole)
