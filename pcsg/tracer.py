@@ -103,9 +103,11 @@ class Traced:
         return self.boxes[self.graph.root]
 
     def trace(self, origins, directions, tmin: float = 1e-9, tmax: float = np.inf,
-              any_hit: bool = False, lod: float = 0.0) -> Hits:
+              any_hit: bool = False, lod: float = 0.0, packets: bool = True) -> Hits:
         """Trace rays o + t d. `lod` is the pixel footprint in radians (0: no level of
-        detail); `any_hit` stops at the first hit found (shadow rays)."""
+        detail); `any_hit` stops at the first hit found (shadow rays). With `packets`,
+        neighbouring rays walk the graph together (trace/packet.py): the same hits, but
+        on a surface that two primitives share exactly, either may show."""
         o = np.ascontiguousarray(np.asarray(origins, dtype=np.float64).reshape(-1, 3))
         d = np.ascontiguousarray(np.asarray(directions, dtype=np.float64).reshape(-1, 3))
         if o.shape != d.shape:
@@ -118,12 +120,16 @@ class Traced:
             ev = no_events(len(self.graph.nodes), (e - s + CHUNK - 1) // CHUNK)
             trace_rays(self.flat, o[s:e], d[s:e], float(tmin), float(tmax), bool(any_hit),
                        float(lod), self.max_depth, self.limits, numba.get_num_threads(),
-                       out[s:e], ev)
+                       self._packets(packets), out[s:e], ev)
             add_events(events, ev)
         add_events(self.events, events)
         return Hits(t=out[:, R_T], normal=out[:, R_N:R_N + 3], paint=out[:, R_PAINT:R_PAINT + 3],
                     material=out[:, R_MAT].astype(np.int64), hit=out[:, R_HIT] > 0,
                     events=events)
+
+    def _packets(self, wanted: bool) -> bool:
+        # graftal normals average the boxes along each ray's own path: no packets there
+        return bool(wanted) and self.flat.normal_decay == 0.0
 
     def describe_events(self, events: np.ndarray, kinds=None) -> list[str]:
         """One line per kind of thing that happened (of `kinds`: all), naming where."""

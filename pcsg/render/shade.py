@@ -48,6 +48,7 @@ class Lighting:
     ao_samples: int = 0             # hemisphere rays per shading point; 0: no occlusion
     ao_distance: float = 1.0        # occluders farther than this do not count
     lod: float = 0.0
+    packets: bool = __import__('os').environ.get('PCSG_PACKETS', '1') == '1'  # TEMP
     rays: list = field(default_factory=lambda: [0])   # rays traced, for the summary
 
     def sky(self, d: np.ndarray) -> np.ndarray:
@@ -173,7 +174,8 @@ def _shade_kernel(traced, light: Lighting, origins, directions, ids):
                default, bool(light.shadows), int(light.shadow_samples), int(light.max_bounces),
                float(light.lod), traced.max_depth, traced.limits, numba.get_num_threads(),
                AMBIENT, int(light.ao_samples), float(light.ao_distance),
-               np.ascontiguousarray(ids, dtype=np.int64), rgb, t, hit, rays, events)
+               np.ascontiguousarray(ids, dtype=np.int64), traced._packets(light.packets), rgb,
+               t, hit, rays, events)
     add_events(traced.events, events)
     light.rays[0] += int(rays.sum())
     return rgb, t, Hits(t=t, normal=None, paint=None, material=None, hit=hit)

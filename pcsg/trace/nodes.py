@@ -358,56 +358,75 @@ def node_affine(flat, node, params, slot, h, stack, args, m34):
 
 
 @inline
-def enter_transform(flat, node, F, f, params, slot, h, stack, args, m34):
-    """Map frame f's ray into the T-node's child frame, in place. Returns 0 if fine,
-    1 for non-finite arguments, 2 for a singular map (the instance is then empty)."""
+def transform_map(flat, node, params, slot, h, stack, args, m34, m21):
+    """The T-node's map into m21: [L (9) | t (3) | L^-1 (9)] like a row of fixed_map
+    (copied from there where the map is fixed). Returns 0 if fine, 1 for non-finite
+    arguments, 2 for a singular map."""
     if flat.fixed[node]:
-        fm = flat.fixed_map
-        a, b, c = fm[node, 0], fm[node, 1], fm[node, 2]
-        d, e, g = fm[node, 3], fm[node, 4], fm[node, 5]
-        p, q, r = fm[node, 6], fm[node, 7], fm[node, 8]
-        tx, ty, tz = fm[node, 9], fm[node, 10], fm[node, 11]
-        i00, i01, i02 = fm[node, 12], fm[node, 13], fm[node, 14]
-        i10, i11, i12 = fm[node, 15], fm[node, 16], fm[node, 17]
-        i20, i21, i22 = fm[node, 18], fm[node, 19], fm[node, 20]
-    else:
-        if not eval_args(flat, node, params, slot, h, stack, args):
-            return 1
-        affine(flat.code[node], args, m34)
-        a, b, c = m34[0, 0], m34[0, 1], m34[0, 2]
-        d, e, g = m34[1, 0], m34[1, 1], m34[1, 2]
-        p, q, r = m34[2, 0], m34[2, 1], m34[2, 2]
-        tx, ty, tz = m34[0, 3], m34[1, 3], m34[2, 3]
-        c00 = e * r - g * q
-        c01 = g * p - d * r
-        c02 = d * q - e * p
-        det = a * c00 + b * c01 + c * c02
-        if not (det != 0.0 and math.isfinite(det)):
-            return 2
-        inv = 1.0 / det
-        # rows of L^-1 = cofactor(L)^T / det
-        i00, i01, i02 = c00 * inv, (c * q - b * r) * inv, (b * g - c * e) * inv
-        i10, i11, i12 = c01 * inv, (a * r - c * p) * inv, (c * d - a * g) * inv
-        i20, i21, i22 = c02 * inv, (b * p - a * q) * inv, (a * e - b * d) * inv
-    ox = F[f, OX] - tx
-    oy = F[f, OX + 1] - ty
-    oz = F[f, OX + 2] - tz
+        for k in range(21):
+            m21[k] = flat.fixed_map[node, k]
+        return 0
+    if not eval_args(flat, node, params, slot, h, stack, args):
+        return 1
+    affine(flat.code[node], args, m34)
+    a, b, c = m34[0, 0], m34[0, 1], m34[0, 2]
+    d, e, g = m34[1, 0], m34[1, 1], m34[1, 2]
+    p, q, r = m34[2, 0], m34[2, 1], m34[2, 2]
+    c00 = e * r - g * q
+    c01 = g * p - d * r
+    c02 = d * q - e * p
+    det = a * c00 + b * c01 + c * c02
+    if not (det != 0.0 and math.isfinite(det)):
+        return 2
+    inv = 1.0 / det
+    for i in range(3):
+        for j in range(3):
+            m21[3 * i + j] = m34[i, j]
+        m21[9 + i] = m34[i, 3]
+    # rows of L^-1 = cofactor(L)^T / det
+    m21[12], m21[13], m21[14] = c00 * inv, (c * q - b * r) * inv, (b * g - c * e) * inv
+    m21[15], m21[16], m21[17] = c01 * inv, (a * r - c * p) * inv, (c * d - a * g) * inv
+    m21[18], m21[19], m21[20] = c02 * inv, (b * p - a * q) * inv, (a * e - b * d) * inv
+    return 0
+
+
+@inline
+def map_ray(L, F, f, G, g):
+    """G[g]'s ray := frame f's ray of F in the child frame of the map L (g may be f)."""
+    ox = F[f, OX] - L[9]
+    oy = F[f, OX + 1] - L[10]
+    oz = F[f, OX + 2] - L[11]
     dx, dy, dz = F[f, DX], F[f, DX + 1], F[f, DX + 2]
-    F[f, OX] = i00 * ox + i01 * oy + i02 * oz
-    F[f, OX + 1] = i10 * ox + i11 * oy + i12 * oz
-    F[f, OX + 2] = i20 * ox + i21 * oy + i22 * oz
-    F[f, DX] = i00 * dx + i01 * dy + i02 * dz
-    F[f, DX + 1] = i10 * dx + i11 * dy + i12 * dz
-    F[f, DX + 2] = i20 * dx + i21 * dy + i22 * dz
-    set_inverse(F, f)
-    # M <- M L
+    G[g, OX] = L[12] * ox + L[13] * oy + L[14] * oz
+    G[g, OX + 1] = L[15] * ox + L[16] * oy + L[17] * oz
+    G[g, OX + 2] = L[18] * ox + L[19] * oy + L[20] * oz
+    G[g, DX] = L[12] * dx + L[13] * dy + L[14] * dz
+    G[g, DX + 1] = L[15] * dx + L[16] * dy + L[17] * dz
+    G[g, DX + 2] = L[18] * dx + L[19] * dy + L[20] * dz
+    set_inverse(G, g)
+
+
+@inline
+def map_matrix(L, F, f):
+    """Frame f's world-from-local M <- M L."""
     for row in range(3):
         m0 = F[f, M0 + 3 * row]
         m1 = F[f, M0 + 3 * row + 1]
         m2 = F[f, M0 + 3 * row + 2]
-        F[f, M0 + 3 * row] = m0 * a + m1 * d + m2 * p
-        F[f, M0 + 3 * row + 1] = m0 * b + m1 * e + m2 * q
-        F[f, M0 + 3 * row + 2] = m0 * c + m1 * g + m2 * r
+        F[f, M0 + 3 * row] = m0 * L[0] + m1 * L[3] + m2 * L[6]
+        F[f, M0 + 3 * row + 1] = m0 * L[1] + m1 * L[4] + m2 * L[7]
+        F[f, M0 + 3 * row + 2] = m0 * L[2] + m1 * L[5] + m2 * L[8]
+
+
+@inline
+def enter_transform(flat, node, F, f, params, slot, h, stack, args, m34, m21):
+    """Map frame f's ray into the T-node's child frame, in place. Returns 0 if fine,
+    1 for non-finite arguments, 2 for a singular map (the instance is then empty)."""
+    bad = transform_map(flat, node, params, slot, h, stack, args, m34, m21)
+    if bad != 0:
+        return bad
+    map_ray(m21, F, f, F, f)
+    map_matrix(m21, F, f)
     return 0
 
 

@@ -26,6 +26,7 @@ Scratch = namedtuple("Scratch", [
     "order", "keys", "hashes",  # union children sorted by their window, their hashes
     "ckeys", "cvals",       # the cache of calculated states (nodes.cached_calc)
     "visits",   # [S-node instances the current ray entered, the most it may]
+    "m21",      # a T-node's map with its inverse (nodes.transform_map)
 ])
 
 
@@ -44,4 +45,4 @@ def make_scratch(flat, limits):
         np.empty(flat.max_children, dtype=np.int64), np.empty((flat.max_children, 2)),
         np.empty(flat.max_children, dtype=np.uint64),
         np.zeros(slots, dtype=np.uint64), np.empty((slots, flat.n_params)),
-        np.array([0, limits[LIM_INSTANCES]], dtype=np.int64))
+        np.array([0, limits[LIM_INSTANCES]], dtype=np.int64), np.empty(24))

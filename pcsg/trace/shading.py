@@ -1,13 +1,17 @@
 """The shading model of render/shade.py as one parallel numba kernel for the graph
-tracer: camera ray, shadow rays and reflection / refraction bounces of a pixel
-sample run together, on every core, without numpy temporaries between them.
-render/shade.py stays the readable model (and shades --reference renders); the
-tests hold the two to the same colours.
+tracer: camera rays, shadow rays and reflection / refraction bounces run together,
+on every core, without numpy temporaries between them. render/shade.py stays the
+readable model (and shades --reference renders); the tests hold the two to the same
+colours.
 
-A sample's pending rays (the camera ray, then its bounces) sit on a small stack,
-each with the weight its colour enters the pixel with: a surface keeps
-(1 - kr)(1 - kt) of its own colour, passes kr(1 - kt) to its reflection and kt
-to its refraction, exactly the blend shade.py applies on the way back up.
+The rays of a chunk of 64 pixel samples are traced as packets (packet.py): the
+camera rays; for the surfaces they hit, one packet per occlusion direction and one
+per light sample; then the reflected and the refracted rays as two more packets.
+Pending packets sit on a small stack, the one of bounce depth d at d, each ray with
+its pixel and the weight its colour enters the pixel with: a surface keeps
+(1 - kr)(1 - kt) of its own colour, passes kr(1 - kt) to its reflection and kt to
+its refraction, exactly the blend shade.py applies on the way back up. A pixel gets
+its terms in the order a depth-first walk of its own rays adds them.
 
 Ambient occlusion shifts one fixed pattern of hemisphere directions by two numbers
 hashed from the camera ray's id (its pixel and sample), never from the thread that
@@ -20,186 +24,309 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .jit import kernel
+from .jit import inline, kernel
+from .packet import PACKET, make_packet, trace
 from .scratch import make_scratch
 from .vm import hash_to_unit, splitmix64
-from .walk import R_MAT, R_N, R_PAINT, R_T, R_WIDTH, first_hit
+from .walk import R_HIT, R_MAT, R_N, R_PAINT, R_T, R_WIDTH
 
-CHUNK = 64
+CHUNK = PACKET
 EPS = 1e-6
 # light rows: position (3), colour (3), radius; material rows as shade.py's table
 L_POS, L_COLOR, L_RADIUS = 0, 3, 6
-P_O, P_D, P_W, P_DEPTH, P_CONE = 0, 3, 6, 9, 10     # pending-ray columns
+P_O, P_D, P_W, P_CONE, P_PIX = 0, 3, 6, 9, 10     # pending-ray columns
+P_WIDTH = 11
+# a surface being shaded: offset point, unit normal, unit ray direction, hit point,
+# colour so far, weight, base colour; then its finish and what its bounces need
+SH_Q, SH_N, SH_U, SH_P, SH_C, SH_W, SH_B = 0, 3, 6, 9, 12, 15, 18
+(SH_KD, SH_KS, SH_SHIN, SH_REFL, SH_IOR, SH_TRANS, SH_INSIDE, SH_CONE, SH_SCALE, SH_PIX,
+ SH_SEEN) = range(21, 32)
+SH_WIDTH = 32
 GOLDEN = 0.6180339887498949                    # the pattern's azimuths: k * GOLDEN mod 1
-
-
-@kernel
-def trace_one(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_depth, S, ev,
-              res):
-    """first_hit into res[0] behind one call site, so that the walk is compiled once."""
-    return first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_depth,
-                     S, ev, res, 0)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, default,
                shadows, shadow_samples, max_bounces, lod, max_depth, limits, workers, ambient,
-               ao_samples, ao_distance, ids, rgb, first_t, first_hit_out, rays, events):
+               ao_samples, ao_distance, ids, together, rgb, first_t, first_hit_out, rays,
+               events):
     """rgb[i] = the linear colour of camera ray i; first_t / first_hit_out its first hit;
     rays[chunk] = rays traced; events[chunk] as trace_rays. ids[i] seeds the ambient
-    occlusion pattern of ray i and of its bounces."""
+    occlusion pattern of ray i and of its bounces. With `together` the rays of each
+    packet walk the graph together."""
+    for w in prange(workers):
+        shade_share(flat, origins, directions, lights, horizon, zenith, materials, default,
+                    shadows, shadow_samples, max_bounces, lod, max_depth, limits, w, workers,
+                    ambient, ao_samples, ao_distance, ids, together, rgb, first_t,
+                    first_hit_out, rays, events)
+
+
+@njit(cache=True, error_model="numpy")
+def shade_share(flat, origins, directions, lights, horizon, zenith, materials, default,
+                shadows, shadow_samples, max_bounces, lod, max_depth, limits, w, workers,
+                ambient, ao_samples, ao_distance, ids, together, rgb, first_t, first_hit_out,
+                rays, events):
+    """Worker w's share of shade_rays: every workers-th chunk, with scratch of its own.
+    Its own function, not the prange body: numba's parallel passes over such a body
+    gave wrong hits."""
     n = origins.shape[0]
     chunks = (n + CHUNK - 1) // CHUNK
-    for w in prange(workers):
-        S = make_scratch(flat, limits)
-        res = np.empty((1, R_WIDTH))
-        pend = np.empty((2 * max_bounces + 2, 11))
-        for c in range(w, chunks, workers):
-            ev = events[c]
-            count = 0
-            for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-                for k in range(3):
-                    pend[0, P_O + k] = origins[i, k]
-                    pend[0, P_D + k] = directions[i, k]
-                    pend[0, P_W + k] = 1.0
-                    rgb[i, k] = 0.0
-                pend[0, P_DEPTH] = 0.0
-                pend[0, P_CONE] = 0.0
-                top = 1
-                first = True
-                while top > 0:
-                    top -= 1
-                    o0, o1, o2 = pend[top, P_O], pend[top, P_O + 1], pend[top, P_O + 2]
-                    d0, d1, d2 = pend[top, P_D], pend[top, P_D + 1], pend[top, P_D + 2]
-                    w0, w1, w2 = pend[top, P_W], pend[top, P_W + 1], pend[top, P_W + 2]
-                    depth = int(pend[top, P_DEPTH])
-                    cone = pend[top, P_CONE]
-                    hit = trace_one(flat, o0, o1, o2, d0, d1, d2, 1e-9, np.inf, False, lod,
-                                    cone, max_depth, S, ev, res)
-                    count += 1
-                    if first:
-                        first_t[i] = res[0, R_T]
-                        first_hit_out[i] = hit
-                        first = False
-                    dn = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-                    if not hit:
-                        s = min(max(d2 / max(dn, 1e-300), 0.0), 1.0) ** 0.6
-                        for k in range(3):
-                            rgb[i, k] += (w0, w1, w2)[k] * (horizon[k] * (1 - s) + zenith[k] * s)
-                        continue
-                    t = res[0, R_T]
-                    cone += lod * t * dn          # the pixel's width here: rays from it start so
-                    u0, u1, u2 = d0 / dn, d1 / dn, d2 / dn
-                    p0, p1, p2 = o0 + t * d0, o1 + t * d1, o2 + t * d2
-                    n0, n1, n2 = res[0, R_N], res[0, R_N + 1], res[0, R_N + 2]
-                    inside = n0 * u0 + n1 * u1 + n2 * u2 > 0.0
-                    if inside:
-                        n0, n1, n2 = -n0, -n1, -n2
-                    # finish: the material's (or the default), the paint's colour wins
-                    mat = int(res[0, R_MAT])
-                    fin = materials[mat] if mat >= 0 else default
-                    b0, b1, b2 = fin[0], fin[1], fin[2]
-                    if not math.isnan(res[0, R_PAINT]):
-                        b0 = max(res[0, R_PAINT], 0.0)
-                        b1 = max(res[0, R_PAINT + 1], 0.0)
-                        b2 = max(res[0, R_PAINT + 2], 0.0)
-                    kd, ks, shin = fin[3], fin[4], fin[5]
-                    reflect, ior, transmit = fin[6], fin[7], fin[8]
-                    up = min(max(n2 * 0.5 + 0.5, 0.0), 1.0)
-                    c0 = ambient * b0 * (horizon[0] * (1 - up) + zenith[0] * up)
-                    c1 = ambient * b1 * (horizon[1] * (1 - up) + zenith[1] * up)
-                    c2 = ambient * b2 * (horizon[2] * (1 - up) + zenith[2] * up)
-                    scale = 1.0 + max(abs(p0), abs(p1), abs(p2))
-                    q0, q1, q2 = (p0 + n0 * EPS * scale, p1 + n1 * EPS * scale,
-                                  p2 + n2 * EPS * scale)
-                    if ao_samples > 0:
-                        h = splitmix64(np.uint64(ids[i]))
-                        r1, r2 = hash_to_unit(h), hash_to_unit(splitmix64(h))
-                        seen = 0
-                        for k in range(ao_samples):
-                            a0, a1, a2 = hemisphere(k, ao_samples, r1, r2, n0, n1, n2)
-                            blocked = trace_one(flat, q0, q1, q2, a0, a1, a2, 1e-9,
-                                                ao_distance, True, lod, cone, max_depth, S, ev,
-                                                res)
-                            count += 1
-                            if not blocked:
-                                seen += 1
-                        unoccluded = seen / ao_samples
-                        c0 *= unoccluded
-                        c1 *= unoccluded
-                        c2 *= unoccluded
-                    for li in range(lights.shape[0]):
-                        t0 = lights[li, L_POS] - q0
-                        t1 = lights[li, L_POS + 1] - q1
-                        t2 = lights[li, L_POS + 2] - q2
-                        dist = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
-                        l0, l1, l2 = t0 / dist, t1 / dist, t2 / dist
-                        vis = 1.0
-                        if shadows:
-                            radius = lights[li, L_RADIUS]
-                            samples = shadow_samples if radius > 0 else 1
-                            seen = 0
-                            for k in range(samples):
-                                g0 = lights[li, L_POS]
-                                g1 = lights[li, L_POS + 1]
-                                g2 = lights[li, L_POS + 2]
-                                if samples > 1:
-                                    e0, e1, e2 = disk(k, samples, radius, l0, l1, l2)
-                                    g0 += e0
-                                    g1 += e1
-                                    g2 += e2
-                                blocked = trace_one(flat, q0, q1, q2, g0 - q0, g1 - q1,
-                                                    g2 - q2, 1e-9, 1.0 - 1e-9, True, lod,
-                                                    cone, max_depth, S, ev, res)
-                                count += 1
-                                if not blocked:
-                                    seen += 1
-                            vis = seen / samples
-                        ndl = max(n0 * l0 + n1 * l1 + n2 * l2, 0.0)
-                        ln = l0 * n0 + l1 * n1 + l2 * n2
-                        r0, r1, r2 = l0 - 2 * ln * n0, l1 - 2 * ln * n1, l2 - 2 * ln * n2
-                        spec = max(r0 * u0 + r1 * u1 + r2 * u2, 0.0) ** shin
-                        lit = 1.0 if ndl > 0 else 0.0
-                        c0 += vis * lights[li, L_COLOR] * (kd * b0 * ndl + ks * spec * lit)
-                        c1 += vis * lights[li, L_COLOR + 1] * (kd * b1 * ndl + ks * spec * lit)
-                        c2 += vis * lights[li, L_COLOR + 2] * (kd * b2 * ndl + ks * spec * lit)
-                    keep = 1.0
-                    if depth < max_bounces:
-                        cos_i = -(u0 * n0 + u1 * n1 + u2 * n2)
-                        eta = ior if inside else 1.0 / max(ior, 1e-9)
-                        kk = 1 - eta * eta * (1 - cos_i * cos_i)
-                        f0 = ((1 - ior) / (1 + ior)) ** 2
-                        fresnel = 1.0 if kk < 0 else f0 + (1 - f0) * (1 - cos_i) ** 5
-                        kr = min(max(reflect + transmit * fresnel, 0.0), 1.0)
-                        kt = 0.0 if kk < 0 else transmit * (1 - fresnel)
-                        pass_t = 1.0 - kt if kt > 1e-3 else 1.0
-                        if kr > 1e-3:
-                            keep *= 1.0 - kr
-                            wr = kr * pass_t
-                            _push(pend, top, q0, q1, q2, u0 + 2 * cos_i * n0,
-                                  u1 + 2 * cos_i * n1, u2 + 2 * cos_i * n2,
-                                  w0 * wr, w1 * wr, w2 * wr, depth + 1, cone)
-                            top += 1
-                        if kt > 1e-3:
-                            keep *= 1.0 - kt
-                            a = eta * cos_i - math.sqrt(max(kk, 0.0))
-                            _push(pend, top, p0 - n0 * EPS * scale, p1 - n1 * EPS * scale,
-                                  p2 - n2 * EPS * scale, eta * u0 + a * n0, eta * u1 + a * n1,
-                                  eta * u2 + a * n2, w0 * kt, w1 * kt, w2 * kt, depth + 1, cone)
-                            top += 1
-                    rgb[i, 0] += w0 * keep * c0
-                    rgb[i, 1] += w1 * keep * c1
-                    rgb[i, 2] += w2 * keep * c2
-            rays[c] = count
+    S = make_scratch(flat, limits)
+    P = make_packet(flat)
+    res = np.empty((PACKET, R_WIDTH))
+    occ = np.empty((PACKET, R_WIDTH))
+    sh = np.empty((PACKET, SH_WIDTH))
+    pend = np.empty((max_bounces + 2, PACKET, P_WIDTH))
+    count = np.zeros(max_bounces + 2, dtype=np.int64)
+    depths = np.zeros(max_bounces + 2, dtype=np.int64)
+    for c in range(w, chunks, workers):
+        ev = events[c]
+        i0 = c * CHUNK
+        m = min(n, i0 + CHUNK) - i0
+        for k in range(m):
+            for a in range(3):
+                pend[0, k, P_O + a] = origins[i0 + k, a]
+                pend[0, k, P_D + a] = directions[i0 + k, a]
+                pend[0, k, P_W + a] = 1.0
+                rgb[i0 + k, a] = 0.0
+            pend[0, k, P_CONE] = 0.0
+            pend[0, k, P_PIX] = i0 + k
+        count[0] = m
+        depths[0] = 0
+        top = 1
+        traced = 0
+        while top > 0:
+            top -= 1
+            depth = depths[top]
+            m = count[top]
+            for k in range(m):
+                for a in range(3):
+                    P.O[k, a] = pend[top, k, P_O + a]
+                    P.D[k, a] = pend[top, k, P_D + a]
+                P.cone[k] = pend[top, k, P_CONE]
+            trace(flat, m, 1e-9, np.inf, False, lod, max_depth, S, P, together, ev, res)
+            if traced == 0:         # the camera rays
+                for k in range(m):
+                    first_t[i0 + k] = res[k, R_T]
+                    first_hit_out[i0 + k] = res[k, R_HIT] > 0.0
+            traced += m
+            hits = surfaces(pend, top, m, res, horizon, zenith, materials, default,
+                            ambient, lod, P, sh, rgb)
+            if hits == 0:
+                continue
+            if ao_samples > 0:
+                traced += occlusion(flat, hits, ao_samples, ao_distance, ids, lod,
+                                    max_depth, S, P, together, ev, occ, sh)
+            for li in range(lights.shape[0]):
+                traced += light_up(flat, lights, li, shadows, shadow_samples, hits, lod,
+                                   max_depth, S, P, together, ev, occ, sh)
+            top = bounce(pend, count, depths, top, depth, max_bounces, hits, sh, rgb)
+        rays[c] = traced
 
 
 @kernel
-def _push(pend, top, o0, o1, o2, d0, d1, d2, w0, w1, w2, depth, cone):
-    pend[top, P_O], pend[top, P_O + 1], pend[top, P_O + 2] = o0, o1, o2
-    pend[top, P_D], pend[top, P_D + 1], pend[top, P_D + 2] = d0, d1, d2
-    pend[top, P_W], pend[top, P_W + 1], pend[top, P_W + 2] = w0, w1, w2
-    pend[top, P_DEPTH] = depth
-    pend[top, P_CONE] = cone
+def surfaces(pend, top, m, res, horizon, zenith, materials, default, ambient, lod, P, sh,
+             rgb):
+    """The packet's misses add the sky to their pixels; its hits go into sh with their
+    ambient colour. Returns how many hit."""
+    hits = 0
+    for k in range(m):
+        i = int(pend[top, k, P_PIX])
+        w = (pend[top, k, P_W], pend[top, k, P_W + 1], pend[top, k, P_W + 2])
+        d0, d1, d2 = P.D[k, 0], P.D[k, 1], P.D[k, 2]
+        dn = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        if res[k, R_HIT] == 0.0:
+            s = min(max(d2 / max(dn, 1e-300), 0.0), 1.0) ** 0.6
+            for a in range(3):
+                rgb[i, a] += w[a] * (horizon[a] * (1 - s) + zenith[a] * s)
+            continue
+        j = hits
+        hits += 1
+        t = res[k, R_T]
+        sh[j, SH_CONE] = P.cone[k] + lod * t * dn   # the pixel's width here: rays from
+        u = (d0 / dn, d1 / dn, d2 / dn)             # it start so
+        p = (P.O[k, 0] + t * d0, P.O[k, 1] + t * d1, P.O[k, 2] + t * d2)
+        n0, n1, n2 = res[k, R_N], res[k, R_N + 1], res[k, R_N + 2]
+        inside = n0 * u[0] + n1 * u[1] + n2 * u[2] > 0.0
+        if inside:
+            n0, n1, n2 = -n0, -n1, -n2
+        nrm = (n0, n1, n2)
+        # finish: the material's (or the default), the paint's colour wins
+        mat = int(res[k, R_MAT])
+        fin = materials[mat] if mat >= 0 else default
+        b = (fin[0], fin[1], fin[2])
+        if not math.isnan(res[k, R_PAINT]):
+            b = (max(res[k, R_PAINT], 0.0), max(res[k, R_PAINT + 1], 0.0),
+                 max(res[k, R_PAINT + 2], 0.0))
+        up = min(max(n2 * 0.5 + 0.5, 0.0), 1.0)
+        scale = 1.0 + max(abs(p[0]), abs(p[1]), abs(p[2]))
+        for a in range(3):
+            sh[j, SH_Q + a] = p[a] + nrm[a] * EPS * scale
+            sh[j, SH_N + a] = nrm[a]
+            sh[j, SH_U + a] = u[a]
+            sh[j, SH_P + a] = p[a]
+            sh[j, SH_C + a] = ambient * b[a] * (horizon[a] * (1 - up) + zenith[a] * up)
+            sh[j, SH_W + a] = w[a]
+            sh[j, SH_B + a] = b[a]
+        sh[j, SH_KD], sh[j, SH_KS], sh[j, SH_SHIN] = fin[3], fin[4], fin[5]
+        sh[j, SH_REFL], sh[j, SH_IOR], sh[j, SH_TRANS] = fin[6], fin[7], fin[8]
+        sh[j, SH_INSIDE] = 1.0 if inside else 0.0
+        sh[j, SH_SCALE] = scale
+        sh[j, SH_PIX] = i
+    return hits
+
+
+@inline
+def aim(P, j, sh, d0, d1, d2):
+    """Ray j of the packet: from surface j's offset point along d."""
+    for a in range(3):
+        P.O[j, a] = sh[j, SH_Q + a]
+    P.D[j, 0] = d0
+    P.D[j, 1] = d1
+    P.D[j, 2] = d2
+    P.cone[j] = sh[j, SH_CONE]
+
+
+@kernel
+def occlusion(flat, hits, ao_samples, ao_distance, ids, lod, max_depth, S, P, together, ev,
+              occ, sh):
+    """Ambient occlusion: one packet of rays per direction of the pattern; scales each
+    surface's colour by the fraction of them that escape. Returns the rays traced."""
+    for j in range(hits):
+        sh[j, SH_SEEN] = 0.0
+    for s in range(ao_samples):
+        for j in range(hits):
+            h = splitmix64(np.uint64(ids[int(sh[j, SH_PIX])]))
+            r1, r2 = hash_to_unit(h), hash_to_unit(splitmix64(h))
+            a0, a1, a2 = hemisphere(s, ao_samples, r1, r2, sh[j, SH_N], sh[j, SH_N + 1],
+                                    sh[j, SH_N + 2])
+            aim(P, j, sh, a0, a1, a2)
+        trace(flat, hits, 1e-9, ao_distance, True, lod, max_depth, S, P, together, ev, occ)
+        for j in range(hits):
+            if occ[j, R_HIT] == 0.0:
+                sh[j, SH_SEEN] += 1.0
+    for j in range(hits):
+        unoccluded = sh[j, SH_SEEN] / ao_samples
+        for a in range(3):
+            sh[j, SH_C + a] *= unoccluded
+    return hits * ao_samples
+
+
+@inline
+def to_light(lights, li, sh, j):
+    """The unit direction from surface j's offset point to light li's centre."""
+    t0 = lights[li, L_POS] - sh[j, SH_Q]
+    t1 = lights[li, L_POS + 1] - sh[j, SH_Q + 1]
+    t2 = lights[li, L_POS + 2] - sh[j, SH_Q + 2]
+    dist = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+    return t0 / dist, t1 / dist, t2 / dist
+
+
+@kernel
+def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S, P, together,
+             ev, occ, sh):
+    """Light li's diffuse and specular terms on every surface, times the fraction of
+    its samples that no shadow ray finds blocked (one packet per sample). Returns the
+    rays traced."""
+    radius = lights[li, L_RADIUS]
+    samples = shadow_samples if radius > 0 else 1
+    for j in range(hits):
+        sh[j, SH_SEEN] = 0.0
+    if shadows:
+        for s in range(samples):
+            for j in range(hits):
+                g0 = lights[li, L_POS]
+                g1 = lights[li, L_POS + 1]
+                g2 = lights[li, L_POS + 2]
+                if samples > 1:
+                    l0, l1, l2 = to_light(lights, li, sh, j)
+                    e0, e1, e2 = disk(s, samples, radius, l0, l1, l2)
+                    g0 += e0
+                    g1 += e1
+                    g2 += e2
+                aim(P, j, sh, g0 - sh[j, SH_Q], g1 - sh[j, SH_Q + 1], g2 - sh[j, SH_Q + 2])
+            trace(flat, hits, 1e-9, 1.0 - 1e-9, True, lod, max_depth, S, P, together, ev, occ)
+            for j in range(hits):
+                if occ[j, R_HIT] == 0.0:
+                    sh[j, SH_SEEN] += 1.0
+    for j in range(hits):
+        vis = sh[j, SH_SEEN] / samples if shadows else 1.0
+        l0, l1, l2 = to_light(lights, li, sh, j)
+        n0, n1, n2 = sh[j, SH_N], sh[j, SH_N + 1], sh[j, SH_N + 2]
+        ndl = max(n0 * l0 + n1 * l1 + n2 * l2, 0.0)
+        ln = l0 * n0 + l1 * n1 + l2 * n2
+        r0, r1, r2 = l0 - 2 * ln * n0, l1 - 2 * ln * n1, l2 - 2 * ln * n2
+        spec = max(r0 * sh[j, SH_U] + r1 * sh[j, SH_U + 1] + r2 * sh[j, SH_U + 2],
+                   0.0) ** sh[j, SH_SHIN]
+        lit = 1.0 if ndl > 0 else 0.0
+        kd, ks = sh[j, SH_KD], sh[j, SH_KS]
+        for a in range(3):
+            sh[j, SH_C + a] += vis * lights[li, L_COLOR + a] * (kd * sh[j, SH_B + a] * ndl
+                                                                + ks * spec * lit)
+    return hits * samples if shadows else 0
+
+
+@kernel
+def bounce(pend, count, depths, top, depth, max_bounces, hits, sh, rgb):
+    """Each surface adds the colour it keeps to its pixel and passes the rest on: its
+    reflected ray into a packet at `top` of the stack, its refracted one into the
+    packet above (traced first, in the order shade.py adds them). Returns the new
+    top of the stack."""
+    nr = 0
+    nt = 0
+    for j in range(hits):
+        keep = 1.0
+        w0, w1, w2 = sh[j, SH_W], sh[j, SH_W + 1], sh[j, SH_W + 2]
+        if depth < max_bounces:
+            u0, u1, u2 = sh[j, SH_U], sh[j, SH_U + 1], sh[j, SH_U + 2]
+            n0, n1, n2 = sh[j, SH_N], sh[j, SH_N + 1], sh[j, SH_N + 2]
+            ior, transmit = sh[j, SH_IOR], sh[j, SH_TRANS]
+            cos_i = -(u0 * n0 + u1 * n1 + u2 * n2)
+            eta = ior if sh[j, SH_INSIDE] > 0.0 else 1.0 / max(ior, 1e-9)
+            kk = 1 - eta * eta * (1 - cos_i * cos_i)
+            f0 = ((1 - ior) / (1 + ior)) ** 2
+            fresnel = 1.0 if kk < 0 else f0 + (1 - f0) * (1 - cos_i) ** 5
+            kr = min(max(sh[j, SH_REFL] + transmit * fresnel, 0.0), 1.0)
+            kt = 0.0 if kk < 0 else transmit * (1 - fresnel)
+            pass_t = 1.0 - kt if kt > 1e-3 else 1.0
+            if kr > 1e-3:
+                keep *= 1.0 - kr
+                wr = kr * pass_t
+                _push(pend, top, nr, sh[j, SH_Q], sh[j, SH_Q + 1], sh[j, SH_Q + 2],
+                      u0 + 2 * cos_i * n0, u1 + 2 * cos_i * n1, u2 + 2 * cos_i * n2,
+                      w0 * wr, w1 * wr, w2 * wr, sh[j, SH_CONE], sh[j, SH_PIX])
+                nr += 1
+            if kt > 1e-3:
+                keep *= 1.0 - kt
+                a = eta * cos_i - math.sqrt(max(kk, 0.0))
+                e = EPS * sh[j, SH_SCALE]
+                _push(pend, top + 1, nt, sh[j, SH_P] - n0 * e, sh[j, SH_P + 1] - n1 * e,
+                      sh[j, SH_P + 2] - n2 * e, eta * u0 + a * n0, eta * u1 + a * n1,
+                      eta * u2 + a * n2, w0 * kt, w1 * kt, w2 * kt, sh[j, SH_CONE],
+                      sh[j, SH_PIX])
+                nt += 1
+        i = int(sh[j, SH_PIX])
+        rgb[i, 0] += w0 * keep * sh[j, SH_C]
+        rgb[i, 1] += w1 * keep * sh[j, SH_C + 1]
+        rgb[i, 2] += w2 * keep * sh[j, SH_C + 2]
+    count[top] = nr
+    count[top + 1] = nt
+    depths[top] = depth + 1
+    depths[top + 1] = depth + 1
+    if nt > 0:
+        return top + 2
+    if nr > 0:
+        return top + 1
+    return top
+
+
+@kernel
+def _push(pend, p, k, o0, o1, o2, d0, d1, d2, w0, w1, w2, cone, pix):
+    pend[p, k, P_O], pend[p, k, P_O + 1], pend[p, k, P_O + 2] = o0, o1, o2
+    pend[p, k, P_D], pend[p, k, P_D + 1], pend[p, k, P_D + 2] = d0, d1, d2
+    pend[p, k, P_W], pend[p, k, P_W + 1], pend[p, k, P_W + 2] = w0, w1, w2
+    pend[p, k, P_CONE] = cone
+    pend[p, k, P_PIX] = pix
 
 
 @kernel

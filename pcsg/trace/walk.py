@@ -86,11 +86,13 @@ def enter_child(flat, node, k, F, I, H, src, dst):
 
 
 @inline
-def step_unary(flat, node, kind, F, I, H, f, slot_base, S, ev):
-    """S-free single-child nodes, in place on frame f: True if the walk goes on."""
-    params, stack, args, m34 = S.params, S.stack, S.args, S.m34
+def step_unary(flat, node, kind, F, I, H, f, params, slot_base, S, ev):
+    """S-free single-child nodes, in place on frame f: True if the walk goes on.
+    `params` holds the frames' parameter slots (the walk's own: S.params, or a packet's)."""
+    stack, args, m34 = S.stack, S.args, S.m34
     if kind == TRANSFORM:
-        bad = enter_transform(flat, node, F, f, params, I[f, SLOT], H[f], stack, args, m34)
+        bad = enter_transform(flat, node, F, f, params, I[f, SLOT], H[f], stack, args, m34,
+                              S.m21)
         if bad != 0:
             note(ev, EV_NONFINITE if bad == 1 else EV_SINGULAR, node, I[f, LEVEL])
             return False
@@ -278,7 +280,7 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, S, lod, dnorm, max_depth, ev):
                 enter_child(flat, node, 0, F, I, H, f, sp)
                 sp += 1
                 continue
-            if not step_unary(flat, node, kind, F, I, H, f, slot_base, S, ev):
+            if not step_unary(flat, node, kind, F, I, H, f, params, slot_base, S, ev):
                 ls = push_list(lists, ls, top, 0)
                 sp -= 1
             continue
@@ -320,29 +322,56 @@ def record_hit(res, ri, t, F, I, f, nx, ny, nz):
     res[ri, R_HIT] = 1.0
 
 
-@kernel
-def trace_chunk(flat, origins, directions, i0, i1, tmin, tmax, any_hit, lod, max_depth,
-                S, ev, res):
-    """first_hit for rays i0..i1-1: one call per chunk, not per ray."""
-    for i in range(i0, i1):
-        first_hit(flat, origins[i, 0], origins[i, 1], origins[i, 2],
-                  directions[i, 0], directions[i, 1], directions[i, 2],
-                  tmin, tmax, any_hit, lod, 0.0, max_depth, S, ev, res, i)
+@inline
+def hit_primitive(flat, node, R, r, F, I, f, tmin, t1, best, lod, cone, dnorm, wdx, wdy, wdz,
+                  out8, res, ri):
+    """The primitive `node` against the ray of row r of R, in the frame f of F and I (its
+    map, paint and material). A nearer hit than `best` goes into res[ri]; returns the
+    nearest t so far. wd is the ray's world direction, dnorm its length."""
+    code = flat.code[node]
+    if code >= FRACTAL_MIN:
+        # marched from tmin, not t0, so that the reference finds the same steps
+        found = march(code == JULIA, flat.fractal, node, R[r, OX], R[r, OX + 1],
+                      R[r, OX + 2], R[r, DX], R[r, DX + 1], R[r, DX + 2], tmin, t1,
+                      lod, cone / dnorm, out8)
+    else:
+        found = intersect(code, R[r, OX], R[r, OX + 1], R[r, OX + 2],
+                          R[r, DX], R[r, DX + 1], R[r, DX + 2], out8)
+    if found:
+        # the first boundary crossing: the entry, or the exit from inside.
+        # Not `t >= t0`: the box entry may round past the primitive's own entry.
+        side = 0 if out8[0] > tmin else 1
+        t = out8[side]
+        if t > tmin and t < best:
+            record_hit(res, ri, t, F, I, f, out8[2 + 3 * side], out8[3 + 3 * side],
+                       out8[4 + 3 * side])
+            if code >= FLAT_MIN and res[ri, R_N] * wdx + res[ri, R_N + 1] * wdy + \
+                    res[ri, R_N + 2] * wdz > 0.0:
+                for c in range(3):
+                    res[ri, R_N + c] = -res[ri, R_N + c]
+            return t
+    return best
+
+
+@inline
+def hit_volume(flat, node, R, r, F, I, f, t0, ax, ay, az, res, ri):
+    """A graftal instance below the footprint: its box or sphere is the surface at t0;
+    with averaged box normals (ax, ay, az) those are its normal."""
+    nx, ny, nz = volume_normal(flat, node, R, r, t0)
+    record_hit(res, ri, t0, F, I, f, nx, ny, nz)
+    if flat.normal_decay > 0.0:
+        res[ri, R_N] = ax
+        res[ri, R_N + 1] = ay
+        res[ri, R_N + 2] = az
 
 
 @inline
 def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_depth, S,
               ev, res, ri):
     """Trace one ray from the root with the scratch S; writes res[ri] (R_* columns).
-    Returns True on a hit. A frame pushed by a union has PHASE 1: its window is
-    already inside its box. The ray's footprint at t is cone + lod * |d| * t (world
+    Returns True on a hit. The ray's footprint at t is cone + lod * |d| * t (world
     units): a shadow or reflected ray starts as wide as the pixel it leaves."""
-    params, stack, out8, order, keys, hashes = (S.params, S.stack, S.out8, S.order, S.keys,
-                                                S.hashes)
-    F, I, H, iv = S.F, S.I, S.H, S.iv
-    cap = F.shape[0]
-    has_table = flat.inst_used.shape[0] > 2
-    dnorm = math.sqrt(dx * dx + dy * dy + dz * dz)
+    params, F, I, H = S.params, S.F, S.I, S.H
     F[0, OX] = ox
     F[0, OX + 1] = oy
     F[0, OX + 2] = oz
@@ -367,9 +396,36 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_
     for k in range(params.shape[1]):
         params[0, k] = np.nan
     S.visits[0] = 0
-    best = tmax
+    hit, best = walk(flat, 1, tmax, tmin, any_hit, lod, cone,
+                     math.sqrt(dx * dx + dy * dy + dz * dz), dx, dy, dz, max_depth, S, ev,
+                     res, ri)
+    finish(res, ri, hit)
+    return hit
+
+
+@inline
+def finish(res, ri, hit):
+    res[ri, R_HIT] = 1.0 if hit else 0.0
+    if not hit:         # a miss is a full row too: the caller hands out views
+        res[ri, R_T] = np.inf
+        for c in range(3):
+            res[ri, R_N + c] = 0.0
+            res[ri, R_PAINT + c] = np.nan
+        res[ri, R_MAT] = -1.0
+
+
+@inline
+def walk(flat, sp, best, tmin, any_hit, lod, cone, dnorm, wdx, wdy, wdz, max_depth, S, ev,
+         res, ri):
+    """The first-hit walk over the frames 0..sp-1 of S (the ray in each frame's own
+    columns), with the nearest hit so far at `best`: returns (hit found, best). A frame
+    pushed by a union has PHASE 1: its window is already inside its box. Inlined: called,
+    the single-ray walk took half as long again."""
+    params, order, keys, hashes = S.params, S.order, S.keys, S.hashes
+    F, I, H, iv = S.F, S.I, S.H, S.iv
+    cap = F.shape[0]
+    has_table = flat.inst_used.shape[0] > 2
     hit = False
-    sp = 1
     while sp > 0:
         sp -= 1
         f = sp
@@ -389,32 +445,13 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_
             F[f, T0] = t0
             F[f, T1] = t1
             if kind == PRIMITIVE:
-                code = flat.code[node]
-                r = out8
-                if code >= FRACTAL_MIN:
-                    # marched from tmin, not t0, so that the reference finds the same steps
-                    found = march(code == JULIA, flat.fractal, node, F[f, OX], F[f, OX + 1],
-                                  F[f, OX + 2], F[f, DX], F[f, DX + 1], F[f, DX + 2], tmin, t1,
-                                  lod, cone / dnorm, r)
-                else:
-                    found = intersect(code, F[f, OX], F[f, OX + 1], F[f, OX + 2],
-                                      F[f, DX], F[f, DX + 1], F[f, DX + 2], r)
-                if found:
-                    # the first boundary crossing: the entry, or the exit from inside.
-                    # Not `t >= t0`: the box entry may round past the primitive's own entry.
-                    side = 0 if r[0] > tmin else 1
-                    t = r[side]
-                    if t > tmin and t < best:
-                        best = t
-                        hit = True
-                        record_hit(res, ri, t, F, I, f, r[2 + 3 * side], r[3 + 3 * side],
-                                   r[4 + 3 * side])
-                        if code >= FLAT_MIN and res[ri, R_N] * dx + res[ri, R_N + 1] * dy + \
-                                res[ri, R_N + 2] * dz > 0.0:
-                            for c in range(3):
-                                res[ri, R_N + c] = -res[ri, R_N + c]
-                        if any_hit:
-                            return True
+                t = hit_primitive(flat, node, F, f, F, I, f, tmin, t1, best, lod, cone, dnorm,
+                                  wdx, wdy, wdz, S.out8, res, ri)
+                if t < best:
+                    best = t
+                    hit = True
+                    if any_hit:
+                        return True, best
                 break
             if kind == SELECT:
                 t0, t1 = instance_window(flat, node, H[f], F, f, t0, t1)
@@ -429,14 +466,9 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_
                     if t0 > tmin and t0 < best:
                         best = t0
                         hit = True
-                        nx, ny, nz = volume_normal(flat, node, F, f, t0)
-                        record_hit(res, ri, t0, F, I, f, nx, ny, nz)
-                        if flat.normal_decay > 0.0:
-                            res[ri, R_N] = ax
-                            res[ri, R_N + 1] = ay
-                            res[ri, R_N + 2] = az
+                        hit_volume(flat, node, F, f, F, I, f, t0, ax, ay, az, res, ri)
                         if any_hit:
-                            return True
+                            return True, best
                     break
                 if r < 0:
                     break
@@ -504,18 +536,11 @@ def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_
                             res[ri, R_N + c] = iv[row, IN_N + 3 * side + c]
                             res[ri, R_PAINT + c] = iv[row, IN_PAINT + 3 * side + c]
                         res[ri, R_MAT] = iv[row, IN_MAT + side]
+                        res[ri, R_HIT] = 1.0
                         if any_hit:
-                            res[ri, R_HIT] = 1.0
-                            return True
+                            return True, best
                         break
                 break
-            if not step_unary(flat, node, kind, F, I, H, f, 0, S, ev):
+            if not step_unary(flat, node, kind, F, I, H, f, params, 0, S, ev):
                 break
-    res[ri, R_HIT] = 1.0 if hit else 0.0
-    if not hit:         # a miss is a full row too: the caller hands out views
-        res[ri, R_T] = np.inf
-        for c in range(3):
-            res[ri, R_N + c] = 0.0
-            res[ri, R_PAINT + c] = np.nan
-        res[ri, R_MAT] = -1.0
-    return hit
+    return hit, best

@@ -1,0 +1,401 @@
+"""Rays walked together: the first-hit walk of walk.py for a packet of up to PACKET
+neighbouring rays, so that what depends on the instance alone (its hash, calculation,
+selection, map and table box) is done once per packet and only the box and primitive
+tests once per ray.
+
+A packet frame is one instance with the list of its rays that are still in its box,
+each with its own window. The rays' local origins and directions live in ray blocks
+(rows of R, one per ray): a frame reads the block it was given and writes its own
+(block f + 1 for the frame at stack position f) when it meets a T-node. Frames are
+popped last in, first out, so no live frame reads a block that a later one overwrites.
+
+Where the rays of a frame stop agreeing on what to do (some go below their pixel and
+others not, an ∩ or \\ node whose interval lists are per ray, a selection that reads
+`pixels`) or only one ray is left, each goes on alone: the frame is copied into the
+single-ray walk's first frame and walk.walk finishes it. A ray's hit is the nearest,
+so the order in which the packet visits children (nearest box of any of its rays
+first) changes only which of two surfaces at exactly the same t shows.
+"""
+from __future__ import annotations
+
+from collections import namedtuple
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..graph.model import DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, UNION
+from . import vm
+from .jit import inline, kernel
+from .nodes import (CUT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION, EV_SINGULAR,
+                    EV_VISITS, F_WIDTH, I_WIDTH, INV, LEVEL, M0, MAT, NAVG, NODE, OX, PAINT,
+                    PHASE, SLOT, T0, T1, box_window, copy_frame, map_matrix, map_ray,
+                    node_window, note, pick_rule, set_inverse, table_slot, transform_map,
+                    world_size)
+from .walk import finish, first_hit, hit_primitive, hit_volume, step_unary, walk
+
+PACKET = 64             # rays per packet: an 8x8 block of pixels
+FRAMES = 128            # packet frames; a deeper stack sends its rays on alone
+
+Packet = namedtuple("Packet", [
+    "F", "I", "H",      # the frames' shared columns (nodes.py layout; the ray columns unused)
+    "block",            # the ray block each frame reads
+    "params",           # the frames' parameter slots
+    "R",                # ray blocks: row block * PACKET + k is ray k in that block's frame
+    "act", "win", "n",  # per frame: its rays, their windows [t0, t1], how many
+    "tact", "twin", "tn", "tkey", "tk", "th", "order",  # a union's children being sorted
+    "best", "hit", "visits", "dnorm",   # per ray
+    "O", "D", "cone",   # the packet's rays: world origin, direction, footprint at 0
+])
+
+
+@njit(cache=True, error_model="numpy")
+def make_packet(flat):
+    c = flat.max_children
+    return Packet(
+        np.empty((FRAMES, F_WIDTH)), np.zeros((FRAMES, I_WIDTH), dtype=np.int64),
+        np.zeros(FRAMES, dtype=np.uint64), np.zeros(FRAMES, dtype=np.int64),
+        np.full((FRAMES, flat.n_params), np.nan),
+        np.empty(((FRAMES + 1) * PACKET, F_WIDTH)),
+        np.zeros((FRAMES, PACKET), dtype=np.int64), np.empty((FRAMES, PACKET, 2)),
+        np.zeros(FRAMES, dtype=np.int64),
+        np.zeros((c, PACKET), dtype=np.int64), np.empty((c, PACKET, 2)),
+        np.zeros(c, dtype=np.int64), np.empty(c), np.zeros(c, dtype=np.int64),
+        np.zeros(c, dtype=np.uint64), np.zeros(c, dtype=np.int64),
+        np.empty(PACKET), np.zeros(PACKET, dtype=np.bool_), np.zeros(PACKET, dtype=np.int64),
+        np.empty(PACKET),
+        np.empty((PACKET, 3)), np.empty((PACKET, 3)), np.zeros(PACKET))
+
+
+@kernel
+def alone(flat, P, g, j, tmin, any_hit, lod, max_depth, S, ev, res, r0):
+    """Ray number j of frame g finishes the frame's subtree on its own walk (compiled
+    once and called from every place that sends rays on alone)."""
+    k = P.act[g, j]
+    row = P.block[g] * PACKET + k
+    F, I, H = S.F, S.I, S.H
+    for c in range(F_WIDTH):
+        F[0, c] = P.F[g, c]
+    for c in range(3):
+        F[0, OX + c] = P.R[row, OX + c]
+        F[0, DX + c] = P.R[row, DX + c]
+        F[0, INV + c] = P.R[row, INV + c]
+    F[0, T0] = P.win[g, j, 0]
+    F[0, T1] = P.win[g, j, 1]
+    for c in range(I_WIDTH):
+        I[0, c] = P.I[g, c]
+    I[0, PHASE] = 1             # the window is inside the node's box already
+    I[0, SLOT] = 0
+    src = P.I[g, SLOT]
+    for p in range(S.params.shape[1]):
+        S.params[0, p] = P.params[src, p]
+    H[0] = P.H[g]
+    S.visits[0] = P.visits[k]
+    found, t = walk(flat, 1, P.best[k], tmin, any_hit, lod, P.cone[k], P.dnorm[k],
+                    P.D[k, 0], P.D[k, 1], P.D[k, 2], max_depth, S, ev, res, r0 + k)
+    P.visits[k] = S.visits[0]
+    if found:
+        P.hit[k] = True
+        P.best[k] = -np.inf if any_hit else t
+
+
+@inline
+def all_alone(flat, P, g, tmin, any_hit, lod, max_depth, S, ev, res, r0):
+    for j in range(P.n[g]):
+        alone(flat, P, g, j, tmin, any_hit, lod, max_depth, S, ev, res, r0)
+
+
+@inline
+def note_all(ev, kind, node, level, count):
+    for _ in range(count):
+        note(ev, kind, node, level)
+
+
+@kernel
+def trace_packet(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, ev, res, r0):
+    """first_hit for the packet's rays P.O[k], P.D[k] (k < n) into res[r0 + k]."""
+    F, I, H, R = P.F, P.I, P.H, P.R
+    act, win, cnt, best = P.act, P.win, P.n, P.best
+    has_table = flat.inst_used.shape[0] > 2
+    for c in range(9):
+        F[0, M0 + c] = 1.0 if c % 4 == 0 else 0.0
+    for c in range(3):
+        F[0, PAINT + c] = np.nan
+        F[0, NAVG + c] = 0.0
+    I[0, NODE] = flat.root
+    I[0, SLOT] = 0
+    I[0, LEVEL] = 0
+    I[0, MAT] = -1
+    I[0, CUT] = 0
+    I[0, PHASE] = 0
+    H[0] = vm.ROOT_HASH
+    P.block[0] = 0
+    for p in range(P.params.shape[1]):
+        P.params[0, p] = np.nan
+    for k in range(n):
+        for c in range(3):
+            R[k, OX + c] = P.O[k, c]
+            R[k, DX + c] = P.D[k, c]
+        set_inverse(R, k)
+        act[0, k] = k
+        win[0, k, 0] = tmin
+        win[0, k, 1] = tmax
+        best[k] = tmax
+        P.hit[k] = False
+        P.visits[k] = 0
+        P.dnorm[k] = math.sqrt(P.D[k, 0] ** 2 + P.D[k, 1] ** 2 + P.D[k, 2] ** 2)
+    cnt[0] = n
+    budget = S.visits[1]
+    sp = 1
+    while sp > 0:
+        sp -= 1
+        g = sp
+        while True:         # follow single-child nodes in place
+            node = I[g, NODE]
+            kind = flat.kind[node]
+            blk = P.block[g] * PACKET
+            inside = I[g, PHASE] == 1
+            I[g, PHASE] = 0
+            m = 0
+            for j in range(cnt[g]):
+                k = act[g, j]
+                t0 = win[g, j, 0]
+                t1 = min(win[g, j, 1], best[k])
+                if not inside:
+                    b0, b1 = node_window(flat, node, R, blk + k)
+                    t0 = max(t0, b0)
+                    t1 = min(t1, b1)
+                if t0 <= t1:
+                    act[g, m] = k
+                    win[g, m, 0] = t0
+                    win[g, m, 1] = t1
+                    m += 1
+            cnt[g] = m
+            if m == 0:
+                break
+            if (m == 1 or kind == INTERSECTION or kind == DIFFERENCE
+                    or (kind == SELECT and flat.pixels_slot >= 0)):
+                all_alone(flat, P, g, tmin, any_hit, lod, max_depth, S, ev, res, r0)
+                break
+            if kind == PRIMITIVE:
+                for j in range(m):
+                    k = act[g, j]
+                    t = hit_primitive(flat, node, R, blk + k, F, I, g, tmin, win[g, j, 1],
+                                      best[k], lod, P.cone[k], P.dnorm[k], P.D[k, 0],
+                                      P.D[k, 1], P.D[k, 2], S.out8, res, r0 + k)
+                    if t < best[k]:
+                        P.hit[k] = True
+                        best[k] = -np.inf if any_hit else t
+                break
+            if kind == SELECT:
+                if not select(flat, node, P, g, blk, has_table, tmin, any_hit, lod, max_depth,
+                              budget, S, ev, res, r0):
+                    break
+                continue
+            if kind == UNION:
+                if sp + flat.child_count[node] > FRAMES:
+                    all_alone(flat, P, g, tmin, any_hit, lod, max_depth, S, ev, res, r0)
+                    break
+                sp += split(flat, node, P, g, blk, has_table)
+                break
+            if kind == TRANSFORM:
+                bad = transform_map(flat, node, P.params, I[g, SLOT], H[g], S.stack, S.args,
+                                    S.m34, S.m21)
+                L = S.m21
+                if bad != 0:
+                    note_all(ev, EV_NONFINITE if bad == 1 else EV_SINGULAR, node, I[g, LEVEL],
+                             m)
+                    break
+                own = (g + 1) * PACKET
+                for j in range(m):
+                    k = act[g, j]
+                    map_ray(L, R, blk + k, R, own + k)
+                P.block[g] = g + 1
+                map_matrix(L, F, g)
+                I[g, NODE] = flat.children[flat.child_start[node]]
+                continue
+            if not step_unary(flat, node, kind, F, I, H, g, P.params, 0, S, ev):
+                break
+    for k in range(n):
+        finish(res, r0 + k, P.hit[k])
+
+
+@inline
+def select(flat, node, P, g, blk, has_table, tmin, any_hit, lod, max_depth, budget, S, ev,
+           res, r0):
+    """choose_rule for the packet at an S-node: False if the frame ends here."""
+    F, I, H, R, act, win = P.F, P.I, P.H, P.R, P.act, P.win
+    m = P.n[g]
+    if has_table:
+        slot = table_slot(flat.inst_keys, flat.inst_used, vm.mix(H[g], node))
+        if flat.inst_used[slot]:
+            q = 0
+            for j in range(m):
+                k = act[g, j]
+                b0, b1 = box_window(flat.inst_boxes, slot, R, blk + k)
+                t0 = max(win[g, j, 0], b0)
+                t1 = min(win[g, j, 1], b1)
+                if t0 <= t1:
+                    act[g, q] = k
+                    win[g, q, 0] = t0
+                    win[g, q, 1] = t1
+                    q += 1
+            m = q
+            P.n[g] = m
+            if m == 0:
+                return False
+    level = I[g, LEVEL] + 1
+    below_all = False
+    if I[g, CUT] == 0 and level <= max_depth and lod > 0.0:
+        # the rays for which this instance is below their pixel stop refining: if only
+        # some, those go on alone
+        size = world_size(flat.box, node, F, g)
+        below = 0
+        for j in range(m):
+            if size < lod * P.dnorm[act[g, j]] * max(win[g, j, 0], 0.0):
+                below += 1
+        below_all = below == m
+        if below > 0 and not below_all:
+            q = 0
+            for j in range(m):
+                k = act[g, j]
+                if size < lod * P.dnorm[k] * max(win[g, j, 0], 0.0):
+                    alone(flat, P, g, j, tmin, any_hit, lod, max_depth, S, ev, res, r0)
+                else:
+                    act[g, q] = k
+                    win[g, q, 0] = win[g, j, 0]
+                    win[g, q, 1] = win[g, j, 1]
+                    q += 1
+            m = q
+    q = 0
+    for j in range(m):
+        k = act[g, j]
+        P.visits[k] += 1
+        if P.visits[k] > budget:
+            if P.visits[k] == budget + 1:
+                note(ev, EV_VISITS, node, level)
+            continue
+        act[g, q] = k
+        win[g, q, 0] = win[g, j, 0]
+        win[g, q, 1] = win[g, j, 1]
+        q += 1
+    m = q
+    P.n[g] = m
+    I[g, LEVEL] = level
+    if m == 0:
+        return False
+    if I[g, CUT] == 0 and level > max_depth:
+        I[g, CUT] = 1
+        note_all(ev, EV_DEPTH, node, level, m)
+    elif below_all:
+        I[g, CUT] = 1
+        note_all(ev, EV_LOD, node, level, m)
+    if I[g, CUT] == 1:
+        r = flat.term_rule[node]
+        if r < 0:
+            for j in range(m):
+                k = act[g, j]
+                t0 = win[g, j, 0]
+                if t0 > tmin and t0 < P.best[k]:
+                    hit_volume(flat, node, R, blk + k, F, I, g, t0, 0.0, 0.0, 0.0, res, r0 + k)
+                    P.hit[k] = True
+                    P.best[k] = -np.inf if any_hit else t0
+            return False
+        if level > 4 * max_depth + 64:
+            return False
+    else:
+        r = pick_rule(flat, node, P.params, I[g, SLOT], H[g], S.stack)
+        if r < 0:
+            note_all(ev, EV_SELECTION, node, level, m)
+            return False
+    if flat.hashed:
+        H[g] = vm.edge_hash(H[g], node, r)
+    I[g, NODE] = flat.children[flat.child_start[node] + r]
+    return True
+
+
+@inline
+def split(flat, node, P, g, blk, has_table):
+    """A union's children that some of frame g's rays enter, pushed at g, g+1, ...
+    (nearest entry on top): returns how many."""
+    F, I, H, R, act, win = P.F, P.I, P.H, P.R, P.act, P.win
+    tact, twin, tn, tkey, tk, th, order = P.tact, P.twin, P.tn, P.tkey, P.tk, P.th, P.order
+    n = flat.child_count[node]
+    m = P.n[g]
+    used = 0
+    for k in range(n):
+        c = flat.children[flat.child_start[node] + k]
+        hk = H[g]
+        if flat.hashed and n > 1:
+            hk = vm.edge_hash(H[g], node, k)
+        slot = -1
+        if has_table:
+            slot = table_slot(flat.inst_keys, flat.inst_used, vm.mix(hk, node))
+            if not flat.inst_used[slot]:
+                slot = -1
+        q = 0
+        near = np.inf
+        for j in range(m):
+            ray = act[g, j]
+            e0, e1 = node_window(flat, c, R, blk + ray)
+            e0 = max(e0, win[g, j, 0])
+            e1 = min(e1, win[g, j, 1])
+            if e0 > e1:
+                continue
+            if slot >= 0:
+                b0, b1 = box_window(flat.inst_boxes, slot, R, blk + ray)
+                e0 = max(e0, b0)
+                e1 = min(e1, b1)
+                if e0 > e1:
+                    continue
+            tact[used, q] = ray
+            twin[used, q, 0] = e0
+            twin[used, q, 1] = e1
+            q += 1
+            near = min(near, e0)
+        if q == 0:
+            continue
+        tn[used] = q
+        tk[used] = k
+        th[used] = hk
+        # descending, so the nearest pops first; on a tie the earlier operand first
+        j = used
+        while j > 0 and tkey[order[j - 1]] <= near:
+            order[j] = order[j - 1]
+            j -= 1
+        tkey[used] = near
+        order[j] = used
+        used += 1
+    for j in range(used - 1, -1, -1):      # the source frame g is overwritten last
+        d = g + j
+        u = order[j]
+        copy_frame(F, I, H, g, d)
+        I[d, NODE] = flat.children[flat.child_start[node] + tk[u]]
+        I[d, PHASE] = 1
+        H[d] = th[u]
+        P.block[d] = P.block[g]
+        P.n[d] = tn[u]
+        for q in range(tn[u]):
+            act[d, q] = tact[u, q]
+            win[d, q, 0] = twin[u, q, 0]
+            win[d, q, 1] = twin[u, q, 1]
+    return used
+
+
+
+@inline
+def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res):
+    """The rays P.O[k], P.D[k] with footprints P.cone[k] (k < n) into res[k]: walked
+    as one packet if `together`, else one by one."""
+    if together:
+        trace_packet(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, ev, res, 0)
+    else:
+        trace_each(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, ev, res)
+
+
+@kernel
+def trace_each(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, ev, res):
+    for k in range(n):
+        first_hit(flat, P.O[k, 0], P.O[k, 1], P.O[k, 2], P.D[k, 0], P.D[k, 1], P.D[k, 2],
+                  tmin, tmax, any_hit, lod, P.cone[k], max_depth, S, ev, res, k)
