@@ -9,14 +9,15 @@ from .conftest import ROOT
 PROBE = """
 import hashlib, numpy as np, pcsg
 from pcsg.render.camera import make_camera
-from pcsg.trace.kernel import trace_rays
+from pcsg.trace.kernel import trace_share
 obj = pcsg.load("grammars/{name}.pcsg", **{overrides})
 cam = make_camera(obj, 4 / 3)
 ys, xs = np.mgrid[0:48, 0:64]
 o, d = cam.rays(64, 48, xs.ravel() + 0.5, ys.ravel() + 0.5)
 h = obj.trace(o, d)
 digest = hashlib.sha256(h.t.tobytes() + h.normal.tobytes() + h.paint.tobytes()).hexdigest()
-print(digest, sum(trace_rays.stats.cache_hits.values()), sum(trace_rays.stats.cache_misses.values()))
+print(digest, sum(trace_share.stats.cache_hits.values()),
+      sum(trace_share.stats.cache_misses.values()))
 """
 
 

@@ -111,7 +111,7 @@ def kernel_cache_state() -> str:
     # importing pcsg.trace drops kernels compiled from older sources (trace/__init__.py)
     subprocess.run([sys.executable, "-c", "import pcsg.trace"], cwd=ROOT, check=True)
     cache = ROOT / "pcsg" / "trace" / "__pycache__"
-    return "warm" if any(cache.glob("shading.shade_rays-*.nbi")) else "cold"
+    return "warm" if any(cache.glob("shading.shade_share-*.nbi")) else "cold"
 
 
 def median(rows: list[dict], key: str):

@@ -48,7 +48,7 @@ class Lighting:
     ao_samples: int = 0             # hemisphere rays per shading point; 0: no occlusion
     ao_distance: float = 1.0        # occluders farther than this do not count
     lod: float = 0.0
-    packets: bool = __import__('os').environ.get('PCSG_PACKETS', '1') == '1'  # TEMP
+    packets: bool = True            # neighbouring rays walk the graph together (trace/packet.py)
     rays: list = field(default_factory=lambda: [0])   # rays traced, for the summary
 
     def sky(self, d: np.ndarray) -> np.ndarray:

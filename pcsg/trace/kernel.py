@@ -1,10 +1,10 @@
-"""Tracing many rays: fixed chunks of rays under prange, so every ray's result and
-every chunk's event counts are the same at any thread count."""
+"""Tracing many rays: fixed chunks of rays shared out among the workers, so every
+ray's result and every chunk's event counts are the same at any thread count."""
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
 
+from .jit import on_threads, share
 from .packet import PACKET, make_packet, trace
 from .scratch import make_scratch
 from .walk import R_WIDTH
@@ -12,22 +12,19 @@ from .walk import R_WIDTH
 CHUNK = PACKET
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
 def trace_rays(flat, origins, directions, tmin, tmax, any_hit, lod, max_depth, limits,
                workers, together, out, events):
     """out[i] = the R_* row of ray i; events[chunk] counts per event kind and node.
     With `together`, a chunk's rays walk the graph as one packet (packet.py)."""
-    for w in prange(workers):
-        worker(flat, origins, directions, tmin, tmax, any_hit, lod, max_depth, limits, w,
-               workers, together, out, events)
+    on_threads(trace_share, workers, flat, origins, directions, tmin, tmax, any_hit, lod,
+               max_depth, limits, together, out, events)
 
 
-@njit(cache=True, error_model="numpy")
-def worker(flat, origins, directions, tmin, tmax, any_hit, lod, max_depth, limits, w,
-           workers, together, out, events):
+@share
+def trace_share(w, workers, flat, origins, directions, tmin, tmax, any_hit, lod, max_depth,
+                limits, together, out, events):
     """Worker w's share: every workers-th chunk, with scratch of its own, allocated once
-    per call (fresh pages per chunk cost a tenth of the time). Its own function, not
-    the prange body: numba's parallel passes over this body gave wrong hits."""
+    per call (fresh pages per chunk cost a tenth of the time)."""
     n = origins.shape[0]
     chunks = (n + CHUNK - 1) // CHUNK
     S = make_scratch(flat, limits)

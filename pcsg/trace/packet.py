@@ -33,7 +33,7 @@ from .nodes import (CUT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION, EV_SI
                     PHASE, SLOT, T0, T1, box_window, copy_frame, map_matrix, map_ray,
                     node_window, note, pick_rule, set_inverse, table_slot, transform_map,
                     world_size)
-from .walk import finish, first_hit, hit_primitive, hit_volume, step_unary, walk
+from .walk import finish, hit_primitive, hit_volume, step_unary, walk
 
 PACKET = 64             # rays per packet: an 8x8 block of pixels
 FRAMES = 128            # packet frames; a deeper stack sends its rays on alone
@@ -69,7 +69,7 @@ def make_packet(flat):
 
 
 @kernel
-def alone(flat, P, g, j, tmin, any_hit, lod, max_depth, S, ev, res, r0):
+def alone(flat, P, g, j, tmin, any_hit, lod, max_depth, S, ev, res):
     """Ray number j of frame g finishes the frame's subtree on its own walk (compiled
     once and called from every place that sends rays on alone)."""
     k = P.act[g, j]
@@ -93,7 +93,7 @@ def alone(flat, P, g, j, tmin, any_hit, lod, max_depth, S, ev, res, r0):
     H[0] = P.H[g]
     S.visits[0] = P.visits[k]
     found, t = walk(flat, 1, P.best[k], tmin, any_hit, lod, P.cone[k], P.dnorm[k],
-                    P.D[k, 0], P.D[k, 1], P.D[k, 2], max_depth, S, ev, res, r0 + k)
+                    P.D[k, 0], P.D[k, 1], P.D[k, 2], max_depth, S, ev, res, k)
     P.visits[k] = S.visits[0]
     if found:
         P.hit[k] = True
@@ -101,9 +101,9 @@ def alone(flat, P, g, j, tmin, any_hit, lod, max_depth, S, ev, res, r0):
 
 
 @inline
-def all_alone(flat, P, g, tmin, any_hit, lod, max_depth, S, ev, res, r0):
+def all_alone(flat, P, g, tmin, any_hit, lod, max_depth, S, ev, res):
     for j in range(P.n[g]):
-        alone(flat, P, g, j, tmin, any_hit, lod, max_depth, S, ev, res, r0)
+        alone(flat, P, g, j, tmin, any_hit, lod, max_depth, S, ev, res)
 
 
 @inline
@@ -113,8 +113,9 @@ def note_all(ev, kind, node, level, count):
 
 
 @kernel
-def trace_packet(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, ev, res, r0):
-    """first_hit for the packet's rays P.O[k], P.D[k] (k < n) into res[r0 + k]."""
+def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res):
+    """The nearest hits of the packet's rays P.O[k], P.D[k] with footprints P.cone[k]
+    (k < n) into res[k]. Without `together` every ray walks alone from the root."""
     F, I, H, R = P.F, P.I, P.H, P.R
     act, win, cnt, best = P.act, P.win, P.n, P.best
     has_table = flat.inst_used.shape[0] > 2
@@ -174,28 +175,28 @@ def trace_packet(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, ev, res, r0
             cnt[g] = m
             if m == 0:
                 break
-            if (m == 1 or kind == INTERSECTION or kind == DIFFERENCE
+            if (not together or m == 1 or kind == INTERSECTION or kind == DIFFERENCE
                     or (kind == SELECT and flat.pixels_slot >= 0)):
-                all_alone(flat, P, g, tmin, any_hit, lod, max_depth, S, ev, res, r0)
+                all_alone(flat, P, g, tmin, any_hit, lod, max_depth, S, ev, res)
                 break
             if kind == PRIMITIVE:
                 for j in range(m):
                     k = act[g, j]
                     t = hit_primitive(flat, node, R, blk + k, F, I, g, tmin, win[g, j, 1],
                                       best[k], lod, P.cone[k], P.dnorm[k], P.D[k, 0],
-                                      P.D[k, 1], P.D[k, 2], S.out8, res, r0 + k)
+                                      P.D[k, 1], P.D[k, 2], S.out8, res, k)
                     if t < best[k]:
                         P.hit[k] = True
                         best[k] = -np.inf if any_hit else t
                 break
             if kind == SELECT:
                 if not select(flat, node, P, g, blk, has_table, tmin, any_hit, lod, max_depth,
-                              budget, S, ev, res, r0):
+                              budget, S, ev, res):
                     break
                 continue
             if kind == UNION:
                 if sp + flat.child_count[node] > FRAMES:
-                    all_alone(flat, P, g, tmin, any_hit, lod, max_depth, S, ev, res, r0)
+                    all_alone(flat, P, g, tmin, any_hit, lod, max_depth, S, ev, res)
                     break
                 sp += split(flat, node, P, g, blk, has_table)
                 break
@@ -218,12 +219,12 @@ def trace_packet(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, ev, res, r0
             if not step_unary(flat, node, kind, F, I, H, g, P.params, 0, S, ev):
                 break
     for k in range(n):
-        finish(res, r0 + k, P.hit[k])
+        finish(res, k, P.hit[k])
 
 
 @inline
 def select(flat, node, P, g, blk, has_table, tmin, any_hit, lod, max_depth, budget, S, ev,
-           res, r0):
+           res):
     """choose_rule for the packet at an S-node: False if the frame ends here."""
     F, I, H, R, act, win = P.F, P.I, P.H, P.R, P.act, P.win
     m = P.n[g]
@@ -261,7 +262,7 @@ def select(flat, node, P, g, blk, has_table, tmin, any_hit, lod, max_depth, budg
             for j in range(m):
                 k = act[g, j]
                 if size < lod * P.dnorm[k] * max(win[g, j, 0], 0.0):
-                    alone(flat, P, g, j, tmin, any_hit, lod, max_depth, S, ev, res, r0)
+                    alone(flat, P, g, j, tmin, any_hit, lod, max_depth, S, ev, res)
                 else:
                     act[g, q] = k
                     win[g, q, 0] = win[g, j, 0]
@@ -298,7 +299,7 @@ def select(flat, node, P, g, blk, has_table, tmin, any_hit, lod, max_depth, budg
                 k = act[g, j]
                 t0 = win[g, j, 0]
                 if t0 > tmin and t0 < P.best[k]:
-                    hit_volume(flat, node, R, blk + k, F, I, g, t0, 0.0, 0.0, 0.0, res, r0 + k)
+                    hit_volume(flat, node, R, blk + k, F, I, g, t0, 0.0, 0.0, 0.0, res, k)
                     P.hit[k] = True
                     P.best[k] = -np.inf if any_hit else t0
             return False
@@ -382,20 +383,3 @@ def split(flat, node, P, g, blk, has_table):
             win[d, q, 1] = twin[u, q, 1]
     return used
 
-
-
-@inline
-def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res):
-    """The rays P.O[k], P.D[k] with footprints P.cone[k] (k < n) into res[k]: walked
-    as one packet if `together`, else one by one."""
-    if together:
-        trace_packet(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, ev, res, 0)
-    else:
-        trace_each(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, ev, res)
-
-
-@kernel
-def trace_each(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, ev, res):
-    for k in range(n):
-        first_hit(flat, P.O[k, 0], P.O[k, 1], P.O[k, 2], P.D[k, 0], P.D[k, 1], P.D[k, 2],
-                  tmin, tmax, any_hit, lod, P.cone[k], max_depth, S, ev, res, k)

@@ -22,9 +22,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
 
-from .jit import inline, kernel
+from .jit import inline, kernel, on_threads, share
 from .packet import PACKET, make_packet, trace
 from .scratch import make_scratch
 from .vm import hash_to_unit, splitmix64
@@ -45,7 +44,6 @@ SH_WIDTH = 32
 GOLDEN = 0.6180339887498949                    # the pattern's azimuths: k * GOLDEN mod 1
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
 def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, default,
                shadows, shadow_samples, max_bounces, lod, max_depth, limits, workers, ambient,
                ao_samples, ao_distance, ids, together, rgb, first_t, first_hit_out, rays,
@@ -54,21 +52,18 @@ def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, de
     rays[chunk] = rays traced; events[chunk] as trace_rays. ids[i] seeds the ambient
     occlusion pattern of ray i and of its bounces. With `together` the rays of each
     packet walk the graph together."""
-    for w in prange(workers):
-        shade_share(flat, origins, directions, lights, horizon, zenith, materials, default,
-                    shadows, shadow_samples, max_bounces, lod, max_depth, limits, w, workers,
-                    ambient, ao_samples, ao_distance, ids, together, rgb, first_t,
-                    first_hit_out, rays, events)
+    on_threads(shade_share, workers, flat, origins, directions, lights, horizon, zenith,
+               materials, default, shadows, shadow_samples, max_bounces, lod, max_depth,
+               limits, ambient, ao_samples, ao_distance, ids, together, rgb, first_t,
+               first_hit_out, rays, events)
 
 
-@njit(cache=True, error_model="numpy")
-def shade_share(flat, origins, directions, lights, horizon, zenith, materials, default,
-                shadows, shadow_samples, max_bounces, lod, max_depth, limits, w, workers,
-                ambient, ao_samples, ao_distance, ids, together, rgb, first_t, first_hit_out,
-                rays, events):
-    """Worker w's share of shade_rays: every workers-th chunk, with scratch of its own.
-    Its own function, not the prange body: numba's parallel passes over such a body
-    gave wrong hits."""
+@share
+def shade_share(w, workers, flat, origins, directions, lights, horizon, zenith, materials,
+                default, shadows, shadow_samples, max_bounces, lod, max_depth, limits, ambient,
+                ao_samples, ao_distance, ids, together, rgb, first_t, first_hit_out, rays,
+                events):
+    """Worker w's share of shade_rays: every workers-th chunk, with scratch of its own."""
     n = origins.shape[0]
     chunks = (n + CHUNK - 1) // CHUNK
     S = make_scratch(flat, limits)
@@ -79,6 +74,11 @@ def shade_share(flat, origins, directions, lights, horizon, zenith, materials, d
     pend = np.empty((max_bounces + 2, PACKET, P_WIDTH))
     count = np.zeros(max_bounces + 2, dtype=np.int64)
     depths = np.zeros(max_bounces + 2, dtype=np.int64)
+    # any_hit of the nearest-hit and of the shadow rays as values, not constants: numba
+    # compiles a call with a literal True or False as a specialisation of its own, and
+    # the walk twice took 50 s more
+    nearest = n < 0
+    blocker = not nearest
     for c in range(w, chunks, workers):
         ev = events[c]
         i0 = c * CHUNK
@@ -104,7 +104,7 @@ def shade_share(flat, origins, directions, lights, horizon, zenith, materials, d
                     P.O[k, a] = pend[top, k, P_O + a]
                     P.D[k, a] = pend[top, k, P_D + a]
                 P.cone[k] = pend[top, k, P_CONE]
-            trace(flat, m, 1e-9, np.inf, False, lod, max_depth, S, P, together, ev, res)
+            trace(flat, m, 1e-9, np.inf, nearest, lod, max_depth, S, P, together, ev, res)
             if traced == 0:         # the camera rays
                 for k in range(m):
                     first_t[i0 + k] = res[k, R_T]
@@ -116,10 +116,10 @@ def shade_share(flat, origins, directions, lights, horizon, zenith, materials, d
                 continue
             if ao_samples > 0:
                 traced += occlusion(flat, hits, ao_samples, ao_distance, ids, lod,
-                                    max_depth, S, P, together, ev, occ, sh)
+                                    max_depth, S, P, together, blocker, ev, occ, sh)
             for li in range(lights.shape[0]):
                 traced += light_up(flat, lights, li, shadows, shadow_samples, hits, lod,
-                                   max_depth, S, P, together, ev, occ, sh)
+                                   max_depth, S, P, together, blocker, ev, occ, sh)
             top = bounce(pend, count, depths, top, depth, max_bounces, hits, sh, rgb)
         rays[c] = traced
 
@@ -187,9 +187,9 @@ def aim(P, j, sh, d0, d1, d2):
     P.cone[j] = sh[j, SH_CONE]
 
 
-@kernel
-def occlusion(flat, hits, ao_samples, ao_distance, ids, lod, max_depth, S, P, together, ev,
-              occ, sh):
+@inline
+def occlusion(flat, hits, ao_samples, ao_distance, ids, lod, max_depth, S, P, together,
+              any_hit, ev, occ, sh):
     """Ambient occlusion: one packet of rays per direction of the pattern; scales each
     surface's colour by the fraction of them that escape. Returns the rays traced."""
     for j in range(hits):
@@ -201,7 +201,7 @@ def occlusion(flat, hits, ao_samples, ao_distance, ids, lod, max_depth, S, P, to
             a0, a1, a2 = hemisphere(s, ao_samples, r1, r2, sh[j, SH_N], sh[j, SH_N + 1],
                                     sh[j, SH_N + 2])
             aim(P, j, sh, a0, a1, a2)
-        trace(flat, hits, 1e-9, ao_distance, True, lod, max_depth, S, P, together, ev, occ)
+        trace(flat, hits, 1e-9, ao_distance, any_hit, lod, max_depth, S, P, together, ev, occ)
         for j in range(hits):
             if occ[j, R_HIT] == 0.0:
                 sh[j, SH_SEEN] += 1.0
@@ -222,9 +222,9 @@ def to_light(lights, li, sh, j):
     return t0 / dist, t1 / dist, t2 / dist
 
 
-@kernel
+@inline
 def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S, P, together,
-             ev, occ, sh):
+             any_hit, ev, occ, sh):
     """Light li's diffuse and specular terms on every surface, times the fraction of
     its samples that no shadow ray finds blocked (one packet per sample). Returns the
     rays traced."""
@@ -245,7 +245,7 @@ def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S,
                     g1 += e1
                     g2 += e2
                 aim(P, j, sh, g0 - sh[j, SH_Q], g1 - sh[j, SH_Q + 1], g2 - sh[j, SH_Q + 2])
-            trace(flat, hits, 1e-9, 1.0 - 1e-9, True, lod, max_depth, S, P, together, ev, occ)
+            trace(flat, hits, 1e-9, 1.0 - 1e-9, any_hit, lod, max_depth, S, P, together, ev, occ)
             for j in range(hits):
                 if occ[j, R_HIT] == 0.0:
                     sh[j, SH_SEEN] += 1.0

@@ -1,6 +1,6 @@
 """The per-ray walks over the cyclic graph (njit, explicit stacks, no recursion).
 
-`first_hit` finds the nearest surface: union children are visited nearest box
+`walk` finds the nearest surface: union children are visited nearest box
 first and anything beyond the best hit so far is skipped (Bekaert & Willems
 §3.1). At an ∩ or \\ node it asks `intervals` for that subtree's sorted interval
 list along the ray (Roth 1982), so both work on recursive operands too.
@@ -363,44 +363,6 @@ def hit_volume(flat, node, R, r, F, I, f, t0, ax, ay, az, res, ri):
         res[ri, R_N] = ax
         res[ri, R_N + 1] = ay
         res[ri, R_N + 2] = az
-
-
-@inline
-def first_hit(flat, ox, oy, oz, dx, dy, dz, tmin, tmax, any_hit, lod, cone, max_depth, S,
-              ev, res, ri):
-    """Trace one ray from the root with the scratch S; writes res[ri] (R_* columns).
-    Returns True on a hit. The ray's footprint at t is cone + lod * |d| * t (world
-    units): a shadow or reflected ray starts as wide as the pixel it leaves."""
-    params, F, I, H = S.params, S.F, S.I, S.H
-    F[0, OX] = ox
-    F[0, OX + 1] = oy
-    F[0, OX + 2] = oz
-    F[0, DX] = dx
-    F[0, DX + 1] = dy
-    F[0, DX + 2] = dz
-    set_inverse(F, 0)
-    for k in range(9):
-        F[0, M0 + k] = 1.0 if k % 4 == 0 else 0.0
-    F[0, T0] = tmin
-    F[0, T1] = tmax
-    for k in range(3):
-        F[0, PAINT + k] = np.nan
-        F[0, NAVG + k] = 0.0
-    I[0, NODE] = flat.root
-    I[0, SLOT] = 0
-    I[0, LEVEL] = 0
-    I[0, MAT] = -1
-    I[0, CUT] = 0
-    I[0, PHASE] = 0
-    H[0] = vm.ROOT_HASH
-    for k in range(params.shape[1]):
-        params[0, k] = np.nan
-    S.visits[0] = 0
-    hit, best = walk(flat, 1, tmax, tmin, any_hit, lod, cone,
-                     math.sqrt(dx * dx + dy * dy + dz * dz), dx, dy, dz, max_depth, S, ev,
-                     res, ri)
-    finish(res, ri, hit)
-    return hit
 
 
 @inline
