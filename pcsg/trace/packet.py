@@ -148,6 +148,8 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
         P.dnorm[k] = math.sqrt(P.D[k, 0] ** 2 + P.D[k, 1] ** 2 + P.D[k, 2] ** 2)
     cnt[0] = n
     budget = S.visits[1]
+    # --stack-depth bounds the packet's pending frames too, and then each ray's own walk
+    cap = min(FRAMES, S.F.shape[0])
     sp = 1
     while sp > 0:
         sp -= 1
@@ -195,7 +197,7 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                     break
                 continue
             if kind == UNION:
-                if sp + flat.child_count[node] > FRAMES:
+                if sp + flat.child_count[node] > cap:
                     all_alone(flat, P, g, tmin, any_hit, lod, max_depth, S, ev, res)
                     break
                 sp += split(flat, node, P, g, blk, has_table)
