@@ -64,6 +64,8 @@ def instances(graph: Graph) -> Iterator[Instance]:
                 m = m @ d.matrix(i, state, h)
         elif n.kind == PAINT:
             paint = tuple(d.args(i, state, h))
+            if not np.isfinite(paint).all():   # an empty leaf, as the tracer makes it
+                m = np.full((4, 4), np.nan)
         elif n.kind == MATERIAL:
             material = n.name
         if n.kind in OPERATORS.values():
