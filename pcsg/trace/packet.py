@@ -35,7 +35,7 @@ from .nodes import (CUT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION, EV_SI
                     world_size)
 from .walk import finish, hit_primitive, hit_volume, step_unary, walk
 
-PACKET = 64             # rays per packet: an 8x8 block of pixels
+PACKET = 64             # rays per packet: 16x4 pixels of a 16x16 tile (image.tile_order)
 FRAMES = 128            # packet frames; a deeper stack sends its rays on alone
 
 Packet = namedtuple("Packet", [
