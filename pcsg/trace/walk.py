@@ -7,8 +7,6 @@ list along the ray (Roth 1982), so both work on recursive operands too.
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..graph.model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, PAINT as PAINT_NODE,
@@ -16,10 +14,10 @@ from ..graph.model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, PAINT as PA
 from . import vm
 from .jit import inline, kernel
 from .nodes import (CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
-                    EV_SINGULAR, EV_STACK, EV_VISITS, F_WIDTH, I_WIDTH, LEVEL, M0, MAT, NODE, OX,
+                    EV_SINGULAR, EV_STACK, EV_VISITS, F_WIDTH, I_WIDTH, LEVEL, MAT, NODE, OX,
                     PAINT, PHASE, SLOT, T0, T1, copy_frame, enter_paint, node_window,
-                    enter_transform, instance_window, note, pick_rule, cached_calc, set_inverse,
-                    world_diameter, world_normal, world_size, average_box_normal, NAVG,
+                    enter_transform, instance_window, note, pick_rule, cached_calc,
+                    world_diameter, world_normal, world_size, average_box_normal,
                     volume_normal)
 from .fractals import march
 from .primitives import FRACTAL_MIN, JULIA, intersect
@@ -193,7 +191,7 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, S, lod, dnorm, max_depth, ev):
     """The interval list of frame f0's subtree within [w0, w1], computed bottom-up with
     an explicit stack; operators keep a phase (the next child) while their children run.
     Returns (start row in S.iv, count)."""
-    params, stack, out8 = S.params, S.stack, S.out8
+    params, out8 = S.params, S.out8
     F, I, H, iv, lists = S.Fi, S.Ii, S.Hi, S.iv, S.lists
     slot_base = S.F.shape[0]
     cap_f = F.shape[0]
