@@ -4,7 +4,7 @@ ray by ray, where a packet's rays agree, where they part ways (level of detail, 
 walk one ray at a time is the one the reference tests hold to the expansion."""
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import pcsg
@@ -80,6 +80,12 @@ def test_a_packet_deeper_than_its_stack_goes_on_ray_by_ray():
 
 @settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(random_system(), st.sampled_from(VIEWS), st.sampled_from([0.0, 0.01]))
+# found by CI: two instances of an almost empty sphere \\ cylinder hit 1 ulp apart. The
+# walk clipped a ∖ node's pieces to the nearest hit so far, so the later instance's piece
+# became a sliver and was dropped: which t won depended on the order of the visits
+@example(text="{n = 1; k = 0} S\nS if(n > 0, 2, 1)\n1: S → (sphere \\ cylinder)\n"
+         "2: S → {n = n - 1} (move(0.000, -0.250, 0.000) uscale(0.375) S ∪ "
+         "move(0.2, 0.1, 0) uscale(0.5) S)\n", view=(1.0, -1.3, 0.8), lod=0.0)
 def test_random_systems_the_same_in_packets(text, view, lod):
     # their ∩ and \\ nodes over recursive operands send the rays on one by one. Their
     # operands may coincide (sphere ∪ rotx(1) sphere): where two surfaces are hit at the

@@ -69,7 +69,7 @@ def make_packet(flat):
 
 
 @kernel
-def alone(flat, P, g, j, tmin, any_hit, lod, max_depth, S, ev, res):
+def alone(flat, P, g, j, tmin, tmax, any_hit, lod, max_depth, S, ev, res):
     """Ray number j of frame g finishes the frame's subtree on its own walk (compiled
     once and called from every place that sends rays on alone)."""
     k = P.act[g, j]
@@ -92,7 +92,7 @@ def alone(flat, P, g, j, tmin, any_hit, lod, max_depth, S, ev, res):
         S.params[0, p] = P.params[src, p]
     H[0] = P.H[g]
     S.visits[0] = P.visits[k]
-    found, t = walk(flat, 1, P.best[k], tmin, any_hit, lod, P.cone[k], P.dnorm[k],
+    found, t = walk(flat, 1, P.best[k], tmin, tmax, any_hit, lod, P.cone[k], P.dnorm[k],
                     P.D[k, 0], P.D[k, 1], P.D[k, 2], max_depth, S, ev, res, k)
     P.visits[k] = S.visits[0]
     if found:
@@ -101,9 +101,9 @@ def alone(flat, P, g, j, tmin, any_hit, lod, max_depth, S, ev, res):
 
 
 @inline
-def all_alone(flat, P, g, tmin, any_hit, lod, max_depth, S, ev, res):
+def all_alone(flat, P, g, tmin, tmax, any_hit, lod, max_depth, S, ev, res):
     for j in range(P.n[g]):
-        alone(flat, P, g, j, tmin, any_hit, lod, max_depth, S, ev, res)
+        alone(flat, P, g, j, tmin, tmax, any_hit, lod, max_depth, S, ev, res)
 
 
 @inline
@@ -179,7 +179,7 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                 break
             if (not together or m == 1 or kind == INTERSECTION or kind == DIFFERENCE
                     or (kind == SELECT and flat.pixels_slot >= 0)):
-                all_alone(flat, P, g, tmin, any_hit, lod, max_depth, S, ev, res)
+                all_alone(flat, P, g, tmin, tmax, any_hit, lod, max_depth, S, ev, res)
                 break
             if kind == PRIMITIVE:
                 for j in range(m):
@@ -192,13 +192,13 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                         best[k] = -np.inf if any_hit else t
                 break
             if kind == SELECT:
-                if not select(flat, node, P, g, blk, has_table, tmin, any_hit, lod, max_depth,
-                              budget, S, ev, res):
+                if not select(flat, node, P, g, blk, has_table, tmin, tmax, any_hit, lod,
+                              max_depth, budget, S, ev, res):
                     break
                 continue
             if kind == UNION:
                 if sp + flat.child_count[node] > cap:
-                    all_alone(flat, P, g, tmin, any_hit, lod, max_depth, S, ev, res)
+                    all_alone(flat, P, g, tmin, tmax, any_hit, lod, max_depth, S, ev, res)
                     break
                 sp += split(flat, node, P, g, blk, has_table)
                 break
@@ -225,7 +225,7 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
 
 
 @inline
-def select(flat, node, P, g, blk, has_table, tmin, any_hit, lod, max_depth, budget, S, ev,
+def select(flat, node, P, g, blk, has_table, tmin, tmax, any_hit, lod, max_depth, budget, S, ev,
            res):
     """choose_rule for the packet at an S-node: False if the frame ends here."""
     F, I, H, R, act, win = P.F, P.I, P.H, P.R, P.act, P.win
@@ -264,7 +264,7 @@ def select(flat, node, P, g, blk, has_table, tmin, any_hit, lod, max_depth, budg
             for j in range(m):
                 k = act[g, j]
                 if size < lod * P.dnorm[k] * max(win[g, j, 0], 0.0):
-                    alone(flat, P, g, j, tmin, any_hit, lod, max_depth, S, ev, res)
+                    alone(flat, P, g, j, tmin, tmax, any_hit, lod, max_depth, S, ev, res)
                 else:
                     act[g, q] = k
                     win[g, q, 0] = win[g, j, 0]

@@ -187,10 +187,14 @@ def push_list(lists, ls, start, count):
 
 
 @kernel
-def intervals(flat, F0, I0, H0, f0, w0, w1, S, lod, dnorm, max_depth, ev):
-    """The interval list of frame f0's subtree within [w0, w1], computed bottom-up with
-    an explicit stack; operators keep a phase (the next child) while their children run.
-    Returns (start row in S.iv, count)."""
+def intervals(flat, F0, I0, H0, f0, w0, w1, tmin, tmax, S, lod, dnorm, max_depth, ev):
+    """The interval list of frame f0's subtree where it meets [w0, w1], computed bottom-up
+    with an explicit stack; operators keep a phase (the next child) while their children
+    run. Returns (start row in S.iv, count).
+
+    The window only culls: a primitive's interval is clipped to [tmin, tmax], as the
+    reference clips it, and not to the boxes on its way. A piece clipped at a box would
+    be shorter, and ∩ and \\ drop pieces shorter than SLIVER."""
     params, out8 = S.params, S.out8
     F, I, H, iv, lists = S.Fi, S.Ii, S.Hi, S.iv, S.lists
     slot_base = S.F.shape[0]
@@ -227,13 +231,11 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, S, lod, dnorm, max_depth, ev):
                 r = out8
                 if intersect(flat.code[node], F[f, OX], F[f, OX + 1], F[f, OX + 2],
                              F[f, DX], F[f, DX + 1], F[f, DX + 2], r):
-                    a = max(r[0], t0)
-                    b = min(r[1], t1)
-                    if a <= b and top < cap_iv:
-                        set_end(iv, top, 0, a, F, I, f, r[2], r[3], r[4])
-                        set_end(iv, top, 1, b, F, I, f, r[5], r[6], r[7])
+                    if max(r[0], t0) <= min(r[1], t1) and top < cap_iv:
+                        set_end(iv, top, 0, max(r[0], tmin), F, I, f, r[2], r[3], r[4])
+                        set_end(iv, top, 1, min(r[1], tmax), F, I, f, r[5], r[6], r[7])
                         n = 1
-                    elif a <= b:
+                    elif max(r[0], t0) <= min(r[1], t1):
                         note(ev, EV_INTERVALS, node, I[f, LEVEL])
                 ls = push_list(lists, ls, top, n)
                 top += n
@@ -375,7 +377,7 @@ def finish(res, ri, hit):
 
 
 @inline
-def walk(flat, sp, best, tmin, any_hit, lod, cone, dnorm, wdx, wdy, wdz, max_depth, S, ev,
+def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, max_depth, S, ev,
          res, ri):
     """The first-hit walk over the frames 0..sp-1 of S (the ray in each frame's own
     columns), with the nearest hit so far at `best`: returns (hit found, best). A frame
@@ -482,8 +484,11 @@ def walk(flat, sp, best, tmin, any_hit, lod, cone, dnorm, wdx, wdy, wdz, max_dep
                 sp += m
                 break
             if kind == INTERSECTION or kind == DIFFERENCE:
-                start, count = intervals(flat, F, I, H, f, t0, t1, S, lod, dnorm, max_depth,
-                                         ev)
+                # the node's own box, not the window: that holds the nearest hit so far,
+                # and the pieces must not depend on which instance was walked first
+                b0, b1 = node_window(flat, node, F, f)
+                start, count = intervals(flat, F, I, H, f, max(b0, tmin), min(b1, tmax),
+                                         tmin, tmax, S, lod, dnorm, max_depth, ev)
                 for j in range(2 * count):          # every end, in order along the ray
                     row = start + j // 2
                     side = j % 2
