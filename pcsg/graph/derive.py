@@ -11,6 +11,7 @@ from ..language.errors import Diagnostic, PcsgError
 from ..language.names import PIXELS
 from ..trace import vm
 from ..trace.transforms import matrix
+from .flat import calc_programs
 from .model import Graph, SELECT
 
 
@@ -68,6 +69,7 @@ class Deriver:
     def __init__(self, graph: Graph):
         self.g = graph
         self.table = graph.exprs
+        self._blocks = None
 
     def initial(self) -> tuple[State, int]:
         """No parameter assigned yet, except `pixels`: +inf, as no camera sees the
@@ -102,10 +104,19 @@ class Deriver:
                           node.span, self.g.source, code="selection")
 
     def calc(self, node_id: int, state: State, h: int) -> State:
+        """The block as one program of the machine (flat.calc_programs: assignment i
+        draws rand() with salt(h, i + 1)), so one call per block and not per
+        assignment: the terrain's blocks have up to 25, and a render probes hundreds."""
+        if self._blocks is None:
+            a = self.table.arrays()
+            code, start, end = calc_programs(self.g, a)
+            self._blocks = code, a["consts"], start, end, np.empty(a["max_stack"])
+        code, consts, start, end, stack = self._blocks
         node = self.g.nodes[node_id]
         values, assigned = state.values.copy(), state.assigned
-        for i, (slot, expr) in enumerate(zip(node.targets, node.exprs)):
-            values[slot] = self.table.evaluate(expr, values, _salt(h, i + 1))
+        vm.eval_expr(code, consts, int(start[node_id]), int(end[node_id]), values,
+                     np.uint64(int(h) & 0xFFFFFFFFFFFFFFFF), stack)
+        for slot in node.targets:
             assigned |= 1 << slot
         return State(values, assigned)
 

@@ -75,7 +75,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
     for s, r in terminating_rules(graph).items():
         term[s] = r
     vm = graph.exprs.arrays()
-    vm_code, calc_start, calc_end = _calc_programs(graph, vm)
+    vm_code, calc_start, calc_end = calc_programs(graph, vm)
     is_calc = kind == CALC
     vm_code, remap = fuse_operands(vm_code, np.concatenate([vm["start"], calc_start[is_calc]]))
     vm_start = remap[np.asarray(vm["start"], dtype=np.int64)].astype(np.int32)
@@ -118,7 +118,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
     )
 
 
-def _calc_programs(graph: Graph, vm: dict):
+def calc_programs(graph: Graph, vm: dict):
     """vm's code with every C-node's assignments appended as one program (see vm.py);
     returns the code and each node's program rows (empty for other nodes)."""
     code = np.asarray(vm["code"], dtype=np.int32).reshape(-1, 2)
