@@ -1,16 +1,16 @@
 """The bounding walk on every core: one walk from the root down to the first derivation
 level with enough S-node instances (the split level) collects them; their subtrees,
-which share nothing, are walked on the threads, each into boxes, counts and a table
-buffer of its own; a second walk of the top levels takes their boxes where it meets
-them. Unions, sums and the table's kept levels do not depend on which thread walked
+which share nothing, are walked on threads (jit.on_threads), each into boxes, counts
+and a table buffer of its own; a second walk of the top levels takes their boxes where
+it meets them. Unions, sums and the table's kept levels do not depend on which thread walked
 what, so the results are those of one walk from the root, at any thread count."""
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
 
 from .boxwalk import COLLECT, CONSUME, walk
 from .instance_table import merge
+from .jit import on_threads, share
 
 MAX_ITEMS = 8192            # instances one split level may have
 ITEMS_PER_WORKER = 64       # enough that the threads' shares come out even
@@ -42,8 +42,8 @@ def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, table,
     wlevels = np.zeros((workers, per_level.shape[0]), dtype=np.int64)
     wchanged = np.zeros(workers, dtype=np.int64)
     wvisits = np.zeros(workers, dtype=np.int64)
-    _walk_items(flat, depth, budget, capacity, count, *items, wboxes, bbook, bkeys, bused,
-                bvals, wlevels, wchanged, wvisits)
+    on_threads(_walk_share, workers, flat, depth, budget, capacity, count, *items, wboxes,
+               bbook, bkeys, bused, bvals, wlevels, wchanged, wvisits)
     split = np.array([CONSUME, level, 0], dtype=np.int64)
     top = walk(flat, depth, budget, capacity, boxes, book, *table, per_level, changed, split,
                *items, -1)
@@ -92,19 +92,18 @@ def _split_level(flat, depth: int, budget: int, capacity: int, workers: int):
     return best, last, tuple(a[:last] for a in items)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def _walk_items(flat, depth, budget, capacity, count, items, item_hash, item_params,
-                item_boxes, wboxes, bbook, bkeys, bused, bvals, wlevels, wchanged, wvisits):
-    """The subtree of every split instance, thread w taking instances w, w + workers, ...;
-    wvisits[w] -1 when one of them ran out of budget or stack."""
-    workers = wboxes.shape[0]
+@share
+def _walk_share(w, workers, flat, depth, budget, capacity, count, items, item_hash,
+                item_params, item_boxes, wboxes, bbook, bkeys, bused, bvals, wlevels,
+                wchanged, wvisits):
+    """Worker w's subtrees: split instances w, w + workers, ...; wvisits[w] -1 when one
+    of them ran out of budget or stack."""
     split = np.zeros(3, dtype=np.int64)
-    for w in prange(workers):
-        for i in range(w, count, workers):
-            got = walk(flat, depth, budget - wvisits[w], capacity, wboxes[w], bbook[w],
-                       bkeys[w], bused[w], bvals[w], wlevels[w], wchanged[w:w + 1], split,
-                       items, item_hash, item_params, item_boxes, i)
-            if got < 0:
-                wvisits[w] = -1
-                break
-            wvisits[w] += got
+    for i in range(w, count, workers):
+        got = walk(flat, depth, budget - wvisits[w], capacity, wboxes[w], bbook[w],
+                   bkeys[w], bused[w], bvals[w], wlevels[w], wchanged[w:w + 1], split,
+                   items, item_hash, item_params, item_boxes, i)
+        if got < 0:
+            wvisits[w] = -1
+            break
+        wvisits[w] += got
