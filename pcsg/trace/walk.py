@@ -229,13 +229,14 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, tmin, tmax, S, lod, dnorm, max_depth
             if kind == PRIMITIVE:
                 n = 0
                 r = out8
-                if intersect(flat.code[node], F[f, OX], F[f, OX + 1], F[f, OX + 2],
-                             F[f, DX], F[f, DX + 1], F[f, DX + 2], r):
-                    if max(r[0], t0) <= min(r[1], t1) and top < cap_iv:
+                met = intersect(flat.code[node], F[f, OX], F[f, OX + 1], F[f, OX + 2],
+                                F[f, DX], F[f, DX + 1], F[f, DX + 2], r)
+                if met and max(r[0], t0) <= min(r[1], t1):
+                    if top < cap_iv:
                         set_end(iv, top, 0, max(r[0], tmin), F, I, f, r[2], r[3], r[4])
                         set_end(iv, top, 1, min(r[1], tmax), F, I, f, r[5], r[6], r[7])
                         n = 1
-                    elif max(r[0], t0) <= min(r[1], t1):
+                    else:
                         note(ev, EV_INTERVALS, node, I[f, LEVEL])
                 ls = push_list(lists, ls, top, n)
                 top += n
