@@ -187,14 +187,16 @@ def push_list(lists, ls, start, count):
 
 
 @kernel
-def intervals(flat, F0, I0, H0, f0, w0, w1, tmin, tmax, S, lod, dnorm, max_depth, ev):
-    """The interval list of frame f0's subtree where it meets [w0, w1], computed bottom-up
+def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, dnorm, max_depth, ev):
+    """The interval list of frame f0's subtree along [tmin, tmax], computed bottom-up
     with an explicit stack; operators keep a phase (the next child) while their children
     run. Returns (start row in S.iv, count).
 
-    The window only culls: a primitive's interval is clipped to [tmin, tmax], as the
-    reference clips it, and not to the boxes on its way. A piece clipped at a box would
-    be shorter, and ∩ and \\ drop pieces shorter than SLIVER."""
+    It starts from [tmin, tmax], not from the caller's window, which holds the nearest
+    hit so far: the pieces must not depend on which instance was walked first. The boxes
+    on the way only cull: a primitive's interval is clipped to [tmin, tmax], as the
+    reference clips it. A piece clipped at a box or a hit would be shorter, and ∩ and \\
+    drop pieces shorter than SLIVER."""
     params, out8 = S.params, S.out8
     F, I, H, iv, lists = S.Fi, S.Ii, S.Hi, S.iv, S.lists
     slot_base = S.F.shape[0]
@@ -205,8 +207,8 @@ def intervals(flat, F0, I0, H0, f0, w0, w1, tmin, tmax, S, lod, dnorm, max_depth
     for k in range(I_WIDTH):
         I[0, k] = I0[f0, k]
     H[0] = H0[f0]
-    F[0, T0] = w0
-    F[0, T1] = w1
+    F[0, T0] = tmin
+    F[0, T1] = tmax
     I[0, PHASE] = 0
     sp = 1              # frames
     ls = 0              # lists: rows [start, count]
@@ -485,11 +487,8 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                 sp += m
                 break
             if kind == INTERSECTION or kind == DIFFERENCE:
-                # the node's own box, not the window: that holds the nearest hit so far,
-                # and the pieces must not depend on which instance was walked first
-                b0, b1 = node_window(flat, node, F, f)
-                start, count = intervals(flat, F, I, H, f, max(b0, tmin), min(b1, tmax),
-                                         tmin, tmax, S, lod, dnorm, max_depth, ev)
+                start, count = intervals(flat, F, I, H, f, tmin, tmax, S, lod, dnorm,
+                                         max_depth, ev)
                 for j in range(2 * count):          # every end, in order along the ray
                     row = start + j // 2
                     side = j % 2
