@@ -10,6 +10,7 @@ import numpy as np
 
 from .compiler import compile_file, compile_text
 from .graph.flat import NORMAL_DECAY, flatten_graph
+from .graph.states import StateTable
 from .graph.volumes import bounding_volumes
 from .graph.model import KIND_NAMES, SELECT, Graph
 from .trace.kernel import CHUNK, trace_rays
@@ -77,13 +78,15 @@ class Traced:
         # graftal nodes bounded by a sphere rather than a box (graph/volumes.py)
         self.spheres = volumes.spheres
         self.volume_choices = volumes.choices
-        table = volumes.table
+        table, states = volumes.table, None
+        if isinstance(table, StateTable):       # a memoised system's boxes by state
+            table, states = (table.keys, table.used, table.boxes), table.slots
         if table is not None:
             table = (table[0], table[1], _pad(table[2], in_place=True))   # nothing else keeps it
         spheres = None if self.spheres is None else _pad_spheres(self.spheres)
         # a graftal hit's normal: averaged over the boxes that led to it, else its box's
         self.flat = flatten_graph(graph, _pad(boxes), table,
-                                  NORMAL_DECAY if average_normals else 0.0, spheres)
+                                  NORMAL_DECAY if average_normals else 0.0, spheres, states)
         self.events = no_events(len(graph.nodes))      # of all traces so far
         kids = int(self.flat.max_children)
         self.stack_depth = int(stack_depth or kids + (self.max_depth + 2) * min(kids, 16) + 32)

@@ -11,4 +11,4 @@ NUMBA_BOUNDSCHECK=1 NUMBA_CACHE_DIR="$PWD/.venv/numba-boundscheck" \
     python -m pytest -p no:cacheprovider tests/test_tracer.py tests/test_shading.py \
     tests/test_reference.py tests/test_vm.py tests/test_primitives.py tests/test_limits.py \
     tests/test_fuzz_systems.py tests/test_spheres.py tests/test_boxsplit.py \
-    tests/test_instance_table.py tests/test_packets.py
+    tests/test_instance_table.py tests/test_packets.py tests/test_states.py

@@ -21,7 +21,9 @@ from ..trace.primitives import object_box
 from .dependence import StateKey
 from .derive import Deriver, State
 from .model import CALC, DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, UNION, Graph
+from .states import StateTable, state_table
 from .stats import MAX_LEVELS
+from .terminating import terminating_rules
 
 EMPTY = np.array([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf])
 MAX_STATES = 5_000     # beyond this the compiled walk is faster
@@ -216,13 +218,14 @@ class _Walker:
         return sorted(found)
 
 
-def _memoised(graph: Graph) -> tuple[np.ndarray, dict]:
+def _memoised(graph: Graph) -> tuple[np.ndarray, dict, StateTable | None]:
     """Exact boxes by the memoised walk, iterated to a fixed point over re-entered
     states; TooManyStates when memoising cannot help. A re-entered state that stays
     empty (a graftal: no primitive below its cycle) is bounded as an IFS attractor.
     Also returns the bounds the last round took for the re-entered states (state key ->
     corner points whose hull holds that state's attractor), where bounding spheres
-    start (graph/spheres.py)."""
+    start (graph/spheres.py), and where no state is re-entered, the boxes by state
+    (graph/states.py)."""
     w = _Walker(graph)
 
     def round_():
@@ -234,11 +237,11 @@ def _memoised(graph: Graph) -> tuple[np.ndarray, dict]:
     for _ in range(MAX_ROUNDS):
         new = round_()
         if not new:
-            return w.boxes, {}
+            return w.boxes, {}, state_table(graph, w.memo, w.key, terminating_rules(graph))
         if all(k in w.estimate and _same(as_box(new[k]), as_box(w.estimate[k])) for k in new):
             if any(_empty(as_box(v)) for v in new.values()):
-                return _attractor_boxes(w, round_)
-            return w.boxes, {k: w.estimate[k] for k in new}
+                return (*_attractor_boxes(w, round_), None)
+            return w.boxes, {k: w.estimate[k] for k in new}, None
         w.estimate.update(new)
     raise TooManyStates
 
@@ -310,7 +313,8 @@ def hyper_boxes(graph: Graph, max_depth: int = 64):
 
 
 def bound(graph: Graph, max_depth: int = 64):
-    """hyper_boxes, the instance table, for the memoised method the re-entered states'
+    """hyper_boxes, the instance table (for the memoised method a StateTable or
+    None: graph/states.py), for the memoised method the re-entered states'
     final bounds (see _memoised; empty otherwise), and the derivation depth the boxes
     hold: max_depth, or less where the instances are too many to visit (the tracer must
     then stop refining there; a warning says so)."""
@@ -318,8 +322,8 @@ def bound(graph: Graph, max_depth: int = 64):
     limit = sys.getrecursionlimit()
     sys.setrecursionlimit(max(limit, 20 * MAX_LEVELS))
     try:
-        boxes, hulls = _memoised(graph)
-        return boxes, "memoised", problems, None, hulls, max_depth
+        boxes, hulls, states = _memoised(graph)
+        return boxes, "memoised", problems, states, hulls, max_depth
     except TooManyStates:
         pass
     except PcsgError as e:

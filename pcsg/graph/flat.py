@@ -38,6 +38,11 @@ Flat = namedtuple("Flat", [
     "inst_keys",     # uint64[s]    instance table: S-node instance hash ->
     "inst_used",     # int16[s]     0: empty, else the entry's level + 1
     "inst_boxes",    # float64[s,6]   that instance's own box (top levels only)
+    "by_state",      # int64        1: the table is a memoised system's, keyed by state
+                     #              (graph/states.py), not by instance hash
+    "state_start",   # int32[n]     S-nodes keyed by state: their key's slots in
+    "state_count",   # int32[n]       state_slots (count -1: the node has no entries)
+    "state_slots",   # int32[k]
     "vm_code",       # int32[q,2]   expression bytecode
     "vm_consts",     # float64[c]
     "vm_start",      # int32[e]     per expression
@@ -57,7 +62,9 @@ Flat = namedtuple("Flat", [
 
 
 def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
-                  normal_decay: float = NORMAL_DECAY, spheres=None) -> Flat:
+                  normal_decay: float = NORMAL_DECAY, spheres=None, states=None) -> Flat:
+    """`table`: (keys, used, boxes) of the instance table; keyed by state where
+    `states` gives each node's key slots (graph/states.py; None: not keyed)."""
     nodes = graph.nodes
     n = len(nodes)
     kind = np.array([x.kind for x in nodes], dtype=np.int8)
@@ -91,6 +98,12 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
         if x.kind == PRIMITIVE and x.name in FRACTAL_PRIMITIVES:
             fractal[i] = fractal_row(x.name, graph.constant_args(i))
     children = np.array([c for x in nodes for c in x.children], dtype=np.int32)
+    state_count = np.full(n, -1, dtype=np.int32)
+    keyed = [np.zeros(0, dtype=np.int32)] * n
+    for i, slots in enumerate(states or []):
+        if slots is not None:
+            keyed[i] = np.asarray(slots, dtype=np.int32)
+            state_count[i] = len(slots)
     starts = _starts(counts)
     _compose_fixed_chains(kind, fixed, fixed_map, starts, children)
     return Flat(
@@ -104,13 +117,17 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
         sphere=np.ascontiguousarray(np.zeros((0, 4)) if spheres is None else spheres,
                                     dtype=np.float64),
         inst_keys=table[0], inst_used=table[1], inst_boxes=np.ascontiguousarray(table[2]),
+        by_state=np.int64(states is not None), state_count=state_count,
+        state_start=_starts(np.maximum(state_count, 0)),
+        state_slots=np.concatenate([np.zeros(0, dtype=np.int32), *keyed]),
         vm_code=vm_code, calc_start=calc_start, calc_end=calc_end, calc_cache=calc_cache,
         vm_consts=np.asarray(vm["consts"], dtype=np.float64),
         vm_start=vm_start, vm_end=vm_end,
         root=np.int64(graph.root), n_params=np.int64(max(1, len(graph.params))),
         max_stack=np.int64(max(1, vm["max_stack"])),
         max_children=np.int64(max(1, counts.max(initial=1))),
-        hashed=np.int64(len(table[0]) > 2 or bool(np.any(vm["code"][:, 0] == RAND))
+        hashed=np.int64((len(table[0]) > 2 and states is None)
+                        or bool(np.any(vm["code"][:, 0] == RAND))
                         or bool(calc_cache.any())),
         pixels_slot=np.int64(graph.params.get(PIXELS, -1)),
         normal_decay=np.float64(normal_decay if any(

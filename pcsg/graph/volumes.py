@@ -18,6 +18,7 @@ import numpy as np
 
 from .bounds import _Walker, bound
 from .model import Graph
+from .states import StateTable
 from .spheres import ball_points, node_spheres
 from .terminating import terminating_rules
 
@@ -51,7 +52,7 @@ class Volumes:
                                     # of its box (radius -1: its box); None: no sphere won
     method: str                     # as bounds.hyper_boxes
     problems: list
-    table: tuple | None
+    table: tuple | StateTable | None  # per-instance boxes (bounds.bound)
     choices: list[Choice]           # one per graftal node, in node order
     depth: int                      # the derivation depth the boxes hold (bounds.bound)
 

@@ -184,9 +184,39 @@ def instance_window(flat, node, h, F, f, t0, t1):
     has it: an S-node instance (node, its hash) in its own frame, or an operand of an
     operator (the operator, the operand's hash) in the operator's frame. The table holds
     the top derivation levels of systems whose hyper boxes are loose (the terrain)."""
-    if flat.inst_used.shape[0] > 2:
+    if flat.inst_used.shape[0] > 2 and flat.by_state == 0:
         slot = table_slot(flat.inst_keys, flat.inst_used, vm.mix(h, node))
         if flat.inst_used[slot]:
+            b0, b1 = box_window(flat.inst_boxes, slot, F, f)
+            t0 = max(t0, b0)
+            t1 = min(t1, b1)
+    return t0, t1
+
+
+@inline
+def state_slot(flat, node, params, row):
+    """The table slot of the box of an S-node instance's state (graph/states.py) for a
+    table keyed by state: the node and the values of its key's parameters on entry,
+    params[row]; -1 if the table has none. Taken only where the instance refines: its
+    terminating rule is not what the state's box holds."""
+    c = flat.state_count[node]
+    if c < 0:
+        return -1
+    h = vm.splitmix64(np.uint64(node))
+    s = flat.state_start[node]
+    for j in range(c):
+        h = vm.mix(h, vm.float_bits(params[row, flat.state_slots[s + j]]))
+    slot = table_slot(flat.inst_keys, flat.inst_used, h)
+    return slot if flat.inst_used[slot] else -1
+
+
+@inline
+def state_window(flat, node, I, f, params, F, t0, t1):
+    """The window [t0, t1] of frame f narrowed by the box of its instance's state where
+    the table is keyed by state and the instance refines (state_slot)."""
+    if flat.by_state != 0 and I[f, CUT] == 0:
+        slot = state_slot(flat, node, params, I[f, SLOT])
+        if slot >= 0:
             b0, b1 = box_window(flat.inst_boxes, slot, F, f)
             t0 = max(t0, b0)
             t1 = min(t1, b1)

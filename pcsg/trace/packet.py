@@ -31,8 +31,8 @@ from .jit import inline, kernel
 from .nodes import (CUT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION, EV_SINGULAR,
                     EV_VISITS, F_WIDTH, I_WIDTH, INV, LEVEL, M0, MAT, NAVG, NODE, OX, PAINT,
                     PHASE, SLOT, T0, T1, box_window, copy_frame, map_matrix, map_ray,
-                    node_window, note, pick_rule, set_inverse, table_slot, transform_map,
-                    world_size)
+                    node_window, note, pick_rule, set_inverse, state_slot, table_slot,
+                    transform_map, world_size)
 from .walk import finish, hit_primitive, hit_volume, step_unary, walk
 
 PACKET = 64             # rays per packet: 16x4 pixels of a 16x16 tile (image.tile_order)
@@ -118,7 +118,7 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
     (k < n) into res[k]. Without `together` every ray walks alone from the root."""
     F, I, H, R = P.F, P.I, P.H, P.R
     act, win, cnt, best = P.act, P.win, P.n, P.best
-    has_table = flat.inst_used.shape[0] > 2
+    has_table = flat.inst_used.shape[0] > 2 and flat.by_state == 0   # keyed by path
     for c in range(9):
         F[0, M0 + c] = 1.0 if c % 4 == 0 else 0.0
     for c in range(3):
@@ -233,19 +233,7 @@ def select(flat, node, P, g, blk, has_table, tmin, tmax, any_hit, lod, max_depth
     if has_table:
         slot = table_slot(flat.inst_keys, flat.inst_used, vm.mix(H[g], node))
         if flat.inst_used[slot]:
-            q = 0
-            for j in range(m):
-                k = act[g, j]
-                b0, b1 = box_window(flat.inst_boxes, slot, R, blk + k)
-                t0 = max(win[g, j, 0], b0)
-                t1 = min(win[g, j, 1], b1)
-                if t0 <= t1:
-                    act[g, q] = k
-                    win[g, q, 0] = t0
-                    win[g, q, 1] = t1
-                    q += 1
-            m = q
-            P.n[g] = m
+            m = narrow(flat, P, g, slot, blk)
             if m == 0:
                 return False
     level = I[g, LEVEL] + 1
@@ -312,10 +300,34 @@ def select(flat, node, P, g, blk, has_table, tmin, tmax, any_hit, lod, max_depth
         if r < 0:
             note_all(ev, EV_SELECTION, node, level, m)
             return False
+        if flat.by_state != 0:
+            slot = state_slot(flat, node, P.params, I[g, SLOT])
+            if slot >= 0 and narrow(flat, P, g, slot, blk) == 0:
+                return False
     if flat.hashed:
         H[g] = vm.edge_hash(H[g], node, r)
     I[g, NODE] = flat.children[flat.child_start[node] + r]
     return True
+
+
+@inline
+def narrow(flat, P, g, slot, blk):
+    """Keeps frame g's rays that meet the table's box `slot`, their windows narrowed to
+    it: returns how many."""
+    act, win, R = P.act, P.win, P.R
+    q = 0
+    for j in range(P.n[g]):
+        k = act[g, j]
+        b0, b1 = box_window(flat.inst_boxes, slot, R, blk + k)
+        t0 = max(win[g, j, 0], b0)
+        t1 = min(win[g, j, 1], b1)
+        if t0 <= t1:
+            act[g, q] = k
+            win[g, q, 0] = t0
+            win[g, q, 1] = t1
+            q += 1
+    P.n[g] = q
+    return q
 
 
 @inline

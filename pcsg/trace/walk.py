@@ -16,7 +16,7 @@ from .jit import inline, kernel
 from .nodes import (CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_STACK, EV_VISITS, F_WIDTH, I_WIDTH, LEVEL, MAT, NODE, OX,
                     PAINT, PHASE, SLOT, T0, T1, copy_frame, enter_paint, node_window,
-                    enter_transform, instance_window, note, pick_rule, cached_calc,
+                    enter_transform, instance_window, note, pick_rule, cached_calc, state_window,
                     world_diameter, world_normal, world_size, average_box_normal,
                     volume_normal)
 from .fractals import march
@@ -269,6 +269,13 @@ def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, dnorm, max_depth, ev):
                     ls = push_list(lists, ls, top, 0)
                     sp -= 1
                 else:
+                    t0, t1 = state_window(flat, node, I, f, params, F, t0, t1)
+                    if t0 > t1:
+                        ls = push_list(lists, ls, top, 0)
+                        sp -= 1
+                        continue
+                    F[f, T0] = t0
+                    F[f, T1] = t1
                     if flat.hashed:
                         H[f] = vm.edge_hash(H[f], node, r)
                     I[f, NODE] = flat.children[flat.child_start[node] + r]
@@ -389,7 +396,7 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
     params, order, keys, hashes = S.params, S.order, S.keys, S.hashes
     F, I, H, iv = S.F, S.I, S.H, S.iv
     cap = F.shape[0]
-    has_table = flat.inst_used.shape[0] > 2
+    has_table = flat.inst_used.shape[0] > 2 and flat.by_state == 0
     hit = False
     while sp > 0:
         sp -= 1
@@ -437,6 +444,11 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                     break
                 if r < 0:
                     break
+                t0, t1 = state_window(flat, node, I, f, params, F, t0, t1)
+                if t0 > t1:
+                    break
+                F[f, T0] = t0
+                F[f, T1] = t1
                 if flat.hashed:
                     H[f] = vm.edge_hash(H[f], node, r)
                 I[f, NODE] = flat.children[flat.child_start[node] + r]

@@ -1,0 +1,87 @@
+"""Boxes by state: the instance table of a memoised system (graph/bounds.py).
+
+A node's hyper box is the union of the boxes of all its instances. Where the
+memoised walk could bound a system, every instance of an S-node with the same
+values of the parameters its derivation depends on (a state) has the same box, and
+the states are few: the sympodial tree's TR has 17, one per remaining order and trunk
+segment. A deep branch's own box is then a hundredth of the hyper box's volume, which
+holds the whole tree. The tracer keys the instance table by the state (trace/nodes.py
+state_slot) instead of by the instance's path, and narrows the window of a ray that
+refines the instance to that box.
+
+Only S-nodes whose states' boxes are smaller than their hyper box are kept: for the
+others (the Sierpinski tetrahedron, whose every instance is the same shape) the
+lookup would cost and cull nothing.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..trace.vm import float_bits, mix, splitmix64
+from .model import SELECT, Graph
+
+SMALLER = 0.9       # a state's box counts as smaller below this share of a side
+
+
+@dataclass
+class StateTable:
+    keys: np.ndarray        # uint64[s]   state_hash of (node, values); open addressing
+    used: np.ndarray        # int16[s]    1 where an entry is
+    boxes: np.ndarray       # float64[s, 6]
+    slots: list             # per node: the parameter slots of its key, or None (not kept)
+
+
+def state_hash(node: int, values) -> int:
+    """The key of S-node `node` entered with these values of its key's slots; the
+    tracer computes the same bits (trace/nodes.py state_slot)."""
+    h = int(splitmix64(node))
+    for v in values:
+        h = int(mix(h, float_bits(float(v))))
+    return h
+
+
+def state_table(graph: Graph, memo: dict, key, terminating: dict) -> StateTable | None:
+    """The table of the memo's S-node states (key: the memo's StateKey). None when no
+    node gains: every state's box is its hyper box, or no S-node is keyed by its
+    parameters alone (a rand() decides, or it is a graftal, bounded by its box)."""
+    from .bounds import as_box, union_box
+    found: dict[int, dict[int, np.ndarray]] = {}
+    for k, bound in memo.items():
+        node = k[0]
+        if graph.nodes[node].kind != SELECT or key.rand[node] or terminating.get(node, -1) < 0:
+            continue
+        h = state_hash(node, np.frombuffer(k[1], dtype=np.float64))
+        states = found.setdefault(node, {})
+        box = as_box(bound)
+        # the same values with other parameters unassigned: the same geometry, kept whole
+        states[h] = box if h not in states else union_box(states[h], box)
+    kept = {node: states for node, states in found.items() if _gains(list(states.values()))}
+    if not kept:
+        return None
+    entries = sum(len(s) for s in kept.values())
+    size = 1 << max(2, (4 * entries - 1).bit_length())      # at most a quarter full
+    keys = np.zeros(size, dtype=np.uint64)
+    used = np.zeros(size, dtype=np.int16)
+    boxes = np.zeros((size, 6))
+    for states in kept.values():
+        for h, box in states.items():
+            i = h & (size - 1)
+            while used[i] and int(keys[i]) != h:
+                i = (i + 1) & (size - 1)
+            keys[i], used[i], boxes[i] = h, 1, box
+    slots = [key.slots[i] if i in kept else None for i in range(len(graph.nodes))]
+    return StateTable(keys, used, boxes, slots)
+
+
+def _gains(boxes: list[np.ndarray]) -> bool:
+    """Whether some state's box is markedly smaller than the union of them all."""
+    b = np.array(boxes)
+    lo, hi = b[:, :3].min(axis=0), b[:, 3:].max(axis=0)
+    whole = hi - lo
+    finite = np.isfinite(whole) & (whole > 0)
+    if not finite.any():
+        return False
+    sides = (b[:, 3:] - b[:, :3])[:, finite]
+    return bool((sides < SMALLER * whole[finite]).any())
