@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numba
 import numpy as np
 
 from .compiler import compile_file, compile_text
@@ -13,6 +12,7 @@ from .graph.flat import NORMAL_DECAY, flatten_graph
 from .graph.states import StateTable
 from .graph.volumes import bounding_volumes
 from .graph.model import KIND_NAMES, SELECT, Graph
+from .trace.jit import threads
 from .trace.kernel import CHUNK, trace_rays
 from .trace.nodes import (EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
                           EV_SINGULAR, EV_STACK, EV_VISITS, N_EVENTS, add_events,
@@ -122,7 +122,7 @@ class Traced:
             e = min(n, s + BATCH)
             ev = no_events(len(self.graph.nodes), (e - s + CHUNK - 1) // CHUNK)
             trace_rays(self.flat, o[s:e], d[s:e], float(tmin), float(tmax), bool(any_hit),
-                       float(lod), self.max_depth, self.limits, numba.get_num_threads(),
+                       float(lod), self.max_depth, self.limits, threads(),
                        self._packets(packets), out[s:e], ev)
             add_events(events, ev)
         add_events(self.events, events)

@@ -13,10 +13,10 @@ import platform
 import time
 from pathlib import Path
 
-import numba
 import numpy as np
 
 import pcsg
+from pcsg.trace import jit
 from pcsg.render.camera import make_camera
 from pcsg.render.image import tile_order
 
@@ -51,12 +51,12 @@ def main():
         cam, o, d = primary_rays(obj, width, height)
         lod = cam.pixel_angle(height) if args.lod else 0.0
         h = obj.trace(o, d, lod=lod)                  # compile (or load the cache)
-        threads = numba.get_num_threads()
+        threads = jit.threads()
         best = {}
         for n in (threads, 1):
-            numba.set_num_threads(n)
+            jit.set_threads(n)
             best[n] = min(timed(obj, o, d, lod) for _ in range(args.repeat))
-        numba.set_num_threads(threads)
+        jit.set_threads(threads)
         print(f"{name:20s} {width}x{height}: {len(o) / best[threads] / 1e6:6.2f} M rays/s "
               f"on {threads} threads, {len(o) / best[1] / 1e6:5.2f} M on 1 "
               f"({h.hit.mean():.0%} hit; load+bounds {prep:.2f} s, "

@@ -22,10 +22,10 @@ import tempfile
 import time
 from pathlib import Path
 
-import numba
 from numba.core.codegen import CPUCodeLibrary
 
 import pcsg
+from pcsg.trace import jit
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_trace import primary_rays  # noqa: E402
@@ -91,7 +91,7 @@ def main():
     work = Path(tempfile.mkdtemp(prefix="pcsg-profile-"))
     (work / "kernel.o").write_bytes(code)
     base, size = code_range(library, work / "kernel.o")
-    numba.set_num_threads(1)
+    jit.set_threads(1)
     perf = subprocess.Popen(["perf", "record", "-q", "-F", "4000", "-o", str(work / "perf.data"),
                              "-p", str(os.getpid())],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

@@ -131,11 +131,11 @@ _interrupted = False
 
 
 def _init_worker(threads: int):
-    """A worker: its share of the cores for numba's threads; Ctrl-C (sent to the whole
+    """A worker: its share of the cores for the tracer's threads; Ctrl-C (sent to the whole
     process group) stops the frame it renders, which then writes nothing, and the frames
     already queued for it; it never kills an idle worker mid-protocol."""
-    import numba
-    numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+    from ..trace.jit import set_threads
+    set_threads(threads)
 
     def on_sigint(signum, frame):
         global _interrupted

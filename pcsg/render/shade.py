@@ -8,10 +8,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
 
 from ..scene import MATERIAL_DEFAULTS
+from ..trace.jit import threads
 from ..trace.shading import GOLDEN
 from ..trace.vm import hash_to_unit_array, splitmix64_array
 from ..tracer import Hits
@@ -172,7 +172,7 @@ def _shade_kernel(traced, light: Lighting, origins, directions, ids):
     shade_rays(traced.flat, o, d, lights, np.asarray(light.horizon, float),
                np.asarray(light.zenith, float), np.ascontiguousarray(materials, dtype=float),
                default, bool(light.shadows), int(light.shadow_samples), int(light.max_bounces),
-               float(light.lod), traced.max_depth, traced.limits, numba.get_num_threads(),
+               float(light.lod), traced.max_depth, traced.limits, threads(),
                AMBIENT, int(light.ao_samples), float(light.ao_distance),
                np.ascontiguousarray(ids, dtype=np.int64), traced._packets(light.packets), rgb,
                t, hit, rays, events)

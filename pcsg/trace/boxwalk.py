@@ -13,6 +13,7 @@ from numba import njit
 from ..graph.model import (CALC, INTERSECTION, MATERIAL, PAINT, PRIMITIVE, SELECT,
                            TRANSFORM, UNION)
 from . import vm
+from .jit import threads
 from .instance_table import (TABLE_SLOTS, append, compact, empty_table, expand, new_book,
                              record)
 from .nodes import node_affine, pick_rule, run_calc
@@ -267,7 +268,6 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
 def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bool):
     """One walk to `depth`, on every core: boxes, visits (-1: over budget), how many
     instances the depth bound changed, table."""
-    import numba
     from .boxsplit import walk_split
     n = empty.shape[0]
     boxes = empty.copy()
@@ -277,7 +277,7 @@ def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bo
     book = new_book(depth + 1 if instances else -1, TABLE_SLOTS // 2)
     changed = np.zeros(1, dtype=np.int64)
     visits = walk_split(flat, depth, budget, capacity, boxes, book, table, per_level, changed,
-                        numba.get_num_threads())
+                        threads())
     if instances and book[0] < 0:
         table = empty_table()           # not even the root's level fits
     return boxes, visits, int(changed[0]), table
