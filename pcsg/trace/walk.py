@@ -252,6 +252,10 @@ def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, dnorm, max_depth, ev):
                     continue
                 r = choose_rule(flat, node, F, I, H, f, S, lod, dnorm, max_depth,
                                 t0, ev)
+                if r >= 0:
+                    t0, t1 = state_window(flat, node, I, f, params, F, t0, t1)
+                    if t0 > t1:
+                        r = -1      # the ray misses its state's box: nothing here
                 if r == -2:         # a graftal below the footprint: its box or sphere is the solid
                     n = 0
                     if top < cap_iv:
@@ -269,11 +273,6 @@ def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, dnorm, max_depth, ev):
                     ls = push_list(lists, ls, top, 0)
                     sp -= 1
                 else:
-                    t0, t1 = state_window(flat, node, I, f, params, F, t0, t1)
-                    if t0 > t1:
-                        ls = push_list(lists, ls, top, 0)
-                        sp -= 1
-                        continue
                     F[f, T0] = t0
                     F[f, T1] = t1
                     if flat.hashed:
