@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..trace.instance_table import expand
 from ..trace.vm import float_bits, mix, splitmix64
 from .model import SELECT, Graph
 
@@ -60,17 +61,10 @@ def state_table(graph: Graph, memo: dict, key, terminating: dict) -> StateTable 
     kept = {node: states for node, states in found.items() if _gains(list(states.values()))}
     if not kept:
         return None
-    entries = sum(len(s) for s in kept.values())
-    size = 1 << max(2, (4 * entries - 1).bit_length())      # at most a quarter full
-    keys = np.zeros(size, dtype=np.uint64)
-    used = np.zeros(size, dtype=np.int16)
-    boxes = np.zeros((size, 6))
-    for states in kept.values():
-        for h, box in states.items():
-            i = h & (size - 1)
-            while used[i] and int(keys[i]) != h:
-                i = (i + 1) & (size - 1)
-            keys[i], used[i], boxes[i] = h, 1, box
+    hashes = np.array([h for states in kept.values() for h in states], dtype=np.uint64)
+    boxes = np.array([b for states in kept.values() for b in states.values()])
+    size = 1 << max(2, (4 * len(hashes) - 1).bit_length())     # at most a quarter full
+    keys, used, boxes = expand((hashes, np.ones(len(hashes), dtype=np.int16), boxes, size))
     slots = [key.slots[i] if i in kept else None for i in range(len(graph.nodes))]
     return StateTable(keys, used, boxes, slots)
 
