@@ -9,7 +9,7 @@ from pcsg.compiler import compile_file
 from pcsg.graph import bounds, states
 from pcsg.graph.model import SELECT
 from pcsg.render.camera import finite_bounds
-from pcsg.trace.nodes import EV_VISITS
+from pcsg.trace.nodes import EV_VISITS, table_slot
 
 from .conftest import GRAMMARS
 from .oracle import camera_rays
@@ -59,11 +59,9 @@ def test_state_boxes_lie_in_the_hyper_box_and_fill_it():
         for key, bound in w.memo.items():
             if key[0] != node:
                 continue
-            hsh = states.state_hash(node, np.frombuffer(key[1]))
-            i = hsh & (len(table.keys) - 1)
-            while table.keys[i] != np.uint64(hsh):
-                assert table.used[i], "a state of the memo is missing from the table"
-                i = (i + 1) & (len(table.keys) - 1)
+            hsh = np.uint64(states.state_hash(node, np.frombuffer(key[1])))
+            i = table_slot(table.keys, table.used, hsh)       # the kernels' own probe
+            assert table.used[i] and table.keys[i] == hsh, "a memo state is not in the table"
             box = table.boxes[i]
             assert np.all(box[:3] >= hyper[node, :3]) and np.all(box[3:] <= hyper[node, 3:])
             boxes.append(box)
