@@ -74,6 +74,7 @@ class ExprTable:
         self._consts: list[float] = []
         self._const_index: dict[bytes, int] = {}
         self._exprs: list[tuple] = []          # (folded form, start, end, depth)
+        self._need: list[int] = []             # the highest slot each expression reads
         self._arrays = None
 
     # ---- public ------------------------------------------------------------
@@ -83,6 +84,8 @@ class ExprTable:
         start = len(self._code)
         depth = _emit(form, self._code, self._const, self.params.__getitem__)
         self._exprs.append((form, start, len(self._code), depth))
+        self._need.append(max((self.params[f[1]] for f in _walk(form) if f[0] == 'load'),
+                              default=-1))
         self._arrays = None
         return len(self._exprs) - 1
 
@@ -119,7 +122,8 @@ class ExprTable:
         a = self.arrays()
         _, start, end, depth = self._exprs[idx]
         values = np.ascontiguousarray(params, dtype=np.float64)
-        need = max((self.params[n] for n in self.reads(idx)), default=-1)
+        # kept from add(): walking the form on every call was most of a probe's time
+        need = self._need[idx]
         if values.ndim != 1 or values.size <= need:
             raise ValueError(f"expression {idx} reads slot {need}; got {values.shape} values")
         return float(vm.eval_expr(a['code'], a['consts'], start, end, values,
