@@ -17,6 +17,7 @@ from ..scene import MAX_AO_SAMPLES
 from ..limits import (INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, MAX_INTERVAL_ROWS,
                       MAX_STACK_DEPTH, bounces_problem)
 from ..tracer import Hits, Traced
+from . import preload
 from .camera import make_camera
 from .image import Frame, Progress, render_frame, write_depth, write_png
 from .shade import make_lighting
@@ -166,7 +167,13 @@ def render_file(path: Path, out: Path, opts: Options) -> tuple[str, list[str]]:
     Raises RenderFailed, having written nothing, past --timeout or, with --strict, when
     instances were empty because of runtime errors."""
     deadline = None if opts.timeout is None else time.perf_counter() + opts.timeout
-    scene = prepare_scene(compile_file(path, opts.overrides), opts)
+    loading = None if opts.reference else preload.start()
+    try:
+        graph = compile_file(path, opts.overrides)
+    finally:
+        if loading is not None:
+            loading.join()
+    scene = prepare_scene(graph, opts)
     frame, events = render_scene(scene, Path(path).name, opts, deadline)
     notes, errors = scene.report(events, opts.strict)
     if errors:
