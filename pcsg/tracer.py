@@ -14,6 +14,7 @@ from .graph.volumes import bounding_volumes
 from .graph.model import KIND_NAMES, SELECT, Graph
 from .trace.jit import threads
 from .trace.kernel import CHUNK, trace_rays
+from .trace.pad import pad_boxes
 from .trace.nodes import (EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
                           EV_SINGULAR, EV_STACK, EV_VISITS, N_EVENTS, add_events,
                           no_events)
@@ -33,23 +34,12 @@ class Hits:
     events: np.ndarray = field(repr=False, default=None)   # trace.nodes.no_events layout
 
 
-PAD_ROWS = 1 << 15          # rows padded at a time: bounds the temporaries
-
-
 def _pad(boxes: np.ndarray, in_place: bool = False) -> np.ndarray:
-    """Widen every box by a relative hair so that rounding in the slab test can never
-    cull a primitive whose own exact test would hit (boxes must be conservative).
-    A copy, or `boxes` itself with `in_place`. The instance table's boxes are padded in
-    place and a slice at a time: a copy and whole-table temporaries made this the
-    terrain's peak of memory (41 MiB over the rest at order 9)."""
+    """Boxes made conservative (trace/pad.py): a copy, or `boxes` itself with `in_place`
+    (the instance table's, which nothing else keeps: a copy was the terrain's peak of
+    memory, 41 MiB over the rest at order 9)."""
     out = boxes if in_place else boxes.copy()
-    for r in range(0, len(out), PAD_ROWS):
-        part = out[r:r + PAD_ROWS]
-        finite = np.isfinite(part)
-        scale = np.where(finite, np.abs(part), 0.0)
-        ext = 1e-9 * (scale[:, :3] + scale[:, 3:]) + 1e-12
-        part[:, :3] -= np.where(finite[:, :3], ext, 0.0)
-        part[:, 3:] += np.where(finite[:, 3:], ext, 0.0)
+    pad_boxes(out)
     return out
 
 
