@@ -168,11 +168,12 @@ def _shade_kernel(traced, light: Lighting, origins, directions, ids):
     hit = np.empty(n, dtype=np.bool_)
     chunks = (n + CHUNK - 1) // CHUNK
     rays = np.zeros(chunks, dtype=np.int64)
-    events = no_events(len(traced.graph.nodes), chunks)
+    workers = threads()
+    events = no_events(len(traced.graph.nodes), workers)
     shade_rays(traced.flat, o, d, lights, np.asarray(light.horizon, float),
                np.asarray(light.zenith, float), np.ascontiguousarray(materials, dtype=float),
                default, bool(light.shadows), int(light.shadow_samples), int(light.max_bounces),
-               float(light.lod), traced.max_depth, traced.limits, threads(),
+               float(light.lod), traced.max_depth, traced.limits, workers,
                AMBIENT, int(light.ao_samples), float(light.ao_distance),
                np.ascontiguousarray(ids, dtype=np.int64), traced._packets(light.packets), rgb,
                t, hit, rays, events)

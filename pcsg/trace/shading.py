@@ -49,9 +49,11 @@ def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, de
                ao_samples, ao_distance, ids, together, rgb, first_t, first_hit_out, rays,
                events):
     """rgb[i] = the linear colour of camera ray i; first_t / first_hit_out its first hit;
-    rays[chunk] = rays traced; events[chunk] as trace_rays. ids[i] seeds the ambient
-    occlusion pattern of ray i and of its bounces. With `together` the rays of each
-    packet walk the graph together."""
+    rays[chunk] = rays traced; events[worker] as trace_rays' events[chunk]: counts add and
+    levels are maxima, so the totals are the same however the chunks are shared out, and
+    one array per worker is cheaper to clear and fold than one per chunk. ids[i] seeds
+    the ambient occlusion pattern of ray i and of its bounces. With `together` the rays
+    of each packet walk the graph together."""
     on_threads(shade_share, workers, flat, origins, directions, lights, horizon, zenith,
                materials, default, shadows, shadow_samples, max_bounces, lod, max_depth,
                limits, ambient, ao_samples, ao_distance, ids, together, rgb, first_t,
@@ -79,8 +81,8 @@ def shade_share(w, workers, flat, origins, directions, lights, horizon, zenith, 
     # the walk twice took 50 s more
     nearest = n < 0
     blocker = not nearest
+    ev = events[w]
     for c in range(w, chunks, workers):
-        ev = events[c]
         i0 = c * CHUNK
         m = min(n, i0 + CHUNK) - i0
         for k in range(m):
