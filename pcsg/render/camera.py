@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from ..graph.model import CALC, MATERIAL, PAINT, UNION
 
@@ -36,16 +37,37 @@ class Camera:
         """Rays through image positions (sx, sy) in pixels (0,0 = top left corner);
         unit directions, so t is a distance."""
         fwd, right, up = self.basis()
-        half = math.tan(math.radians(self.fov) / 2)
-        u = (2 * sx / width - 1) * half * width / height
-        v = (1 - 2 * sy / height) * half
-        d = fwd + u[:, None] * right + v[:, None] * up
-        d /= np.linalg.norm(d, axis=1, keepdims=True)
-        return np.broadcast_to(self.eye, d.shape).copy(), d
+        sx = np.ascontiguousarray(sx, dtype=np.float64)
+        sy = np.ascontiguousarray(sy, dtype=np.float64)
+        o = np.empty((len(sx), 3))
+        d = np.empty((len(sx), 3))
+        _rays(self.eye.astype(np.float64), fwd, right, up, math.tan(math.radians(self.fov) / 2),
+              width, height, sx, sy, o, d)
+        return o, d
 
     def pixel_angle(self, height: int) -> float:
         """The angle one pixel subtends: the level-of-detail footprint."""
         return math.radians(self.fov) / height
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def _rays(eye, fwd, right, up, half, width, height, sx, sy, o, d):
+    """Camera.rays in one pass: numpy's temporaries took 2 ms of every 30,000 rays. The
+    same operations in the same order as the numpy it replaced (the squares summed
+    left to right), so the same bits."""
+    for i in range(sx.shape[0]):
+        u = (2 * sx[i] / width - 1) * half * width / height
+        v = (1 - 2 * sy[i] / height) * half
+        x = fwd[0] + u * right[0] + v * up[0]
+        y = fwd[1] + u * right[1] + v * up[1]
+        z = fwd[2] + u * right[2] + v * up[2]
+        n = math.sqrt((x * x + y * y) + z * z)
+        d[i, 0] = x / n
+        d[i, 1] = y / n
+        d[i, 2] = z / n
+        o[i, 0] = eye[0]
+        o[i, 1] = eye[1]
+        o[i, 2] = eye[2]
 
 
 def finite_bounds(traced) -> np.ndarray:

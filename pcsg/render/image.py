@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from numba import njit
 
 from ..output import write_atomic
 from .camera import Camera
@@ -92,17 +93,13 @@ def render_frame(traced, camera: Camera, light: Lighting, width: int, height: in
         acc = np.zeros(((y1 - y0) * width, 3))
         acc_obj = np.zeros(((y1 - y0) * width, 3))
         hit = np.zeros((y1 - y0) * width)
+        band_depth = np.empty((y1 - y0) * width, np.float32)
         pixels = (ys * width + xs).astype(np.int64)
         for k, (ox, oy) in enumerate(offs):
             o, d = camera.rays(width, height, xs + ox, ys + oy)
             c, t, hits = shade(traced, light, o, d, ids=sample_ids(pixels, k, width, height))
-            acc[order] += c
-            acc_obj[order] += c * hits.hit[:, None]
-            hit[order] += hits.hit
-            if k == 0:
-                band_depth = np.empty((y1 - y0) * width, np.float32)
-                band_depth[order] = np.where(hits.hit, t, np.inf)
-                depth[y0:y1] = band_depth.reshape(y1 - y0, width)
+            _gather(order, c, hits.hit, t, acc, acc_obj, hit, band_depth, k == 0)
+        depth[y0:y1] = band_depth.reshape(y1 - y0, width)
         rgb[y0:y1] = (acc / len(offs)).reshape(y1 - y0, width, 3)
         obj[y0:y1] = (acc_obj / np.maximum(hit, 1)[:, None]).reshape(y1 - y0, width, 3)
         cover[y0:y1] = (hit / len(offs)).reshape(y1 - y0, width)
@@ -117,6 +114,23 @@ def render_frame(traced, camera: Camera, light: Lighting, width: int, height: in
     keep = slice(top - a0, bottom - a0)
     return Frame(rgb[keep], obj[keep], cover[keep], depth[keep], time.perf_counter() - t0,
                  light.rays[0])
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def _gather(order, c, hit, t, acc, acc_obj, hits, depth, first):
+    """A batch's sample results, in tile order, added to its pixels, row-major: colour,
+    colour where the object is hit, hits, and with `first` the depth. numpy's scattered
+    += took 3 ms of every batch. Adds 0.0 + x and x * 1.0 or 0.0 as numpy did: the same
+    bits."""
+    for i in range(order.shape[0]):
+        p = order[i]
+        h = 1.0 if hit[i] else 0.0
+        for a in range(3):
+            acc[p, a] += c[i, a]
+            acc_obj[p, a] += c[i, a] * h
+        hits[p] += h
+        if first:
+            depth[p] = t[i] if hit[i] else np.inf
 
 
 def _refine(traced, camera, light, rgb, obj, cover, rng, height, a0, keep):
