@@ -19,6 +19,9 @@ ROWS_PER_BATCH = 48
 TILE = 16                     # rays are traced in TILE x TILE blocks (see tile_order)
 ADAPTIVE_THRESHOLD = 0.06     # sRGB difference to a neighbour that earns extra samples
 ADAPTIVE_SAMPLES = 4
+# zlib's level 4, not Pillow's 6: half the encoding time (the terrain's 39 ms to 21 ms)
+# for files 1 to 5 % larger
+PNG_LEVEL = 4
 
 
 @dataclass
@@ -226,7 +229,7 @@ def save_png(f, samples: np.ndarray):
     same bytes to any file object, so a tiled image equals the one written at once."""
     from PIL import Image
     img = Image.fromarray(samples, "RGBA" if samples.shape[2] == 4 else "RGB")
-    img.save(f, format="PNG", optimize=False)
+    img.save(f, format="PNG", optimize=False, compress_level=PNG_LEVEL)
 
 
 def png_bytes(frame: Frame, alpha: bool) -> bytes:
