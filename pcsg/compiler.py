@@ -1,7 +1,6 @@
 """The front end in one call: text -> checked cyclic CSG graph."""
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 from .graph.build import build_graph
@@ -10,24 +9,22 @@ from .graph.model import Graph
 from .language.errors import Diagnostic, PcsgError
 from .language.parser import parse, read_source_text
 from .language.source import Source
+from .recursion import recursion_limit
 
 
 def compile_text(text: str, file: str = "<string>", overrides: dict[str, float] | None = None
                  ) -> Graph:
     """Parse, build and check; raises PcsgError. Warnings are in graph.warnings."""
-    limit = sys.getrecursionlimit()
-    sys.setrecursionlimit(max(limit, 60_000))    # the AST passes recurse with the nesting
     try:
-        program, source = parse(text, file)
-        graph = build_graph(program, source, overrides)
-        run_checks(graph)
-        return graph
+        with recursion_limit(60_000):       # the AST passes recurse with the nesting
+            program, source = parse(text, file)
+            graph = build_graph(program, source, overrides)
+            run_checks(graph)
+            return graph
     except RecursionError:
         raise PcsgError([Diagnostic("error", "the expressions are nested too deeply to compile "
                                              "(more than about 10 000 levels)", None,
                                     Source(file, text), code="nesting")]) from None
-    finally:
-        sys.setrecursionlimit(limit)
 
 
 def compile_file(path: str | Path, overrides: dict[str, float] | None = None) -> Graph:

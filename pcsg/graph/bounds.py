@@ -11,12 +11,12 @@ own heights), the numba walk in pcsg.trace.boxwalk visits every instance.
 """
 from __future__ import annotations
 
-import sys
 
 import numpy as np
 
 from ..language.errors import Diagnostic, PcsgError
 from ..language.names import PIXELS
+from ..recursion import recursion_limit
 from ..trace.primitives import object_box
 from .dependence import StateKey
 from .derive import Deriver, State
@@ -319,18 +319,15 @@ def bound(graph: Graph, max_depth: int = 64):
     hold: max_depth, or less where the instances are too many to visit (the tracer must
     then stop refining there; a warning says so)."""
     problems = []
-    limit = sys.getrecursionlimit()
-    sys.setrecursionlimit(max(limit, 20 * MAX_LEVELS))
     try:
-        boxes, hulls, states = _memoised(graph)
+        with recursion_limit(20 * MAX_LEVELS):
+            boxes, hulls, states = _memoised(graph)
         return boxes, "memoised", problems, states, hulls, max_depth
     except TooManyStates:
         pass
     except PcsgError as e:
         problems = [Diagnostic("warning", d.message + "; that instance is empty", d.span,
                                d.source, d.notes, d.code) for d in e.diagnostics]
-    finally:
-        sys.setrecursionlimit(limit)
     from ..trace.boxwalk import walk_boxes
     from ..trace.instance_table import empty_table
     if PIXELS in graph.params:      # the instance walk knows no pixel sizes: no boxes

@@ -2,11 +2,10 @@
 primitives of the complete derivation, counted without expanding it."""
 from __future__ import annotations
 
-import sys
 from collections import Counter
 
-
 from ..language.errors import Diagnostic, PcsgError
+from ..recursion import recursion_limit
 from .dependence import StateKey
 from .derive import Deriver, format_value
 from .model import CALC, KIND_NAMES, OPERATORS, PRIMITIVE, SELECT, Graph
@@ -29,16 +28,13 @@ def count_by_primitive(graph: Graph) -> dict[str, int]:
     """Primitives of each kind in the complete derivation of the axiom (memoised on node
     and the parameters that can change its derivation). PcsgError if it never ends."""
     counter = _Counter(graph)
-    limit = sys.getrecursionlimit()
-    sys.setrecursionlimit(max(limit, 12 * MAX_LEVELS + 1000))
     try:
-        state, h = counter.d.initial()
-        totals = counter.count(graph.root, state, h, 0)
+        with recursion_limit(12 * MAX_LEVELS + 1000):
+            state, h = counter.d.initial()
+            totals = counter.count(graph.root, state, h, 0)
         return {name: n for name, n in zip(counter.kinds, totals) if n}
     except Endless as e:
         raise PcsgError([e.diagnostic]) from None
-    finally:
-        sys.setrecursionlimit(limit)
 
 
 class _Counter:
