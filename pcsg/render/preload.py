@@ -16,7 +16,8 @@ def start() -> threading.Thread | None:
     """The loading thread, started; None when there is nothing to load. Join it before
     the process can end: a thread left inside LLVM at exit can crash the interpreter."""
     from ..trace.shading import shade_share
-    if shade_share.signatures or not cached():
+    # no `signatures` under NUMBA_DISABLE_JIT: a plain function, nothing to load
+    if getattr(shade_share, "signatures", True) or not cached():
         return None
     thread = threading.Thread(target=_load, name="pcsg-preload", daemon=False)
     thread.start()
