@@ -41,7 +41,8 @@ class Camera:
         sy = np.ascontiguousarray(sy, dtype=np.float64)
         o = np.empty((len(sx), 3))
         d = np.empty((len(sx), 3))
-        _rays(self.eye.astype(np.float64), fwd, right, up, math.tan(math.radians(self.fov) / 2),
+        _rays(np.asarray(self.eye, dtype=np.float64), fwd, right, up,
+              math.tan(math.radians(self.fov) / 2),
               width, height, sx, sy, o, d)
         return o, d
 
