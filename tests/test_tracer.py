@@ -346,6 +346,7 @@ def test_padding_widens_every_finite_side_by_its_hair():
     boxes[::7, 3] = -np.inf
     boxes[::9] = [np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf]     # empty
     whole = tracer._pad(boxes)
+    assert not np.array_equal(whole, boxes)
     finite = np.isfinite(boxes)
     scale = np.where(finite, np.abs(boxes), 0.0)
     ext = 1e-9 * (scale[:, :3] + scale[:, 3:]) + 1e-12
@@ -355,6 +356,7 @@ def test_padding_widens_every_finite_side_by_its_hair():
     assert np.array_equal(whole, want)
     assert np.all(whole[:, :3][finite[:, :3]] < boxes[:, :3][finite[:, :3]])
     assert np.all(whole[:, 3:][finite[:, 3:]] > boxes[:, 3:][finite[:, 3:]])
+    assert np.array_equal(whole[~finite], boxes[~finite])
     inplace = boxes.copy()
     assert tracer._pad(inplace, in_place=True) is inplace
     assert np.array_equal(inplace, whole)
