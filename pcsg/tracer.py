@@ -14,6 +14,7 @@ from .graph.volumes import bounding_volumes
 from .graph.model import KIND_NAMES, SELECT, Graph
 from .trace.jit import threads
 from .trace.kernel import CHUNK, trace_rays
+from .trace.instance_table import clip_to_owners
 from .trace.pad import pad_boxes
 from .trace.nodes import (EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
                           EV_SINGULAR, EV_STACK, EV_VISITS, N_EVENTS, add_events,
@@ -71,11 +72,14 @@ class Traced:
         table, states = volumes.table, None
         if isinstance(table, StateTable):       # a memoised system's boxes by state
             table, states = (table.keys, table.used, table.boxes), table.slots
+        padded = _pad(boxes)
         if table is not None:
             table = (table[0], table[1], _pad(table[2], in_place=True))   # nothing else keeps it
+            if states is None:
+                clip_to_owners(table[1], table[2], padded)
         spheres = None if self.spheres is None else _pad_spheres(self.spheres)
         # a graftal hit's normal: averaged over the boxes that led to it, else its box's
-        self.flat = flatten_graph(graph, _pad(boxes), table,
+        self.flat = flatten_graph(graph, padded, table,
                                   NORMAL_DECAY if average_normals else 0.0, spheres, states)
         self.events = no_events(len(graph.nodes))      # of all traces so far
         kids = int(self.flat.max_children)

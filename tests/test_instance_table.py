@@ -1,11 +1,16 @@
 """The bounding walk's instance table: dropping its deepest level when it fills keeps
-every other entry findable (linear-probing deletion), and the levels kept are the
-most that fit."""
+every other entry findable (linear-probing deletion), the levels kept are the most
+that fit, and each entry knows the node whose box holds it."""
 import numpy as np
 from hypothesis import given, settings, strategies as st
 
-from pcsg.trace.instance_table import drop_level, empty_table, record
-from pcsg.trace.nodes import table_slot
+from pcsg.compiler import compile_file
+from pcsg.graph.model import DIFFERENCE, INTERSECTION, SELECT, UNION
+from pcsg.trace.boxwalk import walk_boxes
+from pcsg.trace.instance_table import OWNER, clip_to_owners, drop_level, empty_table, record
+from pcsg.trace.nodes import DX, F_WIDTH, INV, OX, box_window, table_slot
+
+from .conftest import GRAMMARS
 
 
 def find(keys, used, key):
@@ -41,8 +46,70 @@ def test_record_keeps_the_most_levels_that_fit():
     for level in reversed(range(len(sizes))):
         for _ in range(sizes[level]):
             n += 1
-            record(level, 1, np.uint64(n), box, book, keys, used, vals, per_level)
+            record(level, 1, 1, np.uint64(n), box, book, keys, used, vals, per_level)
     assert list(per_level[:6]) == sizes
     assert book[0] == 3                      # 1 + 2 + 4 + 8 = 15 fit, + 16 would not
     assert book[2] == 15 == (used > 0).sum()
     assert sorted(np.bincount(used)[1:]) == [1, 2, 4, 8]
+
+
+def test_every_entry_lies_in_its_owners_box():
+    """The walk names each entry's owner: the S-node of an S-node instance, the operand
+    node of an operand. The owner's box is the union of its instances' boxes, so the
+    entry lies inside it exactly (before padding)."""
+    graph = compile_file(GRAMMARS / "carpenter_terrain.pcsg", {"cnt": 4})
+    boxes, complete, (keys, used, vals), depth = walk_boxes(graph, instances=True)
+    assert complete
+    kept = used > 0
+    owner = vals[kept, OWNER].astype(np.int64)
+    box = vals[kept, :OWNER]
+    assert np.all(box[:, :3] >= boxes[owner, :3]) and np.all(box[:, 3:] <= boxes[owner, 3:])
+    selects = {i for i, n in enumerate(graph.nodes) if n.kind == SELECT}
+    operands = {c for n in graph.nodes if n.kind in (UNION, INTERSECTION, DIFFERENCE)
+                for c in n.children}
+    owners = set(owner.tolist())
+    assert owners <= selects | operands
+    assert owners & selects and owners - selects       # both kinds of entry
+
+
+def test_clipping_cuts_an_entry_to_its_owner():
+    boxes = np.array([[0.0, 0, 0, 1, 1, 1], [-5.0, -5, -5, 5, 5, 5]])
+    used = np.array([1, 1, 0, 2], dtype=np.int16)
+    vals = np.array([[-1e-9, 0.2, 0.2, 0.5, 0.5, 1 + 1e-9, 0],     # out by a hair
+                     [0.2, 2.0, 0.2, 0.5, 3.0, 0.5, 0],            # beside its owner in y
+                     [7.0, 7, 7, 7, 7, 7, 0],                       # an empty slot
+                     [-1.0, -1, -1, 1, 1, 1, 1]])                   # inside
+    clip_to_owners(used, vals, boxes)
+    assert vals[0, :6].tolist() == [0.0, 0.2, 0.2, 0.5, 0.5, 1.0]
+    assert vals[1, :6].tolist() == [np.inf] * 3 + [-np.inf] * 3
+    assert vals[2, :6].tolist() == [7.0] * 6
+    assert vals[3, :6].tolist() == [-1.0, -1, -1, 1, 1, 1]
+
+
+coord = st.floats(-4, 4)
+# no subnormal directions: 1/d would be infinite, and 0 * inf in the slab test NaN
+direction = coord.filter(lambda v: v == 0.0 or abs(v) > 1e-300)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(coord, min_size=12, max_size=12),
+       st.tuples(coord, coord, coord, direction, direction, direction))
+def test_the_window_of_a_clipped_entry_is_the_window_of_both_boxes(ends, ray):
+    """What lets the tracer test a ray against an entry alone, not also its node's box."""
+    a = np.sort(np.reshape(ends[:6], (2, 3)), axis=0).ravel()
+    b = np.sort(np.reshape(ends[6:], (2, 3)), axis=0).ravel()
+    clipped = np.r_[a, 0.0][None]
+    clip_to_owners(np.ones(1, dtype=np.int16), clipped, b[None])
+    F = np.zeros((1, F_WIDTH))
+    F[0, OX:OX + 3] = ray[:3]
+    F[0, DX:DX + 3] = ray[3:]
+    with np.errstate(divide="ignore"):
+        F[0, INV:INV + 3] = 1.0 / np.asarray(ray[3:])
+    a0, a1 = box_window(a[None], 0, F, 0)
+    b0, b1 = box_window(b[None], 0, F, 0)
+    c0, c1 = box_window(clipped, 0, F, 0)
+    both = (max(a0, b0), min(a1, b1))
+    if both[0] > both[1]:
+        assert c0 > c1
+    else:
+        assert (c0, c1) == both

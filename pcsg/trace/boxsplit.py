@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .boxwalk import COLLECT, CONSUME, walk
-from .instance_table import merge
+from .instance_table import ENTRY, empty_table, merge
 from .jit import on_threads, share
 
 MAX_ITEMS = 8192            # instances one split level may have
@@ -35,7 +35,7 @@ def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, table,
     room = int(book[1]) if book[0] >= 0 else 0
     bkeys = np.zeros((workers, room), dtype=np.uint64)
     bused = np.zeros((workers, room), dtype=np.int16)
-    bvals = np.zeros((workers, room, 6))
+    bvals = np.zeros((workers, room, ENTRY))
     bbook = np.zeros((workers, book.shape[0]), dtype=np.int64)
     bbook[:, :2] = book[:2]
     wboxes = np.repeat(boxes[None], workers, axis=0)
@@ -68,7 +68,7 @@ def _split_level(flat, depth: int, budget: int, capacity: int, workers: int):
     boxes = np.empty((flat.box.shape[0], 6))
     levels = np.zeros(depth + 2, dtype=np.int64)
     book = np.array([-1, 0, 0], dtype=np.int64)         # keeps no entry
-    none = (np.zeros(1, dtype=np.uint64), np.zeros(1, dtype=np.int16), np.zeros((1, 6)))
+    none = empty_table(1)
 
     def collect(level):
         """The instances of `level` into items: (walk's result, how many)."""

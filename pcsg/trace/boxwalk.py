@@ -52,11 +52,11 @@ def _unite(acc, b):
 
 
 @njit(cache=True, error_model="numpy")
-def _keep(buffered, level, node, h, box, book, keys, used, vals, per_level):
+def _keep(buffered, level, node, owner, h, box, book, keys, used, vals, per_level):
     if buffered:
-        append(level, node, h, box, book, keys, used, vals, per_level)
+        append(level, node, owner, h, box, book, keys, used, vals, per_level)
     else:
-        record(level, node, h, box, book, keys, used, vals, per_level)
+        record(level, node, owner, h, box, book, keys, used, vals, per_level)
 
 
 @njit(cache=True, error_model="numpy")
@@ -153,8 +153,8 @@ def walk(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, per_l
                         fr[f, PHASE] = 1 + r
             else:
                 _unite(acc[f], acc[f + 1])
-                _keep(buffered, fr[f, LEVEL], node, hs[f], acc[f], book, keys, used, vals,
-                      per_level)
+                _keep(buffered, fr[f, LEVEL], node, node, hs[f], acc[f], book, keys, used,
+                      vals, per_level)
         elif kind == TRANSFORM or kind == CALC or kind == PAINT or kind == MATERIAL:
             if phase == 0:
                 child = 0
@@ -172,8 +172,8 @@ def walk(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, per_l
             if phase > 0:
                 b = acc[f + 1]
                 # the operand's own box, in this operator's frame, for culling it unexpanded
-                _keep(buffered, fr[f, LEVEL], node, hs[f + 1], b, book, keys, used, vals,
-                      per_level)
+                _keep(buffered, fr[f, LEVEL], node, fr[f + 1, NODE], hs[f + 1], b, book,
+                      keys, used, vals, per_level)
                 if phase == 1 or kind == UNION:
                     _unite(acc[f], b)
                 elif kind == INTERSECTION:

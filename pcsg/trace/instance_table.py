@@ -16,11 +16,15 @@ from . import vm
 from .nodes import table_slot
 
 TABLE_SLOTS = 1 << 19      # instance boxes kept: ~30 MB at most, whatever the order
+# an entry's values: its box (xmin, ymin, zmin, xmax, ymax, zmax) and its owner, the
+# node whose hyper box holds it (an S-node, or an operator's operand)
+OWNER = 6
+ENTRY = 7
 
 
-def empty_table(slots: int = 2):
+def empty_table(slots: int = 2, width: int = ENTRY):
     return (np.zeros(slots, dtype=np.uint64), np.zeros(slots, dtype=np.int16),
-            np.zeros((slots, 6)))
+            np.zeros((slots, width)))
 
 
 def compact(table):
@@ -37,7 +41,7 @@ def expand(entries):
     """The table again from compact's entries (the same entries; their slots may differ,
     which no lookup sees)."""
     keys, used, vals, slots = entries
-    table = empty_table(slots)
+    table = empty_table(slots, vals.shape[1])     # a StateTable's rows have no owner
     _insert(keys, used, vals, *table)
     return table
 
@@ -61,7 +65,7 @@ def new_book(deepest: int, most: int) -> np.ndarray:
 
 
 @njit(cache=True, error_model="numpy")
-def record(level, node, h, box, table, keys, used, vals, per_level):
+def record(level, node, owner, h, box, table, keys, used, vals, per_level):
     """Count the instance at its level; keep its box in the table if its level is within
     table[0], the deepest level kept. When the table would pass table[1] entries, its
     deepest level is dropped (table[0] lowered): the levels kept in the end are the
@@ -84,7 +88,8 @@ def record(level, node, h, box, table, keys, used, vals, per_level):
         table[3 + level] += 1
     used[slot] = 1 + level          # 0: empty; else the entry's level + 1
     keys[slot] = key
-    vals[slot, :] = box
+    vals[slot, :OWNER] = box
+    vals[slot, OWNER] = owner
 
 
 @njit(cache=True, error_model="numpy")
@@ -114,7 +119,7 @@ def drop_level(level, keys, used, vals):
 
 
 @njit(cache=True, error_model="numpy")
-def append(level, node, h, box, book, keys, used, vals, per_level):
+def append(level, node, owner, h, box, book, keys, used, vals, per_level):
     """record's rule on a buffer (entries in order, not hashed): count the instance at its
     level and keep its entry while its level fits, dropping the deepest level when the
     buffer would pass book[1] entries."""
@@ -138,7 +143,8 @@ def append(level, node, h, box, book, keys, used, vals, per_level):
     i = book[2]
     keys[i] = vm.mix(h, node)
     used[i] = 1 + level
-    vals[i, :] = box
+    vals[i, :OWNER] = box
+    vals[i, OWNER] = owner
     book[2] += 1
     book[3 + level] += 1
 
@@ -172,3 +178,24 @@ def merge(per_level, book, keys, used, vals, bkeys, bused, bvals, bbook):
             used[slot] = bused[b, i]
             keys[slot] = bkeys[b, i]
             vals[slot, :] = bvals[b, i]
+
+
+@njit(cache=True, error_model="numpy")
+def clip_to_owners(used, vals, boxes):
+    """Every entry's box cut down to its owner's box in `boxes`. The walk makes a node's
+    box the union of its instances' boxes, but padding (trace/pad.py) moves each by its
+    own magnitudes, so an entry may stick out of its node's box by a hair. Inside it, the
+    tracer can test a ray against the entry's box alone: within rounding that is
+    monotone, the window of the cut box is the window of both boxes."""
+    for i in range(used.shape[0]):
+        if not used[i]:
+            continue
+        o = np.int64(vals[i, OWNER])
+        empty = False
+        for a in range(3):
+            vals[i, a] = max(vals[i, a], boxes[o, a])
+            vals[i, a + 3] = min(vals[i, a + 3], boxes[o, a + 3])
+            empty = empty or vals[i, a] > vals[i, a + 3]
+        if empty:       # box_window reads an empty box by its x sides
+            vals[i, :3] = np.inf
+            vals[i, 3:OWNER] = -np.inf

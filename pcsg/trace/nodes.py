@@ -24,6 +24,11 @@ F_WIDTH = 26
 # I columns
 NODE, SLOT, LEVEL, MAT, CUT, PHASE = 0, 1, 2, 3, 4, 5
 I_WIDTH = 6
+# PHASE of a frame a union pushed: its window is inside its node's box (INSIDE), and
+# also inside the instance box of the S-node it leads to (BOXED) where the union's
+# table entry for it was met and only maps that keep boxes exact (axis_aligned) lie
+# between: that S-node's own box would cull nothing more
+INSIDE, BOXED = 1, 2
 
 # event kinds, counted per node and reported once per render. An events array has
 # 2 * N_EVENTS rows per node: the counts, then the deepest level each kind was met at.
@@ -179,14 +184,53 @@ def table_slot(keys, used, h):
 
 
 @inline
+def child_hash(flat, h, node, k):
+    """The instance hash of child k of an instance of `node` whose hash is h."""
+    if flat.hashed and flat.child_count[node] > 1:
+        return vm.edge_hash(h, node, k)
+    return h
+
+
+@inline
+def entry_slot(flat, node, h):
+    """The instance table's slot for the instance hash h at node (an S-node, or the
+    operator of an operand), -1 where it has none."""
+    slot = table_slot(flat.inst_keys, flat.inst_used, vm.mix(h, node))
+    return slot if flat.inst_used[slot] else -1
+
+
+@inline
+def volume_window(flat, node, slot, F, f):
+    """node_window narrowed by the instance table's box `slot` (-1: none). An entry's
+    box lies inside its node's box (instance_table.clip_to_owners), so where that is the
+    node's volume, the entry's window alone is the window of both."""
+    if slot < 0:
+        return node_window(flat, node, F, f)
+    t0, t1 = box_window(flat.inst_boxes, slot, F, f)
+    if flat.sphere.shape[0] > 0 and flat.sphere[node, 3] >= 0.0:
+        s0, s1 = sphere_window(flat.sphere, node, F, f)
+        t0 = max(t0, s0)
+        t1 = min(t1, s1)
+    return t0, t1
+
+
+@inline
+def axis_aligned(L):
+    """Whether the map L (transform_map's layout) only scales and moves along the axes:
+    then it maps a box onto exactly a box."""
+    return L[1] == 0.0 and L[2] == 0.0 and L[3] == 0.0 and L[5] == 0.0 and L[6] == 0.0 \
+        and L[7] == 0.0
+
+
+@inline
 def instance_window(flat, node, h, F, f, t0, t1):
     """The window [t0, t1] narrowed by one instance's own box where the instance table
     has it: an S-node instance (node, its hash) in its own frame, or an operand of an
     operator (the operator, the operand's hash) in the operator's frame. The table holds
     the top derivation levels of systems whose hyper boxes are loose (the terrain)."""
     if flat.inst_used.shape[0] > 2 and flat.by_state == 0:
-        slot = table_slot(flat.inst_keys, flat.inst_used, vm.mix(h, node))
-        if flat.inst_used[slot]:
+        slot = entry_slot(flat, node, h)
+        if slot >= 0:
             b0, b1 = box_window(flat.inst_boxes, slot, F, f)
             t0 = max(t0, b0)
             t1 = min(t1, b1)

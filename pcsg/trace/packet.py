@@ -28,11 +28,11 @@ from numba import njit
 from ..graph.model import DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, UNION
 from . import vm
 from .jit import inline, kernel
-from .nodes import (CUT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION, EV_SINGULAR,
-                    EV_VISITS, F_WIDTH, I_WIDTH, INV, LEVEL, M0, MAT, NAVG, NODE, OX, PAINT,
-                    PHASE, SLOT, T0, T1, box_window, copy_frame, map_matrix, map_ray,
-                    node_window, note, pick_rule, set_inverse, state_slot, table_slot,
-                    transform_map, world_size)
+from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
+                    EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, INV, LEVEL, M0, MAT, NAVG,
+                    NODE, OX, PAINT, PHASE, SLOT, T0, T1, axis_aligned, box_window, child_hash,
+                    copy_frame, entry_slot, map_matrix, map_ray, note, pick_rule, set_inverse,
+                    state_slot, transform_map, volume_window, world_size)
 from .walk import finish, hit_primitive, hit_volume, step_unary, walk
 
 PACKET = 64             # rays per packet: 16x4 pixels of a 16x16 tile (image.tile_order)
@@ -44,7 +44,8 @@ Packet = namedtuple("Packet", [
     "params",           # the frames' parameter slots
     "R",                # ray blocks: row block * PACKET + k is ray k in that block's frame
     "act", "win", "n",  # per frame: its rays, their windows [t0, t1], how many
-    "tact", "twin", "tn", "tkey", "tk", "th", "order",  # a union's children being sorted
+    "tact", "twin", "tn", "tkey", "tk", "th", "tphase", "order",  # a union's children
+                        # being sorted: rays, windows, count, key, number, hash, PHASE
     "best", "hit", "visits", "dnorm",   # per ray
     "O", "D", "cone",   # the packet's rays: world origin, direction, footprint at 0
 ])
@@ -62,16 +63,17 @@ def make_packet(flat):
         np.zeros(FRAMES, dtype=np.int64),
         np.zeros((c, PACKET), dtype=np.int64), np.empty((c, PACKET, 2)),
         np.zeros(c, dtype=np.int64), np.empty(c), np.zeros(c, dtype=np.int64),
-        np.zeros(c, dtype=np.uint64), np.zeros(c, dtype=np.int64),
+        np.zeros(c, dtype=np.uint64), np.zeros(c, dtype=np.int64), np.zeros(c, dtype=np.int64),
         np.empty(PACKET), np.zeros(PACKET, dtype=np.bool_), np.zeros(PACKET, dtype=np.int64),
         np.empty(PACKET),
         np.empty((PACKET, 3)), np.empty((PACKET, 3)), np.zeros(PACKET))
 
 
 @kernel
-def alone(flat, P, g, j, tmin, tmax, any_hit, lod, max_depth, S, ev, res):
+def alone(flat, P, g, j, phase, tmin, tmax, any_hit, lod, max_depth, S, ev, res):
     """Ray number j of frame g finishes the frame's subtree on its own walk (compiled
-    once and called from every place that sends rays on alone)."""
+    once and called from every place that sends rays on alone). The frame's window is
+    inside its node's box already; `phase` says whether also BOXED."""
     k = P.act[g, j]
     row = P.block[g] * PACKET + k
     F, I, H = S.F, S.I, S.H
@@ -85,7 +87,7 @@ def alone(flat, P, g, j, tmin, tmax, any_hit, lod, max_depth, S, ev, res):
     F[0, T1] = P.win[g, j, 1]
     for c in range(I_WIDTH):
         I[0, c] = P.I[g, c]
-    I[0, PHASE] = 1             # the window is inside the node's box already
+    I[0, PHASE] = phase
     I[0, SLOT] = 0
     src = P.I[g, SLOT]
     for p in range(S.params.shape[1]):
@@ -101,9 +103,9 @@ def alone(flat, P, g, j, tmin, tmax, any_hit, lod, max_depth, S, ev, res):
 
 
 @inline
-def all_alone(flat, P, g, tmin, tmax, any_hit, lod, max_depth, S, ev, res):
+def all_alone(flat, P, g, phase, tmin, tmax, any_hit, lod, max_depth, S, ev, res):
     for j in range(P.n[g]):
-        alone(flat, P, g, j, tmin, tmax, any_hit, lod, max_depth, S, ev, res)
+        alone(flat, P, g, j, phase, tmin, tmax, any_hit, lod, max_depth, S, ev, res)
 
 
 @inline
@@ -154,19 +156,27 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
     while sp > 0:
         sp -= 1
         g = sp
+        boxed = I[g, PHASE] == BOXED
         while True:         # follow single-child nodes in place
             node = I[g, NODE]
             kind = flat.kind[node]
             blk = P.block[g] * PACKET
-            inside = I[g, PHASE] == 1
+            slot = -1
+            if kind == SELECT and has_table and not boxed:
+                slot = entry_slot(flat, node, H[g])
+            test = I[g, PHASE] == 0 and not (boxed and kind == SELECT)
             I[g, PHASE] = 0
             m = 0
             for j in range(cnt[g]):
                 k = act[g, j]
                 t0 = win[g, j, 0]
                 t1 = min(win[g, j, 1], best[k])
-                if not inside:
-                    b0, b1 = node_window(flat, node, R, blk + k)
+                if test:
+                    b0, b1 = volume_window(flat, node, slot, R, blk + k)
+                    t0 = max(t0, b0)
+                    t1 = min(t1, b1)
+                elif slot >= 0:
+                    b0, b1 = box_window(flat.inst_boxes, slot, R, blk + k)
                     t0 = max(t0, b0)
                     t1 = min(t1, b1)
                 if t0 <= t1:
@@ -177,9 +187,10 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
             cnt[g] = m
             if m == 0:
                 break
+            phase = BOXED if boxed else INSIDE
             if (not together or m == 1 or kind == INTERSECTION or kind == DIFFERENCE
                     or (kind == SELECT and flat.pixels_slot >= 0)):
-                all_alone(flat, P, g, tmin, tmax, any_hit, lod, max_depth, S, ev, res)
+                all_alone(flat, P, g, phase, tmin, tmax, any_hit, lod, max_depth, S, ev, res)
                 break
             if kind == PRIMITIVE:
                 for j in range(m):
@@ -192,13 +203,15 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                         best[k] = -np.inf if any_hit else t
                 break
             if kind == SELECT:
-                if not select(flat, node, P, g, blk, has_table, tmin, tmax, any_hit, lod,
+                if not select(flat, node, P, g, blk, phase, tmin, tmax, any_hit, lod,
                               max_depth, budget, S, ev, res):
                     break
+                boxed = False
                 continue
             if kind == UNION:
                 if sp + flat.child_count[node] > cap:
-                    all_alone(flat, P, g, tmin, tmax, any_hit, lod, max_depth, S, ev, res)
+                    all_alone(flat, P, g, phase, tmin, tmax, any_hit, lod, max_depth, S, ev,
+                              res)
                     break
                 sp += split(flat, node, P, g, blk, has_table)
                 break
@@ -216,6 +229,7 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                     map_ray(L, R, blk + k, R, own + k)
                 P.block[g] = g + 1
                 map_matrix(L, F, g)
+                boxed = boxed and axis_aligned(L)
                 I[g, NODE] = flat.children[flat.child_start[node]]
                 continue
             if not step_unary(flat, node, kind, F, I, H, g, P.params, 0, S, ev):
@@ -225,17 +239,13 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
 
 
 @inline
-def select(flat, node, P, g, blk, has_table, tmin, tmax, any_hit, lod, max_depth, budget, S, ev,
+def select(flat, node, P, g, blk, phase, tmin, tmax, any_hit, lod, max_depth, budget, S, ev,
            res):
-    """choose_rule for the packet at an S-node: False if the frame ends here."""
+    """choose_rule for the packet at an S-node, its rays' windows narrowed to its boxes
+    already, or to its operand's where `phase` is BOXED (which passes on to the rays sent
+    on alone): False if the frame ends here."""
     F, I, H, R, act, win = P.F, P.I, P.H, P.R, P.act, P.win
     m = P.n[g]
-    if has_table:
-        slot = table_slot(flat.inst_keys, flat.inst_used, vm.mix(H[g], node))
-        if flat.inst_used[slot]:
-            m = narrow(flat, P, g, slot, blk)
-            if m == 0:
-                return False
     level = I[g, LEVEL] + 1
     below_all = False
     if I[g, CUT] == 0 and level <= max_depth and lod > 0.0:
@@ -252,7 +262,8 @@ def select(flat, node, P, g, blk, has_table, tmin, tmax, any_hit, lod, max_depth
             for j in range(m):
                 k = act[g, j]
                 if size < lod * P.dnorm[k] * max(win[g, j, 0], 0.0):
-                    alone(flat, P, g, j, tmin, tmax, any_hit, lod, max_depth, S, ev, res)
+                    alone(flat, P, g, j, phase, tmin, tmax, any_hit, lod, max_depth, S, ev,
+                          res)
                 else:
                     act[g, q] = k
                     win[g, q, 0] = win[g, j, 0]
@@ -341,29 +352,17 @@ def split(flat, node, P, g, blk, has_table):
     used = 0
     for k in range(n):
         c = flat.children[flat.child_start[node] + k]
-        hk = H[g]
-        if flat.hashed and n > 1:
-            hk = vm.edge_hash(H[g], node, k)
-        slot = -1
-        if has_table:
-            slot = table_slot(flat.inst_keys, flat.inst_used, vm.mix(hk, node))
-            if not flat.inst_used[slot]:
-                slot = -1
+        hk = child_hash(flat, H[g], node, k)
+        slot = entry_slot(flat, node, hk) if has_table else -1
         q = 0
         near = np.inf
         for j in range(m):
             ray = act[g, j]
-            e0, e1 = node_window(flat, c, R, blk + ray)
+            e0, e1 = volume_window(flat, c, slot, R, blk + ray)
             e0 = max(e0, win[g, j, 0])
             e1 = min(e1, win[g, j, 1])
             if e0 > e1:
                 continue
-            if slot >= 0:
-                b0, b1 = box_window(flat.inst_boxes, slot, R, blk + ray)
-                e0 = max(e0, b0)
-                e1 = min(e1, b1)
-                if e0 > e1:
-                    continue
             tact[used, q] = ray
             twin[used, q, 0] = e0
             twin[used, q, 1] = e1
@@ -374,6 +373,7 @@ def split(flat, node, P, g, blk, has_table):
         tn[used] = q
         tk[used] = k
         th[used] = hk
+        P.tphase[used] = BOXED if slot >= 0 else INSIDE
         # descending, so the nearest pops first; on a tie the earlier operand first
         j = used
         while j > 0 and tkey[order[j - 1]] <= near:
@@ -387,7 +387,7 @@ def split(flat, node, P, g, blk, has_table):
         u = order[j]
         copy_frame(F, I, H, g, d)
         I[d, NODE] = flat.children[flat.child_start[node] + tk[u]]
-        I[d, PHASE] = 1
+        I[d, PHASE] = P.tphase[u]
         H[d] = th[u]
         P.block[d] = P.block[g]
         P.n[d] = tn[u]

@@ -23,7 +23,8 @@ Scratch = namedtuple("Scratch", [
     "args",     # T- and paint-node arguments
     "m34",      # a T-node's 3x4 map
     "out8",     # a primitive's hit
-    "order", "keys", "hashes",  # union children sorted by their window, their hashes
+    "order", "keys", "hashes", "phases",  # union children sorted by their window, their
+                                          # hashes and the PHASE their frames start in
     "ckeys", "cvals",       # the cache of calculated states (nodes.cached_calc)
     "visits",   # [S-node instances the current ray entered, the most it may]
     "m21",      # a T-node's map with its inverse (nodes.transform_map)
@@ -43,6 +44,6 @@ def make_scratch(flat, limits):
         np.empty((limits[LIM_ROWS], IV_WIDTH)), np.zeros((stack_depth + 1, 2), dtype=np.int64),
         np.empty(flat.max_stack), np.empty(12), np.empty((3, 4)), np.empty(8),
         np.empty(flat.max_children, dtype=np.int64), np.empty((flat.max_children, 2)),
-        np.empty(flat.max_children, dtype=np.uint64),
+        np.empty(flat.max_children, dtype=np.uint64), np.empty(flat.max_children, dtype=np.int64),
         np.zeros(slots, dtype=np.uint64), np.empty((slots, flat.n_params)),
         np.array([0, limits[LIM_INSTANCES]], dtype=np.int64), np.empty(24))

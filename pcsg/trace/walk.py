@@ -13,10 +13,11 @@ from ..graph.model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, PAINT as PA
                            PRIMITIVE, SELECT, TRANSFORM, UNION)
 from . import vm
 from .jit import inline, kernel
-from .nodes import (CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
-                    EV_SINGULAR, EV_STACK, EV_VISITS, F_WIDTH, I_WIDTH, LEVEL, MAT, NODE, OX,
-                    PAINT, PHASE, SLOT, T0, T1, copy_frame, enter_paint, node_window,
-                    enter_transform, instance_window, note, pick_rule, cached_calc, state_window,
+from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE,
+                    EV_SELECTION, EV_SINGULAR, EV_STACK, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE,
+                    LEVEL, MAT, NODE, OX, PAINT, PHASE, SLOT, T0, T1, axis_aligned, box_window,
+                    child_hash, copy_frame, enter_paint, entry_slot, node_window, enter_transform,
+                    instance_window, note, pick_rule, cached_calc, state_window, volume_window,
                     world_diameter, world_normal, world_size, average_box_normal,
                     volume_normal)
 from .fractals import march
@@ -79,8 +80,7 @@ def enter_child(flat, node, k, F, I, H, src, dst):
     copy_frame(F, I, H, src, dst)
     I[dst, NODE] = flat.children[flat.child_start[node] + k]
     I[dst, PHASE] = 0
-    if flat.hashed and flat.child_count[node] > 1:
-        H[dst] = vm.edge_hash(H[src], node, k)
+    H[dst] = child_hash(flat, H[src], node, k)
 
 
 @inline
@@ -390,9 +390,10 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
          res, ri):
     """The first-hit walk over the frames 0..sp-1 of S (the ray in each frame's own
     columns), with the nearest hit so far at `best`: returns (hit found, best). A frame
-    pushed by a union has PHASE 1: its window is already inside its box. Inlined: called,
-    the single-ray walk took half as long again."""
-    params, order, keys, hashes = S.params, S.order, S.keys, S.hashes
+    pushed by a union has PHASE INSIDE: its window is already inside its box; or BOXED:
+    also inside the box of the S-node below (nodes.BOXED). Inlined: called, the
+    single-ray walk took half as long again."""
+    params, order, keys, hashes, phases = S.params, S.order, S.keys, S.hashes, S.phases
     F, I, H, iv = S.F, S.I, S.H, S.iv
     cap = F.shape[0]
     has_table = flat.inst_used.shape[0] > 2 and flat.by_state == 0
@@ -400,17 +401,24 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
     while sp > 0:
         sp -= 1
         f = sp
+        boxed = I[f, PHASE] == BOXED
         while True:         # follow single-child nodes in place
             node = I[f, NODE]
             kind = flat.kind[node]
-            if I[f, PHASE] == 1:
+            t0, t1 = F[f, T0], min(F[f, T1], best)
+            slot = -1
+            if kind == SELECT and has_table and not boxed:
+                slot = entry_slot(flat, node, H[f])
+            if I[f, PHASE] != 0 or (boxed and kind == SELECT):
                 I[f, PHASE] = 0
-                t0 = F[f, T0]
-                t1 = min(F[f, T1], best)
+                if slot >= 0:
+                    b0, b1 = box_window(flat.inst_boxes, slot, F, f)
+                    t0 = max(t0, b0)
+                    t1 = min(t1, b1)
             else:
-                b0, b1 = node_window(flat, node, F, f)
-                t0 = max(F[f, T0], b0)
-                t1 = min(F[f, T1], b1, best)
+                b0, b1 = volume_window(flat, node, slot, F, f)
+                t0 = max(t0, b0)
+                t1 = min(t1, b1)
             if t0 > t1:
                 break
             F[f, T0] = t0
@@ -425,9 +433,7 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                         return True, best
                 break
             if kind == SELECT:
-                t0, t1 = instance_window(flat, node, H[f], F, f, t0, t1)
-                if t0 > t1:
-                    break
+                boxed = False
                 ax, ay, az = 0.0, 0.0, 0.0
                 if flat.normal_decay > 0.0:
                     ax, ay, az = average_box_normal(flat, node, F, f, t0)
@@ -461,18 +467,19 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                 m = 0
                 for k in range(n):
                     c = flat.children[flat.child_start[node] + k]
-                    e0, e1 = node_window(flat, c, F, f)
+                    # the child's instance hash, found once: for the table and its frame;
+                    # before its box only where the table is keyed by it
+                    hk = H[f]
+                    es = -1
+                    if has_table:
+                        hk = child_hash(flat, H[f], node, k)
+                        es = entry_slot(flat, node, hk)
+                    e0, e1 = volume_window(flat, c, es, F, f)
                     e0 = max(e0, t0)
                     e1 = min(e1, t1)
-                    if e0 > e1:
-                        continue
-                    # the child's instance hash, found once: for the table and its frame
-                    hk = H[f]
-                    if flat.hashed and n > 1:
-                        hk = vm.edge_hash(H[f], node, k)
-                    if has_table:
-                        e0, e1 = instance_window(flat, node, hk, F, f, e0, e1)
                     if e0 <= e1:
+                        if not has_table:
+                            hk = child_hash(flat, H[f], node, k)
                         j = m
                         # descending, so the nearest pops first; on a tie the earlier
                         # operand pops first and keeps the surface (as a union merges)
@@ -481,17 +488,19 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                             keys[j, 1] = keys[j - 1, 1]
                             order[j] = order[j - 1]
                             hashes[j] = hashes[j - 1]
+                            phases[j] = phases[j - 1]
                             j -= 1
                         keys[j, 0] = e0
                         keys[j, 1] = e1
                         order[j] = k
                         hashes[j] = hk
+                        phases[j] = BOXED if es >= 0 else INSIDE
                         m += 1
                 for j in range(m - 1, -1, -1):     # the source frame f is overwritten last
                     g = sp + j
                     copy_frame(F, I, H, f, g)
                     I[g, NODE] = flat.children[flat.child_start[node] + order[j]]
-                    I[g, PHASE] = 1
+                    I[g, PHASE] = phases[j]
                     H[g] = hashes[j]
                     F[g, T0] = keys[j, 0]
                     F[g, T1] = keys[j, 1]
@@ -519,4 +528,6 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                 break
             if not step_unary(flat, node, kind, F, I, H, f, params, 0, S, ev):
                 break
+            if kind == TRANSFORM:
+                boxed = boxed and axis_aligned(S.m21)
     return hit, best
