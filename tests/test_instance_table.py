@@ -109,7 +109,29 @@ def test_the_window_of_a_clipped_entry_is_the_window_of_both_boxes(ends, ray):
     b0, b1 = box_window(b[None], 0, F, 0)
     c0, c1 = box_window(clipped, 0, F, 0)
     both = (max(a0, b0), min(a1, b1))
-    if both[0] > both[1]:
+    meet = np.all(np.maximum(a[:3], b[:3]) <= np.minimum(a[3:], b[3:]))
+    if not meet:
+        # no point lies in both boxes, so no ray may enter the entry; the two rounded
+        # windows can still touch at one t (a side 1e-163 from the other, seen by 1.0)
+        assert c0 > c1
+    elif both[0] > both[1]:
         assert c0 > c1
     else:
         assert (c0, c1) == both
+
+
+def test_disjoint_boxes_whose_rounded_windows_touch_give_an_empty_entry():
+    """The case hypothesis found: the windows of the two boxes meet at t = -1 only by
+    rounding (5e-163 - 1 == -1), the boxes themselves do not."""
+    a = np.array([0.0, 5.1278179516629826e-163, 0.0, 0.0, 1.0, 0.0])
+    b = np.zeros(6)
+    clipped = np.r_[a, 0.0][None]
+    clip_to_owners(np.ones(1, dtype=np.int16), clipped, b[None])
+    assert clipped[0, :6].tolist() == [np.inf] * 3 + [-np.inf] * 3
+    F = np.zeros((1, F_WIDTH))
+    F[0, OX:OX + 3] = (0.0, 1.0, 0.0)
+    F[0, DX:DX + 3] = (0.0, 1.0, 0.0)
+    with np.errstate(divide="ignore"):
+        F[0, INV:INV + 3] = 1.0 / F[0, DX:DX + 3]
+    c0, c1 = box_window(clipped, 0, F, 0)
+    assert c0 > c1

@@ -186,7 +186,9 @@ def clip_to_owners(used, vals, boxes):
     box the union of its instances' boxes, but padding (trace/pad.py) moves each by its
     own magnitudes, so an entry may stick out of its node's box by a hair. Inside it, the
     tracer can test a ray against the entry's box alone: within rounding that is
-    monotone, the window of the cut box is the window of both boxes."""
+    monotone, the window of the cut box is the window of both boxes. Where the boxes do
+    not meet, the cut box is empty, though their rounded windows may still touch at one
+    t: nothing lies in both, so there is nothing that window could hit."""
     for i in range(used.shape[0]):
         if not used[i]:
             continue
