@@ -46,3 +46,36 @@ def test_kernel_shades_like_the_model(obj, shadows, samples, ao):
     np.testing.assert_allclose(got_t[want_hits.hit], want_t[want_hits.hit], rtol=1e-12)
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
     assert got.std() > 0.02                 # a picture, not a flat colour
+
+
+LIT_FROM_THE_SIDE = """
+#camera eye=(0, -5, 0) at=(0, 0, 0) up=(0, 0, 1) fov=40
+#light at=(8, 0, 0)
+sphere
+"""
+
+
+@pytest.mark.parametrize("kernel", [False, True], ids=["model", "kernel"])
+def test_only_surfaces_facing_a_light_send_shadow_rays(kernel):
+    """A lone sphere lit from the side: a point at x sees the light at (8, 0, 0) only where
+    its normal (the point itself) turns to it, x > 1/8. Only those points send shadow rays,
+    and the picture is the one without shadows (a convex solid shadows nothing of itself
+    that the light reaches)."""
+    obj = pcsg.loads(LIT_FROM_THE_SIDE)
+    cam = make_camera(obj, 4 / 3)
+    ys, xs = np.mgrid[0:45, 0:60]
+    o, d = cam.rays(60, 45, xs.ravel() + 0.5, ys.ravel() + 0.5)
+    pictures = []
+    for shadows in (True, False):
+        light = make_lighting(obj, cam, shadows, 1, 3)
+        light.rays[0] = 0
+        color, t, hits = shade(obj, light, o, d, kernel=kernel)
+        pictures.append(color)
+        if shadows:
+            h = hits.hit
+            x = o[h, 0] + t[h] * d[h, 0]
+            assert np.abs(x - 1 / 8).min() > 1e-3          # no point near the boundary
+            facing = int((x > 1 / 8).sum())
+            assert 0 < facing < hits.hit.sum()            # both halves are in view
+            assert light.rays[0] == len(o) + facing
+    np.testing.assert_allclose(pictures[0], pictures[1], rtol=0, atol=1e-12)

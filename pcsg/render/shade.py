@@ -141,7 +141,7 @@ def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: 
     if light.ao_samples > 0:
         out *= _unoccluded(traced, light, origin, n, ids[h])[:, None]
     for lt in light.lights:
-        vis, ldir = _visibility(traced, light, lt, origin)
+        vis, ldir = _visibility(traced, light, lt, origin, n)
         ndl = np.clip(np.einsum("ij,ij->i", n, ldir), 0, None)[:, None]
         refl = ldir - 2 * np.einsum("ij,ij->i", ldir, n)[:, None] * n
         spec = np.clip(np.einsum("ij,ij->i", refl, d), 0, None)[:, None] ** shin
@@ -182,23 +182,27 @@ def _shade_kernel(traced, light: Lighting, origins, directions, ids):
     return rgb, t, Hits(t=t, normal=None, paint=None, material=None, hit=hit)
 
 
-def _visibility(traced, light: Lighting, lt: Light, origin: np.ndarray):
-    """Fraction of the light seen from each point, and the unit direction to it."""
+def _visibility(traced, light: Lighting, lt: Light, origin: np.ndarray, n: np.ndarray):
+    """Fraction of the light seen from each point, and the unit direction to it. Points
+    whose normal n turns away from the light get nothing from it, shadowed or not, so
+    they send no shadow rays (their fraction is 0)."""
     to = lt.position - origin
     dist = np.linalg.norm(to, axis=1, keepdims=True)
     ldir = to / dist
     if not light.shadows:
         return np.ones(len(origin)), ldir
     samples = light.shadow_samples if lt.radius > 0 else 1
+    facing = n[:, 0] * ldir[:, 0] + n[:, 1] * ldir[:, 1] + n[:, 2] * ldir[:, 2] > 0.0
     seen = np.zeros(len(origin))
-    for k in range(samples):
+    o = origin[facing]
+    for k in range(samples if len(o) else 0):
         # one sample: the light is a point at its centre
-        target = lt.position + (_disk(k, samples, lt.radius, ldir) if samples > 1 else 0.0)
-        sd = target - origin
-        hit = traced.trace(origin, sd, tmin=1e-9, tmax=1.0 - 1e-9, any_hit=True,
+        target = lt.position + (_disk(k, samples, lt.radius, ldir[facing])
+                                if samples > 1 else 0.0)
+        hit = traced.trace(o, target - o, tmin=1e-9, tmax=1.0 - 1e-9, any_hit=True,
                            lod=light.lod)
-        light.rays[0] += len(origin)
-        seen += ~hit.hit
+        light.rays[0] += len(o)
+        seen[facing] += ~hit.hit
     return seen / samples, ldir
 
 

@@ -39,8 +39,8 @@ P_WIDTH = 11
 # colour so far, weight, base colour; then its finish and what its bounces need
 SH_Q, SH_N, SH_U, SH_P, SH_C, SH_W, SH_B = 0, 3, 6, 9, 12, 15, 18
 (SH_KD, SH_KS, SH_SHIN, SH_REFL, SH_IOR, SH_TRANS, SH_INSIDE, SH_CONE, SH_SCALE, SH_PIX,
- SH_SEEN) = range(21, 32)
-SH_WIDTH = 32
+ SH_SEEN, SH_FACING) = range(21, 33)
+SH_WIDTH = 33
 GOLDEN = 0.6180339887498949                    # the pattern's azimuths: k * GOLDEN mod 1
 
 
@@ -179,14 +179,14 @@ def surfaces(pend, top, m, res, horizon, zenith, materials, default, ambient, lo
 
 
 @inline
-def aim(P, j, sh, d0, d1, d2):
-    """Ray j of the packet: from surface j's offset point along d."""
+def aim(P, k, sh, j, d0, d1, d2):
+    """Ray k of the packet: from surface j's offset point along d."""
     for a in range(3):
-        P.O[j, a] = sh[j, SH_Q + a]
-    P.D[j, 0] = d0
-    P.D[j, 1] = d1
-    P.D[j, 2] = d2
-    P.cone[j] = sh[j, SH_CONE]
+        P.O[k, a] = sh[j, SH_Q + a]
+    P.D[k, 0] = d0
+    P.D[k, 1] = d1
+    P.D[k, 2] = d2
+    P.cone[k] = sh[j, SH_CONE]
 
 
 @inline
@@ -202,7 +202,7 @@ def occlusion(flat, hits, ao_samples, ao_distance, ids, lod, max_depth, S, P, to
             r1, r2 = hash_to_unit(h), hash_to_unit(splitmix64(h))
             a0, a1, a2 = hemisphere(s, ao_samples, r1, r2, sh[j, SH_N], sh[j, SH_N + 1],
                                     sh[j, SH_N + 2])
-            aim(P, j, sh, a0, a1, a2)
+            aim(P, j, sh, j, a0, a1, a2)
         trace(flat, hits, 1e-9, ao_distance, any_hit, lod, max_depth, S, P, together, ev, occ)
         for j in range(hits):
             if occ[j, R_HIT] == 0.0:
@@ -232,11 +232,23 @@ def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S,
     rays traced."""
     radius = lights[li, L_RADIUS]
     samples = shadow_samples if radius > 0 else 1
+    facing = 0
     for j in range(hits):
         sh[j, SH_SEEN] = 0.0
-    if shadows:
+        # a surface turned away from the light gets nothing from it, shadowed or not
+        # (both terms below are 0), so it sends no shadow rays (half of them where a
+        # light is behind the objects; few in the samples, lit from the camera's side)
+        l0, l1, l2 = to_light(lights, li, sh, j)
+        lit = sh[j, SH_N] * l0 + sh[j, SH_N + 1] * l1 + sh[j, SH_N + 2] * l2 > 0.0
+        sh[j, SH_FACING] = 1.0 if lit else 0.0
+        if lit:
+            facing += 1
+    if shadows and facing > 0:
         for s in range(samples):
+            k = 0
             for j in range(hits):
+                if sh[j, SH_FACING] == 0.0:
+                    continue
                 g0 = lights[li, L_POS]
                 g1 = lights[li, L_POS + 1]
                 g2 = lights[li, L_POS + 2]
@@ -246,11 +258,18 @@ def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S,
                     g0 += e0
                     g1 += e1
                     g2 += e2
-                aim(P, j, sh, g0 - sh[j, SH_Q], g1 - sh[j, SH_Q + 1], g2 - sh[j, SH_Q + 2])
-            trace(flat, hits, 1e-9, 1.0 - 1e-9, any_hit, lod, max_depth, S, P, together, ev, occ)
+                aim(P, k, sh, j, g0 - sh[j, SH_Q], g1 - sh[j, SH_Q + 1],
+                    g2 - sh[j, SH_Q + 2])
+                k += 1
+            trace(flat, facing, 1e-9, 1.0 - 1e-9, any_hit, lod, max_depth, S, P, together, ev,
+                  occ)
+            k = 0
             for j in range(hits):
-                if occ[j, R_HIT] == 0.0:
+                if sh[j, SH_FACING] == 0.0:
+                    continue
+                if occ[k, R_HIT] == 0.0:
                     sh[j, SH_SEEN] += 1.0
+                k += 1
     for j in range(hits):
         vis = sh[j, SH_SEEN] / samples if shadows else 1.0
         l0, l1, l2 = to_light(lights, li, sh, j)
@@ -265,7 +284,7 @@ def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S,
         for a in range(3):
             sh[j, SH_C + a] += vis * lights[li, L_COLOR + a] * (kd * sh[j, SH_B + a] * ndl
                                                                 + ks * spec * lit)
-    return hits * samples if shadows else 0
+    return facing * samples if shadows else 0
 
 
 @kernel
