@@ -229,11 +229,18 @@ def instance_window(flat, node, h, F, f, t0, t1):
     operator (the operator, the operand's hash) in the operator's frame. The table holds
     the top derivation levels of systems whose hyper boxes are loose (the terrain)."""
     if flat.inst_used.shape[0] > 2 and flat.by_state == 0:
-        slot = entry_slot(flat, node, h)
-        if slot >= 0:
-            b0, b1 = box_window(flat.inst_boxes, slot, F, f)
-            t0 = max(t0, b0)
-            t1 = min(t1, b1)
+        return entry_window(flat, entry_slot(flat, node, h), F, f, t0, t1)
+    return t0, t1
+
+
+@inline
+def entry_window(flat, slot, F, f, t0, t1):
+    """The window [t0, t1] narrowed by the instance table's box `slot`, as it is where
+    slot is -1 (no entry)."""
+    if slot >= 0:
+        b0, b1 = box_window(flat.inst_boxes, slot, F, f)
+        t0 = max(t0, b0)
+        t1 = min(t1, b1)
     return t0, t1
 
 
@@ -259,11 +266,7 @@ def state_window(flat, node, I, f, params, F, t0, t1):
     """The window [t0, t1] of frame f narrowed by the box of its instance's state where
     the table is keyed by state and the instance refines (state_slot)."""
     if flat.by_state != 0 and I[f, CUT] == 0:
-        slot = state_slot(flat, node, params, I[f, SLOT])
-        if slot >= 0:
-            b0, b1 = box_window(flat.inst_boxes, slot, F, f)
-            t0 = max(t0, b0)
-            t1 = min(t1, b1)
+        return entry_window(flat, state_slot(flat, node, params, I[f, SLOT]), F, f, t0, t1)
     return t0, t1
 
 

@@ -31,8 +31,8 @@ from .jit import inline, kernel
 from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, INV, LEVEL, M0, MAT, NAVG,
                     NODE, OX, PAINT, PHASE, SLOT, T0, T1, axis_aligned, box_window, child_hash,
-                    copy_frame, entry_slot, map_matrix, map_ray, note, pick_rule, set_inverse,
-                    state_slot, transform_map, volume_window, world_size)
+                    copy_frame, entry_slot, entry_window, map_matrix, map_ray, note, pick_rule,
+                    set_inverse, state_slot, transform_map, volume_window, world_size)
 from .walk import finish, hit_primitive, hit_volume, step_unary, walk
 
 PACKET = 64             # rays per packet: 16x4 pixels of a 16x16 tile (image.tile_order)
@@ -175,10 +175,8 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                     b0, b1 = volume_window(flat, node, slot, R, blk + k)
                     t0 = max(t0, b0)
                     t1 = min(t1, b1)
-                elif slot >= 0:
-                    b0, b1 = box_window(flat.inst_boxes, slot, R, blk + k)
-                    t0 = max(t0, b0)
-                    t1 = min(t1, b1)
+                else:
+                    t0, t1 = entry_window(flat, slot, R, blk + k, t0, t1)
                 if t0 <= t1:
                     act[g, m] = k
                     win[g, m, 0] = t0

@@ -15,9 +15,9 @@ from . import vm
 from .jit import inline, kernel
 from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE,
                     EV_SELECTION, EV_SINGULAR, EV_STACK, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE,
-                    LEVEL, MAT, NODE, OX, PAINT, PHASE, SLOT, T0, T1, axis_aligned, box_window,
-                    child_hash, copy_frame, enter_paint, entry_slot, node_window, enter_transform,
-                    instance_window, note, pick_rule, cached_calc, state_window, volume_window,
+                    LEVEL, MAT, NODE, OX, PAINT, PHASE, SLOT, T0, T1, axis_aligned,
+                    child_hash, copy_frame, enter_paint, entry_slot, entry_window, node_window,
+                    enter_transform, instance_window, note, pick_rule, cached_calc, state_window, volume_window,
                     world_diameter, world_normal, world_size, average_box_normal,
                     volume_normal)
 from .fractals import march
@@ -411,10 +411,7 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                 slot = entry_slot(flat, node, H[f])
             if I[f, PHASE] != 0 or (boxed and kind == SELECT):
                 I[f, PHASE] = 0
-                if slot >= 0:
-                    b0, b1 = box_window(flat.inst_boxes, slot, F, f)
-                    t0 = max(t0, b0)
-                    t1 = min(t1, b1)
+                t0, t1 = entry_window(flat, slot, F, f, t0, t1)
             else:
                 b0, b1 = volume_window(flat, node, slot, F, f)
                 t0 = max(t0, b0)
