@@ -150,17 +150,23 @@ def _refuse_fractals(graph):
 
 
 def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
-               size: tuple[int, int]) -> int:
-    """Write the scene to `path` (atomically); returns the number of primitives."""
+               size: tuple[int, int]) -> tuple[int, int]:
+    """Write the scene to `path` (atomically); returns the number of primitives written
+    and of those left out because they are empty: a singular or non-finite transform
+    (a runtime error in the grammar) draws nothing in pcsg, and POV-Ray could not parse
+    a matrix of NaNs. Leaving one out empties an intersection as pcsg's tracer does."""
     graph = traced.graph
     _refuse_fractals(graph)
     textures = _Textures(graph, lighting)
     mesh = _Mesh()
-    count = 0
+    count = empty = 0
     # the body streams to a side file: the declarations it needs are known at its end
     with tempfile.TemporaryFile("w+", encoding="utf-8") as body_file:
         body = _BodyWriter(graph, body_file)
         for inst in instances(graph):
+            if inst.inverse() is None:
+                empty += 1
+                continue
             count += 1
             tex = textures.name(inst.paint, inst.material)
             if inst.primitive in TRIANGLES:
@@ -180,7 +186,7 @@ def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
                 out.write(line + "\n")
             shutil.copyfileobj(body_file, out)
             mesh.write(out)
-    return count
+    return count, empty
 
 
 class _BodyWriter:

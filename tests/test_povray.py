@@ -18,6 +18,7 @@ ROOT = Path(__file__).resolve().parent.parent
 SIERPINSKI = ROOT / "grammars" / "sierpinski.pcsg"
 TERRAIN = ROOT / "grammars" / "carpenter_terrain.pcsg"
 CSG = Path(__file__).resolve().parent / "data" / "csg_export.pcsg"
+EMPTY = Path(__file__).resolve().parent / "data" / "empty_export.pcsg"
 
 
 def export(tmp_path, grammar, *options):
@@ -60,6 +61,18 @@ def test_terrain_is_one_mesh_with_shared_vertices(tmp_path):
     assert text.count("object { P_plane") == 1   # the sea
 
 
+def test_empty_primitives_are_left_out_with_a_warning(tmp_path, capsys):
+    """A NaN or singular world matrix draws nothing in pcsg; POV-Ray could not parse the
+    NaNs, and would draw the flattened sphere."""
+    text = export(tmp_path, EMPTY).read_text()
+    assert not re.search(r"\b(nan|inf)\b", text, re.IGNORECASE)
+    # the sphere and the plane; the intersection lost an operand, so it is gone
+    assert matrices(text) and len(matrices(text)) == 2
+    assert "intersection {\n" not in text and "object { P_cube" not in text
+    err = capsys.readouterr().err
+    assert "3 primitives left out" in err and "singular or not finite" in err
+
+
 def test_export_errors_are_clean(tmp_path, capsys):
     assert main(["export", str(SIERPINSKI), "--pov", str(tmp_path / "no" / "x.pov")]) == 2
     assert "does not exist" in capsys.readouterr().err
@@ -69,7 +82,8 @@ POVRAY = shutil.which("povray")
 
 
 @pytest.mark.skipif(POVRAY is None, reason="POV-Ray is not installed (apt-get install povray)")
-@pytest.mark.parametrize("grammar,options", [(SIERPINSKI, ["--set", "c=2"]), (CSG, [])])
+@pytest.mark.parametrize("grammar,options", [(SIERPINSKI, ["--set", "c=2"]), (CSG, []),
+                                             (EMPTY, [])])
 def test_povray_draws_the_same_picture(tmp_path, grammar, options):
     pov = export(tmp_path, grammar, "--shadow-samples", "1", *options)
     subprocess.run([POVRAY, f"+I{pov}", f"+O{tmp_path / 'pov.png'}", "+W160", "+H120", "-D",

@@ -22,6 +22,23 @@ class Instance:
     path: tuple                   # CSG operators above it: ((node, child number), ...)
     args: tuple = ()              # a fractal's arguments
 
+    def inverse(self) -> np.ndarray | None:
+        """M^-1, or None when the leaf is empty: a singular or non-finite M (a runtime
+        error in its calculations or transforms, or a non-finite paint) draws nothing."""
+        return leaf_inverse(self.matrix)
+
+
+def leaf_inverse(matrix: np.ndarray) -> np.ndarray | None:
+    """The inverse of a leaf's world matrix, or None when the leaf is empty (the
+    contract of trace/reference.py, which the graph tracer and the export keep)."""
+    if not np.all(np.isfinite(matrix)):
+        return None
+    det = np.linalg.det(matrix[:3, :3])
+    if det == 0.0 or not np.isfinite(det):
+        return None
+    inv = np.linalg.inv(matrix)
+    return inv if np.all(np.isfinite(inv)) else None
+
 
 def flatten(graph: Graph, max_primitives: int = 1_000_000) -> list[Instance]:
     """Every primitive of the derivation with its world matrix, in derivation order.

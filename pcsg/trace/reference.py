@@ -42,7 +42,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..graph.flatten import flatten
+from ..graph.flatten import flatten, leaf_inverse
 from ..graph.model import DIFFERENCE, INTERSECTION, UNION, Graph
 from . import fractals, primitives
 
@@ -62,14 +62,8 @@ class Leaf:
         if code >= primitives.FRACTAL_MIN:
             self.fractal = np.array([fractals.fractal_row(name, args)])
         self.paint, self.material = paint, material          # rgb tuple | None, index | -1
-        self.inverse = self.normal_matrix = None              # None: singular, empty
-        if np.all(np.isfinite(matrix)):
-            det = np.linalg.det(matrix[:3, :3])
-            if det != 0.0 and math.isfinite(det):
-                inv = np.linalg.inv(matrix)
-                if np.all(np.isfinite(inv)):
-                    self.inverse = inv
-                    self.normal_matrix = inv[:3, :3].T
+        self.inverse = leaf_inverse(matrix)                  # None: singular, empty
+        self.normal_matrix = None if self.inverse is None else self.inverse[:3, :3].T
 
 
 class Op:
