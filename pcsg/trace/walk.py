@@ -17,9 +17,9 @@ from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE
                     EV_SELECTION, EV_SINGULAR, EV_STACK, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE,
                     LEVEL, MAT, NODE, OX, PAINT, PHASE, SLOT, T0, T1, axis_aligned,
                     child_hash, copy_frame, enter_paint, entry_slot, entry_window, node_window,
-                    enter_transform, instance_window, note, pick_rule, cached_calc, state_window, volume_window,
-                    world_diameter, world_normal, world_size, average_box_normal,
-                    volume_normal)
+                    enter_transform, instance_window, note, pick_rule, cached_calc,
+                    state_window, volume_window, world_diameter, world_normal, world_size,
+                    average_box_normal, volume_normal)
 from .fractals import march
 from .primitives import FRACTAL_MIN, JULIA, intersect
 from .scratch import IV_WIDTH
