@@ -565,17 +565,33 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_INTERNAL
 
 
+def import_kernels() -> None:
+    """Import the compiler and the tracer (numba, numpy, the cached kernels' helpers)
+    with the collector off, then freeze what they made (see run). The imports make no
+    garbage, yet the collector walked their objects again and again as they piled up:
+    40 to 60 ms of every command. `import pcsg` imports none of this
+    (pcsg/__init__.py), so that it happens here."""
+    collecting = gc.isenabled()
+    gc.disable()
+    try:
+        from . import tracer    # noqa: F401 -- imported for its cost, here
+    finally:
+        gc.freeze()
+        if collecting:
+            gc.enable()
+
+
 def run() -> None:
     """The console command: main(), then exit without the interpreter's teardown.
     Once main has returned, the files it wrote are closed and only stdout and stderr
     need a flush; what the teardown would do then is free numba's compiled code and
     the modules one by one, which took 0.15 to 0.25 s of every command (a fifth of a
     small render's wall time).
-    Before main, the objects alive after the imports (numba's types, templates and
-    compiled kernels: about a hundred thousand) go to gc's permanent generation: they live
-    as long as the process, and every full collection during the compile and the
-    bounding walk walked them all again (0.1 to 0.25 s of a terrain render)."""
-    gc.freeze()
+    Before main, the objects of the imports (numba's types, templates and compiled
+    kernels: about a hundred thousand) go to gc's permanent generation: they live as long
+    as the process, and every full collection during the compile and the bounding walk
+    walked them all again (0.1 to 0.25 s of a terrain render)."""
+    import_kernels()
     code = main()
     for stream in (sys.stdout, sys.stderr):
         try:

@@ -156,6 +156,31 @@ def test_console_command_delivers_all_output_before_its_fast_exit(capsys):
     assert r.returncode == 1 and "No space left on device" in r.stderr
 
 
+def test_the_command_imports_numba_with_the_collector_off():
+    # `import pcsg.cli` must leave numba to import_kernels, which imports it with the
+    # collector off and freezes what it made; the collector runs again afterwards
+    code = """
+import gc, sys
+import pcsg, pcsg.cli
+assert "numba" not in sys.modules, "import pcsg.cli imported numba"
+seen = []
+gc.callbacks.append(lambda phase, info: phase == "start" and seen.append(info["generation"]))
+pcsg.cli.import_kernels()
+assert "numba" in sys.modules and "pcsg.tracer" in sys.modules
+assert seen == [], f"the collector ran during the imports: {seen}"
+assert gc.isenabled() and gc.get_freeze_count() > 50_000
+assert pcsg.load is sys.modules["pcsg.tracer"].load and issubclass(pcsg.PcsgError, Exception)
+try:
+    pcsg.nothing
+except AttributeError as e:
+    assert "no attribute 'nothing'" in str(e)
+else:
+    raise AssertionError("pcsg.nothing resolved")
+"""
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+
+
 def test_written_files_get_ordinary_permissions(capsys, sierpinski, tmp_path):
     import stat
     out = tmp_path / "g.dot"
