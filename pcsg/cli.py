@@ -6,6 +6,7 @@ import argparse
 import atexit
 import gc
 import glob
+import importlib
 import json
 import os
 import sys
@@ -574,7 +575,7 @@ def import_kernels() -> None:
     collecting = gc.isenabled()
     gc.disable()
     try:
-        from . import tracer    # noqa: F401 -- imported for its cost, here
+        importlib.import_module(".tracer", __package__)
     finally:
         gc.freeze()
         if collecting:
