@@ -170,6 +170,7 @@ assert "numba" in sys.modules and "pcsg.tracer" in sys.modules
 assert seen == [], f"the collector ran during the imports: {seen}"
 assert gc.isenabled() and gc.get_freeze_count() > 50_000
 assert pcsg.load is sys.modules["pcsg.tracer"].load and issubclass(pcsg.PcsgError, Exception)
+assert set(pcsg.__all__) <= set(dir(pcsg))
 try:
     pcsg.nothing
 except AttributeError as e:
