@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .graph.flatten import instances
+from .graph.flatten import instances, leaf_inverse
 from .graph.model import DIFFERENCE, INTERSECTION, PRIMITIVE
 from .language.names import FRACTAL_PRIMITIVES
 from .output import open_atomic
@@ -164,7 +164,7 @@ def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
     with tempfile.TemporaryFile("w+", encoding="utf-8") as body_file:
         body = _BodyWriter(graph, body_file)
         for inst in instances(graph):
-            if inst.inverse() is None:
+            if leaf_inverse(inst.matrix) is None:
                 empty += 1
                 continue
             count += 1

@@ -22,15 +22,11 @@ class Instance:
     path: tuple                   # CSG operators above it: ((node, child number), ...)
     args: tuple = ()              # a fractal's arguments
 
-    def inverse(self) -> np.ndarray | None:
-        """M^-1, or None when the leaf is empty: a singular or non-finite M (a runtime
-        error in its calculations or transforms, or a non-finite paint) draws nothing."""
-        return leaf_inverse(self.matrix)
-
 
 def leaf_inverse(matrix: np.ndarray) -> np.ndarray | None:
-    """The inverse of a leaf's world matrix, or None when the leaf is empty (the
-    contract of trace/reference.py, which the graph tracer and the export keep)."""
+    """The inverse of a leaf's world matrix, or None when the leaf is empty: a singular
+    or non-finite matrix (a runtime error in its calculations or transforms) draws nothing.
+    The contract of trace/reference.py, which the graph tracer and the export keep."""
     if not np.all(np.isfinite(matrix)):
         return None
     det = np.linalg.det(matrix[:3, :3])
