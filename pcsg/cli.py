@@ -521,13 +521,15 @@ def cmd_export(args) -> int:
     camera = make_camera(traced, w / h)
     lighting = make_lighting(traced, camera, not args.no_shadows, args.shadow_samples,
                              args.bounces)
-    count, empty = export_pov(traced, camera, lighting, out, args.size)
+    count, empty, dropped = export_pov(traced, camera, lighting, out, args.size)
     print(f"{out}: {count:,} primitives, {out.stat().st_size / 1e6:.1f} MB, "
           f"{time.perf_counter() - start:.1f} s; render with: povray +I{out} +W{w} +H{h}")
     if empty:
+        also = (f"; {dropped:,} more went with the ∩ or \\ that lost an operand"
+                if dropped else "")
         print(f"{args.file}: warning: {empty:,} primitives left out: their transform is "
               f"singular or not finite (a runtime error in the grammar), so pcsg draws "
-              f"nothing there either", file=sys.stderr)
+              f"nothing there either{also}", file=sys.stderr)
     return EXIT_OK
 
 

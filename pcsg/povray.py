@@ -63,6 +63,7 @@ class _Block:
     size: int                   # operand count
     present: set = field(default_factory=set)
     lines: list = field(default_factory=list)
+    count: int = 0              # primitives among its lines
 
 
 class _Textures:
@@ -151,15 +152,16 @@ def _refuse_fractals(graph):
 
 def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
                size: tuple[int, int]) -> tuple[int, int]:
-    """Write the scene to `path` (atomically); returns the number of primitives written
-    and of those left out because they are empty: a singular or non-finite transform
-    (a runtime error in the grammar) draws nothing in pcsg, and POV-Ray could not parse
-    a matrix of NaNs. Leaving one out empties an intersection as pcsg's tracer does."""
+    """Write the scene to `path` (atomically); returns the number of primitives written,
+    of those left out because they are empty (a singular or non-finite transform, a
+    runtime error in the grammar, draws nothing in pcsg, and POV-Ray could not parse a
+    matrix of NaNs), and of those dropped with the ∩ or \\ they belonged to: leaving an
+    operand out empties an intersection as pcsg's tracer does."""
     graph = traced.graph
     _refuse_fractals(graph)
     textures = _Textures(graph, lighting)
     mesh = _Mesh()
-    count = empty = 0
+    empty = 0
     # the body streams to a side file: the declarations it needs are known at its end
     with tempfile.TemporaryFile("w+", encoding="utf-8") as body_file:
         body = _BodyWriter(graph, body_file)
@@ -167,7 +169,6 @@ def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
             if leaf_inverse(inst.matrix) is None:
                 empty += 1
                 continue
-            count += 1
             tex = textures.name(inst.paint, inst.material)
             if inst.primitive in TRIANGLES:
                 m = inst.matrix
@@ -186,7 +187,7 @@ def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
                 out.write(line + "\n")
             shutil.copyfileobj(body_file, out)
             mesh.write(out)
-    return count, empty
+    return body.written + len(mesh.faces), empty, body.dropped
 
 
 class _BodyWriter:
@@ -198,6 +199,8 @@ class _BodyWriter:
         self.graph = graph
         self.out = out
         self.open: list[_Block] = []
+        self.written = 0            # primitives in the output
+        self.dropped = 0            # primitives of ∩ and \\ blocks that came out empty
 
     def add(self, path, line: str):
         needed = []         # (key: the path down to the operator, kind, operands, k)
@@ -217,22 +220,24 @@ class _BodyWriter:
             self.open.append(_Block(key, kind, size))
         for block, need in zip(self.open, needed):
             block.present.add(need[3])
-        self._emit(line)
+        self._emit(line, 1)
 
-    def _emit(self, line: str):
+    def _emit(self, line: str, count: int):
         if self.open:
             self.open[-1].lines.append(line)
+            self.open[-1].count += count
         else:
             self.out.write(line + "\n")
+            self.written += count
 
     def _close(self):
         b = self.open.pop()
-        if b.kind == DIFFERENCE and 0 not in b.present:
-            return                                  # nothing to subtract from
-        if b.kind == INTERSECTION and len(b.present) < b.size:
-            return                                  # an empty operand empties it
+        if ((b.kind == DIFFERENCE and 0 not in b.present)        # nothing to subtract from
+                or (b.kind == INTERSECTION and len(b.present) < b.size)):  # an empty operand
+            self.dropped += b.count
+            return
         word = {INTERSECTION: "intersection", DIFFERENCE: "difference"}.get(b.kind, "union")
-        self._emit(f"{word} {{\n" + "\n".join(b.lines) + "\n}")
+        self._emit(f"{word} {{\n" + "\n".join(b.lines) + "\n}", b.count)
 
     def close(self):
         while self.open:

@@ -69,8 +69,17 @@ def test_empty_primitives_are_left_out_with_a_warning(tmp_path, capsys):
     # the sphere and the plane; the intersection lost an operand, so it is gone
     assert matrices(text) and len(matrices(text)) == 2
     assert "intersection {\n" not in text and "object { P_cube" not in text
-    err = capsys.readouterr().err
+    out, err = capsys.readouterr()
     assert "3 primitives left out" in err and "singular or not finite" in err
+    # the count is what the file holds: not the cube that went with its intersection
+    assert ": 2 primitives," in out and "1 more went with the ∩" in err
+
+
+def test_the_count_is_what_the_file_holds(tmp_path, capsys):
+    text = export(tmp_path, CSG).read_text()
+    assert f": {len(matrices(text))} primitives," in capsys.readouterr().out
+    export(tmp_path, TERRAIN, "--set", "cnt=2")
+    assert ": 33 primitives," in capsys.readouterr().out   # 32 mesh faces and the sea
 
 
 def test_export_errors_are_clean(tmp_path, capsys):

@@ -6,7 +6,7 @@ For each workload, POV-Ray renders the scene `pcsg export --pov` wrote (exported
 once into .bench/, kept between runs) and `pcsg render` renders the .pcsg file:
 640x480, one ray per pixel, point lights with shadows, 2 threads, alternating
 run by run. Prints a table (medians: whole-process wall time, trace-phase rays/s,
-peak RSS, and the ratio POV-Ray/pcsg of wall times) and writes it as JSON with the
+peak RSS in MiB, and the ratio POV-Ray/pcsg of wall times) and writes it as JSON with the
 machine it came from. The deepest orders run with pcsg alone: POV-Ray cannot hold
 their expansion.
 """
@@ -203,7 +203,7 @@ def table(report: dict) -> str:
             f"{f(r.get('pov_wall'), '.2f')} s | {f(r.get('wall_ratio'), '.1f')}x | "
             f"{f(mega(r['pcsg_rays_per_s']), '.2f')} M | "
             f"{f(mega(r.get('pov_rays_per_s')), '.2f')} M | "
-            f"{f(r['pcsg_rss_mb'], '.0f')} MB | {f(r.get('pov_rss_mb'), '.0f')} MB |")
+            f"{f(r['pcsg_rss_mb'], '.0f')} MiB | {f(r.get('pov_rss_mb'), '.0f')} MiB |")
     lines.append("")
     lines.append(f"— : not run, or past the {report['timeout_s']:.0f} s timeout; (depth N): "
                  f"too many instances to bound, refined to derivation depth N only")
