@@ -72,6 +72,16 @@ def code_range(library, path: Path):
     return base, size
 
 
+def library_shares(ips, ranges) -> str:
+    """The samples' shares by the library they fall in: the packet kernel apart from,
+    say, the per-ray walk that rays finish alone on (trace/walk.py, compiled once)."""
+    shares = collections.Counter()
+    for ip in (int(x, 16) for x in ips):
+        shares[next((name for b, n, name in ranges if b <= ip < b + n), "other")] += 1
+    return ", ".join(f"{name} {100 * c / max(len(ips), 1):.1f} %"
+                     for name, c in shares.most_common())
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("sample", nargs="?", default="carpenter_terrain")
@@ -87,10 +97,15 @@ def main():
     objects = loaded_objects(lambda: obj.trace(o[:64], d[:64]))
     if not objects:
         sys.exit("numba compiled the kernel instead of loading it: run this once more")
-    library, code = max(objects, key=lambda x: len(x[1]))
     work = Path(tempfile.mkdtemp(prefix="pcsg-profile-"))
-    (work / "kernel.o").write_bytes(code)
-    base, size = code_range(library, work / "kernel.o")
+    ranges = []             # (base, size, name) of every library loaded
+    for k, (library, code) in enumerate(sorted(objects, key=lambda x: -len(x[1]))):
+        path = work / ("kernel.o" if k == 0 else f"lib{k}.o")
+        path.write_bytes(code)
+        lib_base, lib_size = code_range(library, path)
+        if lib_base is not None:
+            ranges.append((lib_base, lib_size, library.name))
+    base, size, _ = ranges[0]           # the largest: the kernel
     jit.set_threads(1)
     perf = subprocess.Popen(["perf", "record", "-q", "-F", "4000", "-o", str(work / "perf.data"),
                              "-p", str(os.getpid())],
@@ -116,6 +131,7 @@ def main():
     inside = sum(counts.values())
     print(f"{args.sample} {overrides or ''} {width}x{height}: {seconds:.3f} s a trace on one "
           f"thread; {len(ips)} samples, {inside} in the kernel")
+    print("by compiled function (its library): " + library_shares(ips, ranges))
     runs = collections.Counter()
     for k, (a, _) in enumerate(asm):
         runs[k // RUN] += counts.get(a, 0)

@@ -10,6 +10,7 @@ from ..trace.fractals import ARG_WIDTH, fractal_row
 from ..trace.transforms import CODES as TRANSFORM_CODES
 from ..trace.transforms import matrix as transform_matrix
 from ..trace.vm import RAND, SALT, STORE
+from .defer import deferrable
 from .model import CALC, MATERIAL, PAINT, PRIMITIVE, SELECT, TRANSFORM, Graph
 from .peephole import fuse_operands
 from .terminating import terminating_rules
@@ -50,6 +51,8 @@ Flat = namedtuple("Flat", [
     "calc_start",    # int32[n]     C-nodes: their block as one program in vm_code
     "calc_end",      # int32[n]
     "calc_cache",    # int8[n]      C-nodes whose results the walk caches (long blocks)
+    "defer",         # int8[n]      C- and paint nodes the first-hit walks leave to a hit
+                     #              (graph/defer.py)
     "root",          # int64
     "n_params",      # int64
     "max_stack",     # int64        expression stack depth
@@ -106,6 +109,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
             state_count[i] = len(slots)
     starts = _starts(counts)
     _compose_fixed_chains(kind, fixed, fixed_map, starts, children)
+    defer = deferrable(graph, vm, fixed, starts, children)
     return Flat(
         kind=kind, code=code,
         child_start=starts, child_count=counts,
@@ -121,6 +125,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
         state_start=_starts(np.maximum(state_count, 0)),
         state_slots=np.concatenate([np.zeros(0, dtype=np.int32), *keyed]),
         vm_code=vm_code, calc_start=calc_start, calc_end=calc_end, calc_cache=calc_cache,
+        defer=defer,
         vm_consts=np.asarray(vm["consts"], dtype=np.float64),
         vm_start=vm_start, vm_end=vm_end,
         root=np.int64(graph.root), n_params=np.int64(max(1, len(graph.params))),

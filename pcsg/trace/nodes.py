@@ -21,9 +21,10 @@ from .transforms import affine
 # NAVG: the running average of the world normals of the boxes the walk entered
 OX, DX, M0, T0, T1, PAINT, INV, NAVG = 0, 3, 6, 15, 16, 17, 20, 23
 F_WIDTH = 26
-# I columns
-NODE, SLOT, LEVEL, MAT, CUT, PHASE = 0, 1, 2, 3, 4, 5
-I_WIDTH = 6
+# I columns; DCALC and DPAINT: the C-node and paint node the walk passed without running
+# them, for a hit to run (trace/deferred.py), -1 if none
+NODE, SLOT, LEVEL, MAT, CUT, PHASE, DCALC, DPAINT = 0, 1, 2, 3, 4, 5, 6, 7
+I_WIDTH = 8
 # PHASE of a frame a union pushed: its window is inside its node's box (INSIDE), and
 # also inside the instance box of the S-node it leads to (BOXED) where the union's
 # table entry for it was met and only maps that keep boxes exact (axis_aligned) lie

@@ -28,7 +28,8 @@ from numba import njit
 from ..graph.model import DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, UNION
 from . import vm
 from .jit import inline, kernel
-from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
+from .deferred import defer_step
+from .nodes import (BOXED, CUT, DCALC, DPAINT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, INV, LEVEL, M0, MAT, NAVG,
                     NODE, OX, PAINT, PHASE, SLOT, T0, T1, axis_aligned, box_window, child_hash,
                     copy_frame, entry_slot, entry_window, map_matrix, map_ray, note, pick_rule,
@@ -57,7 +58,7 @@ def make_packet(flat):
     return Packet(
         np.empty((FRAMES, F_WIDTH)), np.zeros((FRAMES, I_WIDTH), dtype=np.int64),
         np.zeros(FRAMES, dtype=np.uint64), np.zeros(FRAMES, dtype=np.int64),
-        np.full((FRAMES, flat.n_params), np.nan),
+        np.full((FRAMES + 1, flat.n_params), np.nan),      # + the spare (trace/deferred.py)
         np.empty(((FRAMES + 1) * PACKET, F_WIDTH)),
         np.zeros((FRAMES, PACKET), dtype=np.int64), np.empty((FRAMES, PACKET, 2)),
         np.zeros(FRAMES, dtype=np.int64),
@@ -131,6 +132,8 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
     I[0, LEVEL] = 0
     I[0, MAT] = -1
     I[0, CUT] = 0
+    I[0, DCALC] = -1
+    I[0, DPAINT] = -1
     I[0, PHASE] = 0
     H[0] = vm.ROOT_HASH
     P.block[0] = 0
@@ -193,9 +196,9 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
             if kind == PRIMITIVE:
                 for j in range(m):
                     k = act[g, j]
-                    t = hit_primitive(flat, node, R, blk + k, F, I, g, tmin, win[g, j, 1],
-                                      best[k], lod, P.cone[k], P.dnorm[k], P.D[k, 0],
-                                      P.D[k, 1], P.D[k, 2], S.out8, res, k)
+                    t = hit_primitive(flat, node, R, blk + k, F, I, H, g, P.params, tmin,
+                                      win[g, j, 1], best[k], lod, P.cone[k], P.dnorm[k],
+                                      P.D[k, 0], P.D[k, 1], P.D[k, 2], S, ev, res, k)
                     if t < best[k]:
                         P.hit[k] = True
                         best[k] = -np.inf if any_hit else t
@@ -229,6 +232,8 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                 map_matrix(L, F, g)
                 boxed = boxed and axis_aligned(L)
                 I[g, NODE] = flat.children[flat.child_start[node]]
+                continue
+            if defer_step(flat, node, kind, I, g):
                 continue
             if not step_unary(flat, node, kind, F, I, H, g, P.params, 0, S, ev):
                 break

@@ -14,7 +14,7 @@ IV_WIDTH = 16
 CALC_CACHE_SLOTS = 4096      # a power of two
 
 Scratch = namedtuple("Scratch", [
-    "params",   # (2 * stack, n_params) parameter states by slot
+    "params",   # (2 * stack + 1, n_params) parameter states by slot, and a spare
     "F", "I", "H",          # the first-hit walk's frames (nodes.py columns)
     "Fi", "Ii", "Hi",       # the interval walk's frames
     "iv",       # (interval_rows, IV_WIDTH) interval lists of ∩ and \\ subtrees
@@ -36,7 +36,7 @@ def make_scratch(flat, limits):
     stack_depth = limits[LIM_STACK]
     slots = CALC_CACHE_SLOTS if flat.calc_cache.any() else 1
     return Scratch(
-        np.full((2 * stack_depth, flat.n_params), np.nan),
+        np.full((2 * stack_depth + 1, flat.n_params), np.nan),    # + the spare (deferred.py)
         np.empty((stack_depth, F_WIDTH)), np.zeros((stack_depth, I_WIDTH), dtype=np.int64),
         np.zeros(stack_depth, dtype=np.uint64),
         np.empty((stack_depth, F_WIDTH)), np.zeros((stack_depth, I_WIDTH), dtype=np.int64),

@@ -15,11 +15,12 @@ from . import vm
 from .jit import inline, kernel
 from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE,
                     EV_SELECTION, EV_SINGULAR, EV_STACK, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE,
-                    LEVEL, MAT, NODE, OX, PAINT, PHASE, SLOT, T0, T1, axis_aligned,
+                    DPAINT, LEVEL, MAT, NODE, OX, PAINT, PHASE, SLOT, T0, T1, axis_aligned,
                     child_hash, copy_frame, enter_paint, entry_slot, entry_window, node_window,
                     enter_transform, instance_window, note, pick_rule, cached_calc,
                     state_window, volume_window, world_diameter, world_normal, world_size,
                     average_box_normal, volume_normal)
+from .deferred import defer_step, deferred_paint
 from .fractals import march
 from .primitives import FRACTAL_MIN, JULIA, intersect
 from .scratch import IV_WIDTH
@@ -102,6 +103,7 @@ def step_unary(flat, node, kind, F, I, H, f, params, slot_base, S, ev):
         if not enter_paint(flat, node, F, f, params, I[f, SLOT], H[f], stack, args):
             note(ev, EV_NONFINITE, node, I[f, LEVEL])
             return False
+        I[f, DPAINT] = -1           # it paints over a passed one
     elif kind == MATERIAL:
         I[f, MAT] = flat.code[node]
     I[f, NODE] = flat.children[flat.child_start[node]]
@@ -332,11 +334,13 @@ def record_hit(res, ri, t, F, I, f, nx, ny, nz):
 
 
 @inline
-def hit_primitive(flat, node, R, r, F, I, f, tmin, t1, best, lod, cone, dnorm, wdx, wdy, wdz,
-                  out8, res, ri):
-    """The primitive `node` against the ray of row r of R, in the frame f of F and I (its
-    map, paint and material). A nearer hit than `best` goes into res[ri]; returns the
-    nearest t so far. wd is the ray's world direction, dnorm its length."""
+def hit_primitive(flat, node, R, r, F, I, H, f, params, tmin, t1, best, lod, cone, dnorm,
+                  wdx, wdy, wdz, S, ev, res, ri):
+    """The primitive `node` against the ray of row r of R, in the frame f of F, I and H (its
+    map, paint, material and instance; `params` holds its parameter slot). A nearer hit
+    than `best` goes into res[ri]; returns the nearest t so far. wd is the ray's world
+    direction, dnorm its length."""
+    out8 = S.out8
     code = flat.code[node]
     if code >= FRACTAL_MIN:
         # marched from tmin, not t0, so that the reference finds the same steps
@@ -352,8 +356,14 @@ def hit_primitive(flat, node, R, r, F, I, f, tmin, t1, best, lod, cone, dnorm, w
         side = 0 if out8[0] > tmin else 1
         t = out8[side]
         if t > tmin and t < best:
+            if not deferred_paint(flat, I, H, f, params, S.stack, S.args):
+                note(ev, EV_NONFINITE, I[f, DPAINT], I[f, LEVEL])
+                return best
             record_hit(res, ri, t, F, I, f, out8[2 + 3 * side], out8[3 + 3 * side],
                        out8[4 + 3 * side])
+            if I[f, DPAINT] >= 0:
+                for c in range(3):
+                    res[ri, R_PAINT + c] = S.args[c]
             if code >= FLAT_MIN and res[ri, R_N] * wdx + res[ri, R_N + 1] * wdy + \
                     res[ri, R_N + 2] * wdz > 0.0:
                 for c in range(3):
@@ -421,8 +431,8 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
             F[f, T0] = t0
             F[f, T1] = t1
             if kind == PRIMITIVE:
-                t = hit_primitive(flat, node, F, f, F, I, f, tmin, t1, best, lod, cone, dnorm,
-                                  wdx, wdy, wdz, S.out8, res, ri)
+                t = hit_primitive(flat, node, F, f, F, I, H, f, params, tmin, t1, best, lod,
+                                  cone, dnorm, wdx, wdy, wdz, S, ev, res, ri)
                 if t < best:
                     best = t
                     hit = True
@@ -523,6 +533,8 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                             return True, best
                         break
                 break
+            if defer_step(flat, node, kind, I, f):
+                continue
             if not step_unary(flat, node, kind, F, I, H, f, params, 0, S, ev):
                 break
             if kind == TRANSFORM:
