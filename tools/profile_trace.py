@@ -73,8 +73,10 @@ def code_range(library, path: Path):
 
 
 def library_shares(ips, ranges) -> str:
-    """The samples' shares by the library they fall in: the packet kernel apart from,
-    say, the per-ray walk that rays finish alone on (trace/walk.py, compiled once)."""
+    """The samples' shares by the library whose code they fall in. numba links a callee
+    into each library that calls it, and the loader resolves every call of a shared
+    helper to the copy loaded first: the expression machine (vm.eval_row) of the trace
+    runs from the bounding walk's library, so it shows under that library's name."""
     shares = collections.Counter()
     for ip in (int(x, 16) for x in ips):
         shares[next((name for b, n, name in ranges if b <= ip < b + n), "other")] += 1
@@ -92,9 +94,18 @@ def main():
     args = ap.parse_args()
     width, height = map(int, args.size.split("x"))
     overrides = {k: float(v) for k, v in (s.split("=") for s in args.set)}
-    obj = pcsg.load(ROOT / "grammars" / f"{args.sample}.pcsg", **overrides)
-    _, o, d = primary_rays(obj, width, height)
-    objects = loaded_objects(lambda: obj.trace(o[:64], d[:64]))
+    loaded = {}
+
+    def prepare():
+        # the load too: a helper that several compiled functions call (vm.eval_row) runs
+        # from the copy in the library loaded first, the bounding walk's
+        loaded["obj"] = obj = pcsg.load(ROOT / "grammars" / f"{args.sample}.pcsg",
+                                        **overrides)
+        _, loaded["o"], loaded["d"] = primary_rays(obj, width, height)
+        obj.trace(loaded["o"][:64], loaded["d"][:64])
+
+    objects = loaded_objects(prepare)
+    obj, o, d = loaded["obj"], loaded["o"], loaded["d"]
     if not objects:
         sys.exit("numba compiled the kernel instead of loading it: run this once more")
     work = Path(tempfile.mkdtemp(prefix="pcsg-profile-"))
