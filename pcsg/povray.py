@@ -151,7 +151,7 @@ def _refuse_fractals(graph):
 
 
 def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
-               size: tuple[int, int]) -> tuple[int, int]:
+               size: tuple[int, int]) -> tuple[int, int, int]:
     """Write the scene to `path` (atomically); returns the number of primitives written,
     of those left out because they are empty (a singular or non-finite transform, a
     runtime error in the grammar, draws nothing in pcsg, and POV-Ray could not parse a

@@ -116,6 +116,8 @@ def main():
         lib_base, lib_size = code_range(library, path)
         if lib_base is not None:
             ranges.append((lib_base, lib_size, library.name))
+    if not ranges or ranges[0][2] != max(objects, key=lambda x: len(x[1]))[0].name:
+        sys.exit("cannot find where numba loaded the kernel's code")
     base, size, _ = ranges[0]           # the largest: the kernel
     jit.set_threads(1)
     perf = subprocess.Popen(["perf", "record", "-q", "-F", "4000", "-o", str(work / "perf.data"),
