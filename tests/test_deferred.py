@@ -90,3 +90,22 @@ def test_an_empty_instance_stops_no_ray(packets):
         hits = t.trace(o, d, any_hit=any_hit, packets=packets)
         assert not hits.hit[:64].any() and hits.hit[64:].all()
         assert any("non-finite" in line for line in t.describe_events(hits.events))
+
+
+@pytest.mark.parametrize("source", [SYSTEM, "terrain"])
+def test_the_bounding_walk_passes_the_blocks_without_changing_a_box(source, monkeypatch):
+    """The box walk passes the marked C-nodes too (colour bounds nothing): the hyper boxes
+    and the per-instance table are what the walk that runs every block computes."""
+    from pcsg.graph import flat as flat_module
+    from pcsg.trace.boxwalk import walk_boxes
+    t = (pcsg.load(ROOT / "grammars" / "carpenter_terrain.pcsg", cnt=4)
+         if source == "terrain" else pcsg.loads(source))
+    assert marked(t, CALC)
+    passing = walk_boxes(t.graph, instances=True)
+    monkeypatch.setattr(flat_module, "deferrable",
+                        lambda graph, *rest: np.zeros(len(graph.nodes), dtype=np.int8))
+    running = walk_boxes(t.graph, instances=True)
+    np.testing.assert_array_equal(passing[0], running[0])
+    assert passing[1:2] == running[1:2] and passing[3] == running[3]
+    for got, want in zip(passing[2], running[2]):
+        np.testing.assert_array_equal(got, want)

@@ -193,7 +193,8 @@ def walk(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, per_l
             hs[g] = hs[f]
             if kind == SELECT or flat.child_count[node] > 1:
                 hs[g] = vm.edge_hash(hs[f], node, child)
-            if kind == CALC:
+            if kind == CALC and flat.defer[node] == 0:
+                # a deferrable block only colours (graph/defer.py): no box depends on it
                 run_calc(flat, node, params, fr[f, SLOT], g, hs[f], stack)
                 fr[g, SLOT] = g
             sp += 1
