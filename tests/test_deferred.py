@@ -106,6 +106,6 @@ def test_the_bounding_walk_passes_the_blocks_without_changing_a_box(source, monk
                         lambda graph, *rest: np.zeros(len(graph.nodes), dtype=np.int8))
     running = walk_boxes(t.graph, instances=True)
     np.testing.assert_array_equal(passing[0], running[0])
-    assert passing[1:2] == running[1:2] and passing[3] == running[3]
+    assert passing[1] == running[1] and passing[3] == running[3]     # complete, depth
     for got, want in zip(passing[2], running[2]):
         np.testing.assert_array_equal(got, want)
