@@ -2,8 +2,10 @@
 every other entry findable (linear-probing deletion), the levels kept are the most
 that fit, and each entry knows the node whose box holds it."""
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
+import pcsg
 from pcsg.compiler import compile_file
 from pcsg.graph.model import DIFFERENCE, INTERSECTION, SELECT, UNION
 from pcsg.trace.boxwalk import walk_boxes
@@ -11,6 +13,7 @@ from pcsg.trace.instance_table import OWNER, clip_to_owners, drop_level, empty_t
 from pcsg.trace.nodes import DX, F_WIDTH, INV, OX, box_window, table_slot
 
 from .conftest import GRAMMARS
+from .oracle import camera_rays
 
 
 def find(keys, used, key):
@@ -135,3 +138,50 @@ def test_disjoint_boxes_whose_rounded_windows_touch_give_an_empty_entry():
         F[0, INV:INV + 3] = 1.0 / F[0, DX:DX + 3]
     c0, c1 = box_window(clipped, 0, F, 0)
     assert c0 > c1
+
+
+def test_the_tracer_reads_the_table_in_rows_of_one_cache_line():
+    """Flat's inst_keys, inst_used and inst_boxes are views of one array of 64-byte rows,
+    aligned, so a probe and the box it finds share a line; every entry is found at its
+    own slot, with the level it was kept at."""
+    obj = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=4)
+    flat = obj.flat
+    rows = flat.inst_boxes
+    assert rows.shape[1] == 8 and rows.ctypes.data % 64 == 0
+    assert np.shares_memory(flat.inst_keys, rows) and np.shares_memory(flat.inst_used, rows)
+    kept = np.flatnonzero(flat.inst_used)
+    assert len(kept) > 300
+    for i in kept:
+        assert table_slot(flat.inst_keys, flat.inst_used, flat.inst_keys[i]) == i
+    assert flat.inst_deepest == flat.inst_used.max() - 1
+
+
+@pytest.mark.parametrize("packets", [True, False])
+def test_the_walks_probe_the_table_down_to_its_deepest_level_and_no_further(packets):
+    """A probe past inst_deepest could only miss, so the walks skip it. Entries emptied
+    by hand show which levels a walk reads: every level down to the deepest one it
+    reads (an S-node met through its operand's entry skips its own, so the last level,
+    whose S-nodes are all met so, is never read), that one still with inst_deepest
+    set to it, and no longer with inst_deepest one lower."""
+    obj = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=4)
+    flat = obj.flat
+    top = flat.inst_boxes[flat.inst_used == 1, :6]
+    o, d = camera_rays(np.concatenate([top[:, :3].min(0), top[:, 3:].max(0)]), 48,
+                       (0.3, -0.4, 1.0), spread=0.3, seed=5)
+    whole = obj.trace(o, d, packets=packets).t
+    kept = flat.inst_boxes.copy()
+
+    def emptied(level, deepest):
+        flat.inst_boxes[:] = kept
+        gone = flat.inst_used == level + 1
+        flat.inst_boxes[gone, 0] = np.inf       # box_window: min side > max side is empty
+        flat.inst_boxes[gone, 3] = -np.inf
+        obj.flat = flat._replace(inst_deepest=np.int64(deepest))
+        return obj.trace(o, d, packets=packets).t
+
+    read = [level for level in range(flat.inst_deepest + 1)
+            if not np.array_equal(emptied(level, flat.inst_deepest), whole)]
+    assert len(read) >= 5 and read == list(range(len(read)))
+    last = read[-1]
+    assert not np.array_equal(emptied(last, last), whole)
+    assert np.array_equal(emptied(last, last - 1), whole)

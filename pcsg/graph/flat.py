@@ -7,6 +7,7 @@ import numpy as np
 
 from ..language.names import FRACTAL_PRIMITIVES, PIXELS, PRIMITIVES
 from ..trace.fractals import ARG_WIDTH, fractal_row
+from ..trace.instance_table import probe_rows
 from ..trace.transforms import CODES as TRANSFORM_CODES
 from ..trace.transforms import matrix as transform_matrix
 from ..trace.vm import RAND, SALT, STORE
@@ -37,8 +38,10 @@ Flat = namedtuple("Flat", [
                      #              when no node has one (graph/volumes.py)
     "fractal",       # float64[n,5] fractal primitives: arguments, bounding radius
     "inst_keys",     # uint64[s]    instance table: S-node instance hash ->
-    "inst_used",     # int16[s]     0: empty, else the entry's level + 1
-    "inst_boxes",    # float64[s,6]   that instance's own box (top levels only)
+    "inst_used",     # float64[s]   0: empty, else the entry's level + 1
+    "inst_boxes",    # float64[s,8]   that instance's own box (top levels only); the
+                     #              three are views of one array (instance_table.probe_rows)
+    "inst_deepest",  # int64        the deepest level the table keeps (-1: none)
     "by_state",      # int64        1: the table is a memoised system's, keyed by state
                      #              (graph/states.py), not by instance hash
     "state_start",   # int32[n]     S-nodes keyed by state: their key's slots in
@@ -120,7 +123,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
         box=np.ascontiguousarray(boxes, dtype=np.float64), fractal=fractal,
         sphere=np.ascontiguousarray(np.zeros((0, 4)) if spheres is None else spheres,
                                     dtype=np.float64),
-        inst_keys=table[0], inst_used=table[1], inst_boxes=np.ascontiguousarray(table[2]),
+        **probe_rows(*table),
         by_state=np.int64(states is not None), state_count=state_count,
         state_start=_starts(np.maximum(state_count, 0)),
         state_slots=np.concatenate([np.zeros(0, dtype=np.int32), *keyed]),

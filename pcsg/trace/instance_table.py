@@ -55,6 +55,25 @@ def _insert(keys, used, vals, tkeys, tused, tvals):
         tvals[slot, :] = vals[i]
 
 
+def probe_rows(keys, used, boxes) -> dict:
+    """The table as the tracer reads it (Flat's inst_* fields): one 64-byte row per slot,
+    [box (6) | used | key], aligned to a cache line, so that a probe and the box it finds
+    load one line, not one from each of three arrays: the table is 32 MiB at the
+    terrain's orders, far more than the caches, and its probes were the walk's hottest
+    loads. inst_deepest lets a walk skip the probes past the deepest level kept, which
+    could only miss (the terrain at order 9 keeps 10 of its 11 levels)."""
+    slots = len(keys)
+    buf = np.empty(slots * 8 + 8)
+    start = (-buf.ctypes.data % 64) // 8
+    rows = buf[start:start + slots * 8].reshape(slots, 8)
+    rows[:, :6] = boxes[:, :6]
+    rows[:, 6] = used
+    bits = rows.view(np.uint64)
+    bits[:, 7] = keys
+    return dict(inst_keys=bits[:, 7], inst_used=rows[:, 6], inst_boxes=rows,
+                inst_deepest=np.int64(int(used.max(initial=0)) - 1))
+
+
 def new_book(deepest: int, most: int) -> np.ndarray:
     """A table's bookkeeping: [deepest level kept, most entries, entries, entries by
     level...]; deepest -1 keeps nothing."""

@@ -193,9 +193,12 @@ def child_hash(flat, h, node, k):
 
 
 @inline
-def entry_slot(flat, node, h):
+def entry_slot(flat, node, h, level):
     """The instance table's slot for the instance hash h at node (an S-node, or the
-    operator of an operand), -1 where it has none."""
+    operator of an operand), -1 where it has none. `level` is the one the entry would
+    have: an S-node instance's own, an operand's the operator's."""
+    if level > flat.inst_deepest:
+        return -1
     slot = table_slot(flat.inst_keys, flat.inst_used, vm.mix(h, node))
     return slot if flat.inst_used[slot] else -1
 
@@ -224,13 +227,13 @@ def axis_aligned(L):
 
 
 @inline
-def instance_window(flat, node, h, F, f, t0, t1):
+def instance_window(flat, node, h, level, F, f, t0, t1):
     """The window [t0, t1] narrowed by one instance's own box where the instance table
     has it: an S-node instance (node, its hash) in its own frame, or an operand of an
     operator (the operator, the operand's hash) in the operator's frame. The table holds
     the top derivation levels of systems whose hyper boxes are loose (the terrain)."""
     if flat.inst_used.shape[0] > 2 and flat.by_state == 0:
-        return entry_window(flat, entry_slot(flat, node, h), F, f, t0, t1)
+        return entry_window(flat, entry_slot(flat, node, h, level), F, f, t0, t1)
     return t0, t1
 
 

@@ -166,7 +166,7 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
             blk = P.block[g] * PACKET
             slot = -1
             if kind == SELECT and has_table and not boxed:
-                slot = entry_slot(flat, node, H[g])
+                slot = entry_slot(flat, node, H[g], I[g, LEVEL] + 1)
             test = I[g, PHASE] == 0 and not (boxed and kind == SELECT)
             I[g, PHASE] = 0
             m = 0
@@ -356,7 +356,7 @@ def split(flat, node, P, g, blk, has_table):
     for k in range(n):
         c = flat.children[flat.child_start[node] + k]
         hk = child_hash(flat, H[g], node, k)
-        slot = entry_slot(flat, node, hk) if has_table else -1
+        slot = entry_slot(flat, node, hk, I[g, LEVEL]) if has_table else -1
         q = 0
         near = np.inf
         for j in range(m):

@@ -247,7 +247,7 @@ def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, dnorm, max_depth, ev):
                 sp -= 1
                 continue
             if kind == SELECT:
-                t0, t1 = instance_window(flat, node, H[f], F, f, t0, t1)
+                t0, t1 = instance_window(flat, node, H[f], I[f, LEVEL] + 1, F, f, t0, t1)
                 if t0 > t1:
                     ls = push_list(lists, ls, top, 0)
                     sp -= 1
@@ -418,7 +418,7 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
             t0, t1 = F[f, T0], min(F[f, T1], best)
             slot = -1
             if kind == SELECT and has_table and not boxed:
-                slot = entry_slot(flat, node, H[f])
+                slot = entry_slot(flat, node, H[f], I[f, LEVEL] + 1)
             if I[f, PHASE] != 0 or (boxed and kind == SELECT):
                 I[f, PHASE] = 0
                 t0, t1 = entry_window(flat, slot, F, f, t0, t1)
@@ -480,7 +480,7 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                     es = -1
                     if has_table:
                         hk = child_hash(flat, H[f], node, k)
-                        es = entry_slot(flat, node, hk)
+                        es = entry_slot(flat, node, hk, I[f, LEVEL])
                     e0, e1 = volume_window(flat, c, es, F, f)
                     e0 = max(e0, t0)
                     e1 = min(e1, t1)
