@@ -204,6 +204,13 @@ def entry_slot(flat, node, h, level):
 
 
 @inline
+def instance_slot(flat, node, h, I, f):
+    """entry_slot of an S-node instance whose frame f is on it, before its selection
+    (choose_rule, packet.select) raises the frame's level to the instance's own."""
+    return entry_slot(flat, node, h, I[f, LEVEL] + 1)
+
+
+@inline
 def volume_window(flat, node, slot, F, f):
     """node_window narrowed by the instance table's box `slot` (-1: none). An entry's
     box lies inside its node's box (instance_table.clip_to_owners), so where that is the
@@ -227,13 +234,13 @@ def axis_aligned(L):
 
 
 @inline
-def instance_window(flat, node, h, level, F, f, t0, t1):
+def instance_window(flat, node, h, I, F, f, t0, t1):
     """The window [t0, t1] narrowed by one instance's own box where the instance table
     has it: an S-node instance (node, its hash) in its own frame, or an operand of an
     operator (the operator, the operand's hash) in the operator's frame. The table holds
     the top derivation levels of systems whose hyper boxes are loose (the terrain)."""
     if flat.inst_used.shape[0] > 2 and flat.by_state == 0:
-        return entry_window(flat, entry_slot(flat, node, h, level), F, f, t0, t1)
+        return entry_window(flat, instance_slot(flat, node, h, I, f), F, f, t0, t1)
     return t0, t1
 
 

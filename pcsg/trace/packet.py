@@ -32,8 +32,9 @@ from .deferred import defer_step
 from .nodes import (BOXED, CUT, DCALC, DPAINT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, INV, LEVEL, M0, MAT, NAVG,
                     NODE, OX, PAINT, PHASE, SLOT, T0, T1, axis_aligned, box_window, child_hash,
-                    copy_frame, entry_slot, entry_window, map_matrix, map_ray, note, pick_rule,
-                    set_inverse, state_slot, transform_map, volume_window, world_size)
+                    copy_frame, entry_slot, entry_window, instance_slot, map_matrix, map_ray,
+                    note, pick_rule, set_inverse, state_slot, transform_map, volume_window,
+                    world_size)
 from .walk import finish, hit_primitive, hit_volume, step_unary, walk
 
 PACKET = 64             # rays per packet: 16x4 pixels of a 16x16 tile (image.tile_order)
@@ -166,7 +167,7 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
             blk = P.block[g] * PACKET
             slot = -1
             if kind == SELECT and has_table and not boxed:
-                slot = entry_slot(flat, node, H[g], I[g, LEVEL] + 1)
+                slot = instance_slot(flat, node, H[g], I, g)
             test = I[g, PHASE] == 0 and not (boxed and kind == SELECT)
             I[g, PHASE] = 0
             m = 0

@@ -16,8 +16,8 @@ from .jit import inline, kernel
 from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE,
                     EV_SELECTION, EV_SINGULAR, EV_STACK, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE,
                     DPAINT, LEVEL, MAT, NODE, OX, PAINT, PHASE, SLOT, T0, T1, axis_aligned,
-                    child_hash, copy_frame, enter_paint, entry_slot, entry_window, node_window,
-                    enter_transform, instance_window, note, pick_rule, cached_calc,
+                    child_hash, copy_frame, enter_paint, entry_slot, entry_window, instance_slot,
+                    node_window, enter_transform, instance_window, note, pick_rule, cached_calc,
                     state_window, volume_window, world_diameter, world_normal, world_size,
                     average_box_normal, volume_normal)
 from .deferred import defer_step, deferred_paint
@@ -247,7 +247,7 @@ def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, dnorm, max_depth, ev):
                 sp -= 1
                 continue
             if kind == SELECT:
-                t0, t1 = instance_window(flat, node, H[f], I[f, LEVEL] + 1, F, f, t0, t1)
+                t0, t1 = instance_window(flat, node, H[f], I, F, f, t0, t1)
                 if t0 > t1:
                     ls = push_list(lists, ls, top, 0)
                     sp -= 1
@@ -418,7 +418,7 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
             t0, t1 = F[f, T0], min(F[f, T1], best)
             slot = -1
             if kind == SELECT and has_table and not boxed:
-                slot = entry_slot(flat, node, H[f], I[f, LEVEL] + 1)
+                slot = instance_slot(flat, node, H[f], I, f)
             if I[f, PHASE] != 0 or (boxed and kind == SELECT):
                 I[f, PHASE] = 0
                 t0, t1 = entry_window(flat, slot, F, f, t0, t1)
