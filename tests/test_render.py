@@ -146,9 +146,11 @@ def test_batch_with_a_broken_file(tmp_path, capsys):
 def test_interrupted_render_keeps_the_earlier_png(tmp_path):
     out = tmp_path / "tree.png"
     out.write_bytes(b"an earlier good image")
+    # about 120 M camera rays: minutes of work, so the signal comes mid-render however
+    # fast the tracer gets (800x600 at 16 samples once finished within the 8 s)
     proc = subprocess.Popen([sys.executable, "-m", "pcsg", "render",
                              str(GRAMMARS / "sympodial_tree.pcsg"), "-o", str(out),
-                             "--size", "800x600", "--samples", "16"],
+                             "--size", "1600x1200", "--samples", "64"],
                             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     time.sleep(8)
     proc.send_signal(signal.SIGINT)
