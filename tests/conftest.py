@@ -1,3 +1,5 @@
+import contextlib
+import signal
 from pathlib import Path
 
 import pytest
@@ -7,6 +9,19 @@ from pcsg.language.errors import PcsgError
 
 ROOT = Path(__file__).resolve().parent.parent
 GRAMMARS = ROOT / "grammars"
+
+
+@contextlib.contextmanager
+def sigint_reaches_children():
+    """Processes started inside get SIGINT at its default, as a command typed at a
+    terminal has it. A test run started in the background by a script (`cmd &`) ignores
+    SIGINT, an ignored signal stays ignored across exec, and the test's Ctrl-C would
+    then never reach the command it interrupts."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def errors_of(text: str, file: str = "t.pcsg", **overrides) -> list:

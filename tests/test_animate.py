@@ -14,7 +14,7 @@ from PIL import Image
 from pcsg.cli import main
 from pcsg.render.path import bezier, parse_points
 
-from .conftest import GRAMMARS, ROOT
+from .conftest import GRAMMARS, ROOT, sigint_reaches_children
 
 # a ball that grows with t, and its shadow
 BALL = """#camera eye=(0,-6,3) at=(0,0,0.6) fov=40
@@ -221,8 +221,9 @@ def test_ctrl_c_keeps_finished_frames_and_the_rerun_resumes(tmp_path):
     out = tmp_path / "a"
     cmd = [sys.executable, "-m", "pcsg", "animate", str(GRAMMARS / "growing_tree.pcsg"),
            "--frames", "16", "--size", "48x36", "--jobs", "2", "-o", str(out)]
-    p = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                         text=True, start_new_session=True)
+    with sigint_reaches_children():
+        p = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True, start_new_session=True)
     first = p.stdout.readline()                 # a frame is finished: the workers are busy
     os.killpg(p.pid, signal.SIGINT)
     rest, err = p.communicate(timeout=300)

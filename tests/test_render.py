@@ -13,7 +13,7 @@ from pcsg.render.image import render_frame
 from pcsg.render.shade import make_lighting
 from pcsg.tracer import loads
 
-from .conftest import GRAMMARS, ROOT
+from .conftest import GRAMMARS, ROOT, sigint_reaches_children
 
 BALL = """#camera eye=(0,-6,3) at=(0,0,0.6) fov=40
 #light at=(3,-2,8)
@@ -148,10 +148,11 @@ def test_interrupted_render_keeps_the_earlier_png(tmp_path):
     out.write_bytes(b"an earlier good image")
     # about 120 M camera rays: minutes of work, so the signal comes mid-render however
     # fast the tracer gets (800x600 at 16 samples once finished within the 8 s)
-    proc = subprocess.Popen([sys.executable, "-m", "pcsg", "render",
-                             str(GRAMMARS / "sympodial_tree.pcsg"), "-o", str(out),
-                             "--size", "1600x1200", "--samples", "64"],
-                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    with sigint_reaches_children():
+        proc = subprocess.Popen([sys.executable, "-m", "pcsg", "render",
+                                 str(GRAMMARS / "sympodial_tree.pcsg"), "-o", str(out),
+                                 "--size", "1600x1200", "--samples", "64"],
+                                cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     time.sleep(8)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=120)

@@ -14,7 +14,12 @@ BOUNDS_ENV=(NUMBA_BOUNDSCHECK=1 NUMBA_CACHE_DIR="$PWD/.venv/numba-boundscheck")
 # can drop kernels the other has just compiled
 env "${BOUNDS_ENV[@]}" python -c "import pcsg.trace"
 BOUNDS_LOG="$(mktemp)"
-trap 'rm -f "$BOUNDS_LOG"' EXIT
+bounds=
+# a script's `cmd &` ignores SIGINT: Ctrl-C would end the main pass and leave this one
+# running on, so the script ends it itself
+trap '[ -z "$bounds" ] || kill "$bounds" 2>/dev/null; rm -f "$BOUNDS_LOG"' EXIT
+trap 'exit 130' INT
+trap 'exit 143' TERM
 env "${BOUNDS_ENV[@]}" \
     python -m pytest -p no:cacheprovider tests/test_tracer.py tests/test_shading.py \
     tests/test_reference.py tests/test_vm.py tests/test_primitives.py tests/test_limits.py \
@@ -25,6 +30,7 @@ bounds=$!
 # (venv.sh set -e: a failing pass must not end the script before the other's report)
 python -m pytest && main_status=0 || main_status=$?
 wait "$bounds" && bounds_status=0 || bounds_status=$?
+bounds=
 echo
 echo "== the kernel tests again, with array bounds checks (NUMBA_BOUNDSCHECK=1) =="
 cat "$BOUNDS_LOG"
