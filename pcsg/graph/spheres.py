@@ -106,6 +106,14 @@ def _smooth(balls, x, t):
 
 
 def _newton(balls, x, t, size):
+    # with balls far apart at a high sharpness the Hessian overflows: the step is then
+    # not finite, no step length passes the line search, and x is the answer (numpy's
+    # warnings about it reached the user of `pcsg` as noise)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        return _newton_steps(balls, x, t, size)
+
+
+def _newton_steps(balls, x, t, size):
     f, u, d, w = _smooth(balls, x, t)
     for _ in range(50):
         g = w @ u

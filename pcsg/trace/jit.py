@@ -5,7 +5,9 @@ counting (`_nrt=False`): with it, every array argument and every field read from
 the Flat tuple costs an atomic increment and decrement, which measured as a
 fifth of the walk's time, and the per-node steps passed the whole Flat (twenty
 arrays) at each call. The per-node steps are inlined into the walks."""
-from concurrent.futures import ThreadPoolExecutor
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor, wait
 
 from numba import config, njit
 
@@ -31,14 +33,45 @@ def set_threads(n: int) -> None:
     _threads = max(1, min(int(n), config.NUMBA_NUM_THREADS))
 
 
+_pool: ThreadPoolExecutor | None = None
+_pool_size = 0
+_pool_lock = threading.Lock()
+
+
+def _helpers(count: int) -> ThreadPoolExecutor:
+    """The process's pool of helper threads, started once and grown when more are asked
+    for: a pool per call started its threads for every batch of rays, each start a
+    wait of about a millisecond for the new thread, some 20 ms of a 0.15 s render."""
+    global _pool, _pool_size
+    with _pool_lock:
+        if _pool is None or _pool_size < count:
+            if _pool is not None:
+                _pool.shutdown(wait=False)
+            _pool, _pool_size = ThreadPoolExecutor(count, thread_name_prefix="pcsg"), count
+        return _pool
+
+
+def _forget_pool() -> None:
+    # a forked child has the pool but not its threads: jobs given to it would never run
+    global _pool, _pool_lock, _pool_size
+    _pool, _pool_size, _pool_lock = None, 0, threading.Lock()
+
+
+os.register_at_fork(after_in_child=_forget_pool)
+
+
 def on_threads(fn, workers: int, *args) -> None:
-    """fn(w, workers, *args) for every worker w, each on a thread of its own (fn is a
-    `share` and releases the GIL). Not numba's prange: its parallel passes over such a
-    body gave wrong hits, and compiling the parallel wrapper around an already compiled
-    share took 20 to 30 s more."""
+    """fn(w, workers, *args) for every worker w: worker 0 on the calling thread, the
+    others each on a thread of the pool (fn is a `share` and releases the GIL). Not
+    numba's prange: its parallel passes over such a body gave wrong hits, and compiling
+    the parallel wrapper around an already compiled share took 20 to 30 s more."""
     if workers <= 1:
         fn(0, 1, *args)
         return
-    with ThreadPoolExecutor(workers) as pool:
-        for job in [pool.submit(fn, w, workers, *args) for w in range(workers)]:
-            job.result()
+    jobs = [_helpers(workers - 1).submit(fn, w, workers, *args) for w in range(1, workers)]
+    try:
+        fn(0, workers, *args)
+    finally:
+        wait(jobs)      # the others' shares write into the caller's arrays
+    for job in jobs:
+        job.result()
