@@ -6,6 +6,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import pcsg
+from pcsg.compiler import compile_text
 from pcsg.graph import bounds
 from pcsg.graph.bounds import hyper_boxes
 from pcsg.graph.flatten import flatten
@@ -272,6 +273,29 @@ def test_a_system_that_ends_within_the_budget_is_not_cut(monkeypatch):
     # too small a budget for even the first walk: unbounded, as before
     space, complete, _, depth = walk_boxes(g, budget=10)
     assert not complete and depth == 64 and np.all(np.isinf(space))
+
+
+def test_a_graftal_that_cannot_fit_is_left_unbounded_without_walking_to_the_bound(monkeypatch):
+    """A graftal's boxes come from a walk to the depth bound or from none. When the walks
+    to depths 4 and 5 show that the bound will not fit, no walk goes there: this one
+    doubles at every level and never contracts, and its walk to depth 24 spent the whole
+    budget (15 s) before giving up. With a bound that fits it is walked there and bounded."""
+    g = compile_text("{ n = 1 } S\nS 1\n1: S → sphere ∪ move(3, 0, 0) S ∪ move(0, 3, 0) S")
+    walked = []
+    real = boxwalk._walk_to
+
+    def recording(flat, empty, depth, max_depth, budget, instances):
+        walked.append(depth)
+        return real(flat, empty, depth, max_depth, budget, instances)
+
+    monkeypatch.setattr(boxwalk, "_walk_to", recording)
+    space, complete, _, depth = walk_boxes(g, max_depth=24)
+    assert walked == [4, 5] and not complete and depth == 24 and np.all(np.isinf(space))
+    walked.clear()
+    boxes, complete, _, depth = walk_boxes(g, max_depth=8)
+    assert walked == [4, 5, 8] and complete and depth == 8
+    # the spheres of levels 1 to 8: unit spheres moved by 3 in x or y up to 7 times
+    assert np.array_equal(boxes[g.root], [-1, -1, -1, 22, 22, 1])
 
 
 def table_entries(table):

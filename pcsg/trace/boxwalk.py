@@ -226,15 +226,18 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
     must then finish instances at that depth too, or it would reach instances that no
     box holds. The depth is found by walking to depth FIRST_DEPTH and one deeper, and then
     as deep as the growth of the visits from walk to walk predicts will fit. If not even
-    the first walk fits, every node is left unbounded, which is always safe (and slow)."""
+    the first walk fits, every node is left unbounded, which is always safe (and slow).
+    A graftal is bounded at max_depth or not at all (no shallower depth bounds its deeper
+    instances), so when the growth predicts that max_depth will not fit it is left
+    unbounded without the walk that would find out: for a graftal that neither ends nor
+    contracts that walk spent the whole budget, 15 s of every `pcsg stats` and render."""
     from ..graph.flat import flatten_graph
     budget = BUDGET if budget is None else budget
     n = len(graph.nodes)
     empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
     flat = flatten_graph(graph, empty)
-    # a graftal's instances are bounded at the depth bound by nothing: no shallower bound
     graftal = (flat.term_rule[flat.kind == SELECT] < 0).any()
-    depth = max_depth if graftal else min(max_depth, FIRST_DEPTH)
+    depth = min(max_depth, FIRST_DEPTH)
     best = last = None
     while True:
         boxes, visits, changed, table = _walk_to(flat, empty, depth, max_depth, budget,
@@ -253,10 +256,13 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
             while deeper < max_depth and cost * growth <= budget:
                 cost *= growth
                 deeper += 1
+            if graftal and deeper < max_depth:
+                break                               # max_depth would not fit
             if deeper == depth:
                 return boxes, True, table, depth    # the next depth would not fit
-        # kept compact, so that its slots are free while the next walk fills its own
-        best = boxes, compact(table), depth
+        if not graftal:
+            # kept compact, so that its slots are free while the next walk fills its own
+            best = boxes, compact(table), depth
         table = None
         last = depth, visits
         depth = deeper
