@@ -40,8 +40,9 @@ _pool_lock = threading.Lock()
 
 def _helpers(count: int) -> ThreadPoolExecutor:
     """The process's pool of helper threads, started once and grown when more are asked
-    for: a pool per call started its threads for every batch of rays, each start a
-    wait of about a millisecond for the new thread, some 20 ms of a 0.15 s render."""
+    for. A pool per call started its threads for every batch of rays, and waited for
+    each to start: Sierpinski 6 rendered in 0.14 to 0.18 s that way, 0.14 to 0.15 s
+    with this pool (README, "Against POV-Ray")."""
     global _pool, _pool_size
     with _pool_lock:
         if _pool is None or _pool_size < count:
