@@ -23,20 +23,16 @@ from pathlib import Path
 
 import numpy as np
 
+from pcsg.cli import _set_value
 from pcsg.compiler import compile_file
+from pcsg.graph.bounds import EMPTY, _corners, as_box, transform_bound, union_box
 from pcsg.graph.derive import Deriver
 from pcsg.graph.model import CALC, OPERATORS, PRIMITIVE, SELECT, TRANSFORM
 from pcsg.graph.terminating import terminating_rules
 from pcsg.render.camera import DEFAULT_FOV
-from pcsg.trace.primitives import BOXES, CODES
+from pcsg.trace.primitives import object_box
 
 PROGRESS = 1_000_000       # instances between progress lines: Python walks ~10,000 a second
-CORNERS = np.array([[i >> 2 & 1, i >> 1 & 1, i & 1] for i in range(8)], float)
-
-
-def _set(text: str) -> tuple[str, float]:
-    name, _, value = text.partition("=")
-    return name, float(value)
 
 
 class ViewCut:
@@ -46,26 +42,25 @@ class ViewCut:
         self.eye, self.lod = np.asarray(eye, float), pixel_angle
 
     def _world_box(self, node, state, h, m) -> np.ndarray:
-        """The world box of the geometry below `node` with every S-node cut."""
-        lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+        """The world box of the geometry below `node` with every S-node cut (bounds.py's
+        arithmetic: corner points through the matrices)."""
+        box = EMPTY.copy()
         stack = [(node, state, h, m, 0)]
         while stack:
             i, state, h, m, depth = stack.pop()
             n = self.g.nodes[i]
             if n.kind == PRIMITIVE:
-                b = BOXES[CODES[n.name]]
-                if not np.all(np.isfinite(b)):
-                    return np.array([-np.inf] * 3 + [np.inf] * 3)
-                pts = (b[:3] + CORNERS * (b[3:] - b[:3])) @ m[:3, :3].T + m[:3, 3]
-                lo, hi = np.minimum(lo, pts.min(0)), np.maximum(hi, pts.max(0))
+                own = transform_bound(m, _corners(object_box(n.name,
+                                                             self.g.constant_args(i))))
+                box = union_box(box, as_box(own))
             elif n.kind == SELECT:
                 r = self.term[i]
                 if r < 0 or depth > 64:         # a graftal, or a rule that never ends
-                    return np.array([-np.inf] * 3 + [np.inf] * 3)
+                    return -EMPTY           # unbounded
                 stack.append((n.children[r], state, self.d.edge(h, i, r), m, depth + 1))
             else:
                 stack.extend((*child, depth) for child in self._below(i, n, state, h, m))
-        return np.concatenate([lo, hi])
+        return box
 
     def _below(self, i, n, state, h, m):
         """The children of a C-, T-, paint, material or operator node: (node, state,
@@ -119,7 +114,7 @@ class ViewCut:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("file")
-    ap.add_argument("--set", action="append", default=[], type=_set, metavar="NAME=VALUE")
+    ap.add_argument("--set", action="append", default=[], type=_set_value, metavar="NAME=VALUE")
     ap.add_argument("--size", default="640x480")
     args = ap.parse_args()
     w, h = (int(v) for v in args.size.split("x"))
