@@ -8,7 +8,7 @@ import pytest
 import pcsg
 from pcsg.compiler import compile_file, compile_text
 from pcsg.graph.bounds import bound
-from pcsg.graph.spheres import GEODESIC, INRADIUS, enclose, node_spheres
+from pcsg.graph.spheres import enclose, geodesic, node_spheres
 from pcsg.graph.volumes import bounding_volumes
 from pcsg.trace.reference import Reference
 from pcsg.trace.transforms import matrix
@@ -214,6 +214,7 @@ def test_enclose_holds_every_ball_and_is_the_smallest_for_two():
 def test_the_sphere_points_span_a_hull_that_holds_the_ball():
     """How a sphere enters the box walk: the hull of ball_points must hold the ball; its
     inradius is the smallest distance of a face, checked here against many directions."""
+    GEODESIC, INRADIUS = geodesic()
     assert len(GEODESIC) == 42 and np.allclose(np.linalg.norm(GEODESIC, axis=1), 1)
     u = np.random.default_rng(8).normal(size=(20000, 3))
     u /= np.linalg.norm(u, axis=1, keepdims=True)

@@ -14,6 +14,7 @@ themselves), the spheres nest: every copy's sphere lies inside its parent's.
 """
 from __future__ import annotations
 
+import functools
 import math
 from collections import defaultdict
 
@@ -139,7 +140,8 @@ def _newton_steps(balls, x, t, size):
     return x
 
 
-def _geodesic():
+@functools.cache
+def geodesic():
     """The 42 vertices of an icosahedron with each face cut in four, on the unit sphere,
     and the radius of the largest ball about the centre inside their hull: its faces'
     smallest distance from the centre."""
@@ -159,17 +161,19 @@ def _geodesic():
         fine += [(a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca)]
     inner = min(abs(np.dot(np.cross(b - a, c - a), a)) / np.linalg.norm(np.cross(b - a, c - a))
                 for a, b, c in fine)
-    return np.unique(np.round(points, 12), axis=0), inner * (1 - 1e-12)
-
-
-GEODESIC, INRADIUS = _geodesic()
+    points = np.unique(np.round(points, 12), axis=0)
+    points.flags.writeable = False          # one array for every call
+    return points, inner * (1 - 1e-12)
 
 
 def ball_points(ball: np.ndarray) -> np.ndarray:
     """42 points whose hull holds the ball: how a sphere enters the box walk, so that
     the boxes above a graftal bounded by a sphere hold that sphere (7 % over its radius
     at most, where a box about it would give up to 73 %)."""
-    return ball[:3] + GEODESIC * (ball[3] / INRADIUS)
+    # made on first use, not at import: with the numpy module np.unique imports, 12 ms of
+    # every start, and few files bound by spheres
+    points, inradius = geodesic()
+    return ball[:3] + points * (ball[3] / inradius)
 
 
 class _BallWalker(_Walker):

@@ -9,6 +9,8 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
+from . import cacheload
+
 
 def _cache_dirs(here: Path) -> list[Path]:
     """Where numba keeps this package's kernels: beside the sources, and under
@@ -44,3 +46,4 @@ def _refresh_kernel_cache() -> None:
 
 
 _refresh_kernel_cache()
+cacheload.install()
