@@ -70,6 +70,7 @@ class Deriver:
         self.g = graph
         self.table = graph.exprs
         self._blocks = None
+        self._fixed: dict[int, np.ndarray] = {}
 
     def initial(self) -> tuple[State, int]:
         """No parameter assigned yet, except `pixels`: +inf, as no camera sees the
@@ -84,10 +85,17 @@ class Deriver:
     def value(self, expr: int, state: State, inst_hash: int) -> float:
         return float(self.table.evaluate(expr, state.values, inst_hash))
 
+    def _draw(self, expr: int, state: State, h: int, slot: int) -> float:
+        """Expression `expr` of an instance, its rand() salted with `slot`. A constant is
+        its value without a call of the machine: most arguments and many selections
+        are, and the checks' derivation probe of every compile made thousands of calls."""
+        c = self.table.constant(expr)
+        return c if c is not None else self.value(expr, state, _salt(h, slot))
+
     def select(self, node_id: int, state: State, h: int) -> int:
         """The 0-based rule index an S-node picks, or PcsgError naming module and parameters."""
         node = self.g.nodes[node_id]
-        x = self.value(node.exprs[0], state, _salt(h, 0))
+        x = self._draw(node.exprs[0], state, h, 0)
         rule = int(vm.select_rule(x, len(node.children)))
         if rule == 0:
             raise PcsgError([self.selection_error(node_id, state, x)])
@@ -122,12 +130,20 @@ class Deriver:
 
     def args(self, node_id: int, state: State, h: int) -> list[float]:
         """T-node and paint arguments; the k-th draws rand() with salt(h, k + 1)."""
-        return [self.value(e, state, _salt(h, k + 1))
+        return [self._draw(e, state, h, k + 1)
                 for k, e in enumerate(self.g.nodes[node_id].exprs)]
 
     def matrix(self, node_id: int, state: State, h: int) -> np.ndarray:
-        node = self.g.nodes[node_id]
-        return matrix(node.name, self.args(node_id, state, h))
+        """The T-node's 4x4 matrix; one read-only array per node whose arguments are
+        all constants."""
+        m = self._fixed.get(node_id)
+        if m is None:
+            node = self.g.nodes[node_id]
+            m = matrix(node.name, self.args(node_id, state, h))
+            if all(self.table.constant(e) is not None for e in node.exprs):
+                m.flags.writeable = False
+                self._fixed[node_id] = m
+        return m
 
     @staticmethod
     def edge(h: int, node_id: int, child: int) -> int:

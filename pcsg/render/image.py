@@ -93,19 +93,19 @@ def render_frame(traced, camera: Camera, light: Lighting, width: int, height: in
         ys, xs = np.mgrid[a0 + y0:a0 + y1, 0:width]
         order = tile_order(y1 - y0, width)
         ys, xs = ys.ravel()[order], xs.ravel()[order]
-        acc = np.zeros(((y1 - y0) * width, 3))
-        acc_obj = np.zeros(((y1 - y0) * width, 3))
-        hit = np.zeros((y1 - y0) * width)
-        band_depth = np.empty((y1 - y0) * width, np.float32)
+        n = (y1 - y0) * width
+        # the samples add up in the frame's own rows (views), not in arrays copied there
+        acc, acc_obj = rgb[y0:y1].reshape(n, 3), obj[y0:y1].reshape(n, 3)
+        hit, band_depth = cover[y0:y1].reshape(n), depth[y0:y1].reshape(n)
         pixels = (ys * width + xs).astype(np.int64)
         for k, (ox, oy) in enumerate(offs):
             o, d = camera.rays(width, height, xs + ox, ys + oy)
             c, t, hits = shade(traced, light, o, d, ids=sample_ids(pixels, k, width, height))
             _gather(order, c, hits.hit, t, acc, acc_obj, hit, band_depth, k == 0)
-        depth[y0:y1] = band_depth.reshape(y1 - y0, width)
-        rgb[y0:y1] = (acc / len(offs)).reshape(y1 - y0, width, 3)
-        obj[y0:y1] = (acc_obj / np.maximum(hit, 1)[:, None]).reshape(y1 - y0, width, 3)
-        cover[y0:y1] = (hit / len(offs)).reshape(y1 - y0, width)
+        if len(offs) > 1:       # one sample: each division would be by 1, which changes nothing
+            acc_obj /= np.maximum(hit, 1)[:, None]
+            acc /= len(offs)
+            hit /= len(offs)
         if progress:
             progress.update(y1 * width, light.rays[0])
         if check:
