@@ -292,15 +292,23 @@ def eval_row(code, consts, start, end, params, row, inst_hash, salt_slot, stack)
         op = code[pc, 0]
         arg = code[pc, 1]
         pc += 1
-        if op == CONST:
-            stack[sp] = consts[arg]
-            sp += 1
+        # the fused operators, the loads and the stores first: they are most rows of
+        # calculation blocks (the terrain's: 29 %, 22 % and 20 %), and the branches are
+        # tested in turn. The terrain at 9 rendered in 2.17 s against 2.24 s with them
+        # last (6 rounds alternating, medians; README, "Start-up")
+        if op == BIN_LOAD:
+            stack[sp - 1] = binary(arg & OP_MASK, stack[sp - 1], params[row, arg >> OP_BITS])
+        elif op == BIN_CONST:
+            stack[sp - 1] = binary(arg & OP_MASK, stack[sp - 1], consts[arg >> OP_BITS])
         elif op == LOAD:
             stack[sp] = params[row, arg]
             sp += 1
         elif op == STORE:
             sp -= 1
             params[row, arg] = stack[sp]
+        elif op == CONST:
+            stack[sp] = consts[arg]
+            sp += 1
         elif op == RAND:
             if need_salt:
                 inst_hash = salt(h0, salt_slot)
@@ -330,7 +338,7 @@ def eval_row(code, consts, start, end, params, row, inst_hash, salt_slot, stack)
                 pc += arg - 1
             else:
                 sp -= 1
-        elif op <= TRUTH:                         # unary logic
+        elif op <= TRUTH:                         # unary logic (CONST, LOAD are above)
             a = stack[sp - 1]
             if op == NEG:
                 stack[sp - 1] = -a
@@ -338,13 +346,9 @@ def eval_row(code, consts, start, end, params, row, inst_hash, salt_slot, stack)
                 stack[sp - 1] = 0.0 if truth(a) else 1.0
             else:
                 stack[sp - 1] = 1.0 if truth(a) else 0.0
-        elif op <= ATAN2:                         # binary
+        elif op <= ATAN2:                         # binary (the jumps are above)
             sp -= 1
             stack[sp - 1] = binary(op, stack[sp - 1], stack[sp])
-        elif op == BIN_LOAD:
-            stack[sp - 1] = binary(arg & OP_MASK, stack[sp - 1], params[row, arg >> OP_BITS])
-        elif op == BIN_CONST:
-            stack[sp - 1] = binary(arg & OP_MASK, stack[sp - 1], consts[arg >> OP_BITS])
         elif op == CLAMP:
             sp -= 2
             stack[sp - 1] = fmin(fmax(stack[sp - 1], stack[sp]), stack[sp + 1])
