@@ -21,6 +21,7 @@ fi
 # pcsg's modules as bytecode, as pip leaves an installed package: an editable install
 # leaves that to the first import, which writes nothing where PYTHONDONTWRITEBYTECODE is
 # set, and every start then compiled them again (0.05 s of a render's wall time)
-"$VENV/bin/python" -m compileall -q "$ROOT/pcsg" >&2
+"$VENV/bin/python" -m compileall -q "$ROOT/pcsg" >&2 ||
+  echo "note: pcsg's modules could not all be compiled to bytecode; starts will be slower" >&2
 export PATH="$VENV/bin:$PATH"
 cd "$ROOT"
