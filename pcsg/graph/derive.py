@@ -71,6 +71,9 @@ class Deriver:
         self.table = graph.exprs
         self._blocks = None
         self._fixed: dict[int, np.ndarray] = {}
+        # the nodes whose arguments are all constants: matrix() keeps their maps
+        self._constant_maps = {i for i, n in enumerate(graph.nodes)
+                               if all(self.table.constant(e) is not None for e in n.exprs)}
 
     def initial(self) -> tuple[State, int]:
         """No parameter assigned yet, except `pixels`: +inf, as no camera sees the
@@ -137,12 +140,13 @@ class Deriver:
         """The T-node's 4x4 matrix; one read-only array per node whose arguments are
         all constants."""
         m = self._fixed.get(node_id)
-        if m is None:
-            node = self.g.nodes[node_id]
-            m = matrix(node.name, self.args(node_id, state, h))
-            if all(self.table.constant(e) is not None for e in node.exprs):
-                m.flags.writeable = False
-                self._fixed[node_id] = m
+        if m is not None:
+            return m
+        node = self.g.nodes[node_id]
+        m = matrix(node.name, self.args(node_id, state, h))
+        if node_id in self._constant_maps:
+            m.flags.writeable = False
+            self._fixed[node_id] = m
         return m
 
     @staticmethod
