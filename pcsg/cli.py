@@ -10,11 +10,15 @@ import importlib
 import json
 import os
 import sys
+import time
 from pathlib import Path
 
-from .distributed.sweep import sweep_set
-from .language.errors import PcsgError
-from .limits import INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, bounces_problem
+IMPORTS_BEGAN = time.perf_counter()     # for --timings: the imports start here
+
+from .distributed.sweep import sweep_set  # noqa: E402
+from .language.errors import PcsgError  # noqa: E402
+from .limits import INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, bounces_problem  # noqa: E402
+from .timings import Timings, note_startup  # noqa: E402
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
 
@@ -68,6 +72,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("-o", "--output", metavar="OUT",
                    help="the PNG (one file) or a directory (default: NAME.png here)")
     r.add_argument("--depth", metavar="FILE.npy", help="also write float32 hit distances")
+    r.add_argument("--timings", action="store_true",
+                   help="print where each file's time went: start-up, compile, bounds, "
+                        "render, PNG")
     cluster_arguments(r)
 
     w = sub.add_parser("sweep", parents=[looks],
@@ -386,7 +393,6 @@ def _distributed(args) -> bool:
 
 
 def cmd_render(args) -> int:
-    import time
     from .render.job import RenderFailed, render_file
     files = expand_globs(args.files)
     opts = _options(args)
@@ -394,15 +400,19 @@ def cmd_render(args) -> int:
     outputs = _outputs(files, args.output)
     if opts.depth is not None and len(files) > 1:
         raise UsageError("--depth names one file; render one .pcsg file with it")
+    if distributed and args.timings:
+        raise UsageError("--timings times renders in this process; drop --workers, "
+                         "--scheduler and --tiles to use it")
     if distributed:
         from .distributed.batch import Job, run_jobs
         jobs = [Job(f, out, opts) for f, out in zip(files, outputs)]
         return _exit(run_jobs(jobs, args, resume=bool(args.workers or args.scheduler)))
     failed = []
     start = time.perf_counter()
-    for path, out in zip(files, outputs):
+    for k, (path, out) in enumerate(zip(files, outputs)):
+        timings = Timings(startup=k == 0)
         try:
-            summary, notes = render_file(Path(path), out, opts)
+            summary, notes = render_file(Path(path), out, opts, timings)
         except PcsgError as e:
             _report(e, [])
             failed.append(path)
@@ -419,6 +429,8 @@ def cmd_render(args) -> int:
         for note in notes:
             print(f"{path}: {note}", file=sys.stderr)
         print(summary)
+        if args.timings:
+            print(timings.report(str(path)), file=sys.stderr, flush=True)
     if len(files) > 1:
         done = len(files) - len(failed)
         print(f"rendered {done} of {len(files)} files in {time.perf_counter() - start:.1f} s"
@@ -503,7 +515,6 @@ def cmd_animate(args) -> int:
 
 
 def cmd_export(args) -> int:
-    import time
     from .povray import export_pov
     from .render.camera import make_camera
     from .render.shade import make_lighting
@@ -595,6 +606,7 @@ def run() -> None:
     as the process, and every full collection during the compile and the bounding walk
     walked them all again (0.1 to 0.25 s of a terrain render)."""
     import_kernels()
+    note_startup(IMPORTS_BEGAN)
     code = main()
     for stream in (sys.stdout, sys.stderr):
         try:

@@ -16,6 +16,7 @@ from ..trace.nodes import (EV_INTERVALS, EV_NONFINITE, EV_SELECTION, EV_SINGULAR
 from ..scene import MAX_AO_SAMPLES
 from ..limits import (INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, MAX_INTERVAL_ROWS,
                       MAX_STACK_DEPTH, bounces_problem)
+from ..timings import Timings
 from ..tracer import Hits, Traced
 from . import preload
 from .camera import make_camera
@@ -162,25 +163,36 @@ def summary_line(out: Path, opts: Options, seconds: float, rays: int) -> str:
             f"{', reference tracer' if opts.reference else ''}")
 
 
-def render_file(path: Path, out: Path, opts: Options) -> tuple[str, list[str]]:
-    """Render `path` to `out` (written atomically); returns the summary line and notes.
-    Raises RenderFailed, having written nothing, past --timeout or, with --strict, when
-    instances were empty because of runtime errors."""
+def render_file(path: Path, out: Path, opts: Options,
+                timings: Timings | None = None) -> tuple[str, list[str]]:
+    """Render `path` to `out` (written atomically); returns the summary line and notes,
+    and fills `timings` with its phases (--timings). Raises RenderFailed, having written
+    nothing, past --timeout or, with --strict, when instances were empty because of
+    runtime errors."""
+    clock = timings or Timings()
     deadline = None if opts.timeout is None else time.perf_counter() + opts.timeout
     loading = None if opts.reference else preload.start()
     try:
-        graph = compile_file(path, opts.overrides)
+        with clock.phase("compile", "parse, checks" + (", the shading kernel loading beside"
+                                                        if loading else "")):
+            graph = compile_file(path, opts.overrides)
     finally:
         if loading is not None:
-            loading.join()
-    scene = prepare_scene(graph, opts)
-    frame, events = render_scene(scene, Path(path).name, opts, deadline)
+            with clock.phase("kernel", "the rest of the shading kernel's load"):
+                loading.join()
+    with clock.phase("bounds", "hyper-bounding boxes, instance table"):
+        scene = prepare_scene(graph, opts)
+    with clock.phase("render"):
+        frame, events = render_scene(scene, Path(path).name, opts, deadline)
+    clock.annotate("render", f"{frame.rays / 1e6:.2f} M rays, "
+                             f"{frame.rays / max(frame.seconds, 1e-9) / 1e6:.2f} M rays/s")
     notes, errors = scene.report(events, opts.strict)
     if errors:
         raise strict_failure(errors)
-    write_png(out, frame, opts.alpha)
-    if opts.depth is not None:
-        write_depth(opts.depth, frame)
+    with clock.phase("PNG", "encode, write" + (", depth" if opts.depth is not None else "")):
+        write_png(out, frame, opts.alpha)
+        if opts.depth is not None:
+            write_depth(opts.depth, frame)
     return summary_line(out, opts, frame.seconds, frame.rays), scene.notes + notes
 
 
