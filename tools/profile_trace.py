@@ -1,13 +1,15 @@
 """Where the tracing kernel spends its time: a `perf` profile of primary rays, mapped
 onto the kernel's machine code.
 
-    python tools/profile_trace.py [SAMPLE] [--set NAME=VALUE] [--repeat 3] [--top 15]
+    python tools/profile_trace.py [SAMPLE] [--set NAME=VALUE] [--repeat 3] [--top 15] [--walk]
 
 numba loads the kernel from its cache as an object file with no symbols that `perf`
 can see, so this keeps that object file as numba loads it, records the samples of this
 process while it traces the camera rays of SAMPLE (default carpenter_terrain) on one
 thread, and prints the share of samples in each run of 16 instructions, with the
-instructions of the hottest runs. Needs `perf` (Debian: linux-perf) and binutils.
+instructions of the hottest runs. With --walk it profiles the bounding walk
+(trace/boxwalk.py, every instance once) instead, and lists the runs of the library
+most samples fell in. Needs `perf` (Debian: linux-perf) and binutils.
 """
 from __future__ import annotations
 
@@ -25,10 +27,8 @@ from pathlib import Path
 from numba.core.codegen import CPUCodeLibrary
 
 import pcsg
-from pcsg.trace import jit
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_trace import primary_rays  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 RUN = 16                    # instructions per reported run
@@ -91,12 +91,17 @@ def main():
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--top", type=int, default=15)
     ap.add_argument("--size", default="640x480")
+    ap.add_argument("--walk", action="store_true",
+                    help="profile the bounding walk instead of the camera rays")
     args = ap.parse_args()
     width, height = map(int, args.size.split("x"))
     overrides = {k: float(v) for k, v in (s.split("=") for s in args.set)}
     loaded = {}
 
     def prepare():
+        # every import of pcsg.trace in here, so that `objects` has the libraries that
+        # load at import (the expression machine's)
+        from bench_trace import primary_rays
         # the load too: a helper that several compiled functions call (vm.eval_row) runs
         # from the copy in the library loaded first, the bounding walk's
         loaded["obj"] = obj = pcsg.load(ROOT / "grammars" / f"{args.sample}.pcsg",
@@ -109,41 +114,57 @@ def main():
     if not objects:
         sys.exit("numba compiled the kernel instead of loading it: run this once more")
     work = Path(tempfile.mkdtemp(prefix="pcsg-profile-"))
-    ranges = []             # (base, size, name) of every library loaded
+    ranges, paths = [], []      # (base, size, name) of every library loaded, its file
     for k, (library, code) in enumerate(sorted(objects, key=lambda x: -len(x[1]))):
         path = work / ("kernel.o" if k == 0 else f"lib{k}.o")
         path.write_bytes(code)
         lib_base, lib_size = code_range(library, path)
         if lib_base is not None:
             ranges.append((lib_base, lib_size, library.name))
+            paths.append(path)
     if not ranges or ranges[0][2] != max(objects, key=lambda x: len(x[1]))[0].name:
         sys.exit("cannot find where numba loaded the kernel's code")
-    base, size, _ = ranges[0]           # the largest: the kernel
+    from pcsg.trace import jit      # imported by prepare: its libraries are in `objects`
     jit.set_threads(1)
+    if args.walk:
+        from pcsg.trace.boxwalk import walk_boxes
+
+        def action():
+            walk_boxes(obj.graph, 64, instances=True)     # as Traced calls it
+    else:
+        def action():
+            obj.trace(o, d)
     perf = subprocess.Popen(["perf", "record", "-q", "-F", "4000", "-o", str(work / "perf.data"),
                              "-p", str(os.getpid())],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     time.sleep(1.0)                                     # perf attaches
     start = time.perf_counter()
     for _ in range(args.repeat):
-        obj.trace(o, d)
+        action()
     seconds = (time.perf_counter() - start) / args.repeat
     perf.send_signal(signal.SIGINT)
     perf.wait()
     ips = subprocess.run(["perf", "script", "-i", str(work / "perf.data"), "-F", "ip"],
                          capture_output=True, text=True, check=True).stdout.split()
+    # the listing: the kernel (the largest library), or for --walk the hottest
+    k = 0
+    if args.walk:
+        k = max(range(len(ranges)), key=lambda i: sum(
+            ranges[i][0] <= int(ip, 16) < ranges[i][0] + ranges[i][1] for ip in ips))
+    base, size, _ = ranges[k]
     counts = collections.Counter(int(ip, 16) - base for ip in ips
                                  if 0 <= int(ip, 16) - base < size)
     asm = []
-    dump = subprocess.run(["objdump", "-d", "--no-show-raw-insn", str(work / "kernel.o")],
+    dump = subprocess.run(["objdump", "-d", "--no-show-raw-insn", str(paths[k])],
                           capture_output=True, text=True, check=True).stdout
     for line in dump.splitlines():
         m = re.match(r"\s*([0-9a-f]+):\s+(.*)", line)
         if m:
             asm.append((int(m.group(1), 16), re.sub(r"<[^>]*>", "", m.group(2)).strip()))
     inside = sum(counts.values())
-    print(f"{args.sample} {overrides or ''} {width}x{height}: {seconds:.3f} s a trace on one "
-          f"thread; {len(ips)} samples, {inside} in the kernel")
+    what = "the bounding walk" if args.walk else f"{width}x{height}, a trace"
+    print(f"{args.sample} {overrides or ''} {what}: {seconds:.3f} s on one thread; "
+          f"{len(ips)} samples, {inside} in {ranges[k][2]}")
     print("by compiled function (its library): " + library_shares(ips, ranges))
     runs = collections.Counter()
     for k, (a, _) in enumerate(asm):

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .boxwalk import COLLECT, CONSUME, walk
+from .boxwalk import COLLECT, CONSUME, walk, walk_in, walk_scratch
 from .instance_table import ENTRY, empty_table, merge
 from .jit import on_threads, share
 
@@ -96,13 +96,15 @@ def _split_level(flat, depth: int, budget: int, capacity: int, workers: int):
 def _walk_share(w, workers, flat, depth, budget, capacity, count, items, item_hash,
                 item_params, item_boxes, wboxes, bbook, bkeys, bused, bvals, wlevels,
                 wchanged, wvisits):
-    """Worker w's subtrees: split instances w, w + workers, ...; wvisits[w] -1 when one
-    of them ran out of budget or stack."""
+    """Worker w's subtrees: split instances w, w + workers, ..., with one scratch for all
+    of them; wvisits[w] -1 when one of them ran out of budget or stack."""
     split = np.zeros(3, dtype=np.int64)
+    fr, hs, params, acc, tmp, stack, args, m34 = walk_scratch(flat, capacity)
     for i in range(w, count, workers):
-        got = walk(flat, depth, budget - wvisits[w], capacity, wboxes[w], bbook[w],
-                   bkeys[w], bused[w], bvals[w], wlevels[w], wchanged[w:w + 1], split,
-                   items, item_hash, item_params, item_boxes, i)
+        got = walk_in(flat, depth, budget - wvisits[w], capacity, wboxes[w], bbook[w],
+                      bkeys[w], bused[w], bvals[w], wlevels[w], wchanged[w:w + 1], split,
+                      items, item_hash, item_params, item_boxes, i, fr, hs, params, acc, tmp,
+                      stack, args, m34)
         if got < 0:
             wvisits[w] = -1
             break

@@ -13,7 +13,7 @@ from numba import njit
 from ..graph.model import (CALC, INTERSECTION, MATERIAL, PAINT, PRIMITIVE, SELECT,
                            TRANSFORM, UNION)
 from . import vm
-from .jit import threads
+from .jit import copy_into, inline, kernel, threads
 from .instance_table import (TABLE_SLOTS, append, compact, empty_table, expand, new_book,
                              record)
 from .nodes import node_affine, pick_rule, run_calc
@@ -24,10 +24,10 @@ NODE, SLOT, LEVEL, PHASE, CUT = range(5)
 COLLECT, CONSUME = 1, 2    # split modes of walk
 
 
-@njit(cache=True, error_model="numpy")
+@inline
 def _transform_box(m, b, out):
     if b[0] > b[3]:
-        out[:] = b
+        copy_into(out, b)
         return
     for i in range(3):
         lo = m[i, 3]
@@ -44,14 +44,14 @@ def _transform_box(m, b, out):
         out[i + 3] = hi
 
 
-@njit(cache=True, error_model="numpy")
+@inline
 def _unite(acc, b):
     for a in range(3):
         acc[a] = min(acc[a], b[a])
         acc[a + 3] = max(acc[a + 3], b[a + 3])
 
 
-@njit(cache=True, error_model="numpy")
+@inline
 def _keep(buffered, level, node, owner, h, box, book, keys, used, vals, per_level):
     if buffered:
         append(level, node, owner, h, box, book, keys, used, vals, per_level)
@@ -60,8 +60,29 @@ def _keep(buffered, level, node, owner, h, box, book, keys, used, vals, per_leve
 
 
 @njit(cache=True, error_model="numpy")
+def walk_scratch(flat, capacity):
+    """A walk's frames (fr), their hashes (hs), parameter rows, instance boxes (acc) and
+    the small arrays of its steps, for walk_in: allocated once per thread, not per
+    subtree (a walk's rows of parameters alone are a megabyte)."""
+    return (np.zeros((capacity, 5), dtype=np.int64), np.zeros(capacity, dtype=np.uint64),
+            np.full((capacity, flat.n_params), np.nan), np.empty((capacity, 6)),
+            np.empty(6), np.empty(flat.max_stack), np.empty(12), np.empty((3, 4)))
+
+
+@njit(cache=True, error_model="numpy")
 def walk(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, per_level, changed,
          split, items, item_hash, item_params, item_boxes, first):
+    """walk_in with scratch of its own."""
+    fr, hs, params, acc, tmp, stack, args, m34 = walk_scratch(flat, capacity)
+    return walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals,
+                   per_level, changed, split, items, item_hash, item_params, item_boxes, first,
+                   fr, hs, params, acc, tmp, stack, args, m34)
+
+
+@kernel
+def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, per_level,
+            changed, split, items, item_hash, item_params, item_boxes, first, fr, hs, params,
+            acc, tmp, stack, args, m34):
     """Fill boxes[n] (pre-set to empty) with the union of node n's instance boxes, and the
     table (keys, used, vals) with the box of every S-node instance and operator operand
     of the top derivation levels that fit (see instance_table.record; `book` is its
@@ -76,25 +97,25 @@ def walk(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, per_l
     ... as instance_table.append). split = [mode, level, count]: mode COLLECT stores the
     instances that reach `level` in the items arrays instead of entering them (returns -2
     when they are more than the arrays hold), CONSUME takes their boxes from item_boxes,
-    in the same order (trace/boxsplit.py)."""
-    fr = np.zeros((capacity, 5), dtype=np.int64)
-    hs = np.zeros(capacity, dtype=np.uint64)
-    params = np.full((capacity, flat.n_params), np.nan)
-    acc = np.empty((capacity, 6))          # each frame's instance box so far
-    tmp = np.empty(6)
-    stack = np.empty(flat.max_stack)
-    args = np.empty(12)
-    m34 = np.empty((3, 4))
+    in the same order (trace/boxsplit.py).
+
+    The scratch arrays come from walk_scratch, and may hold an earlier walk's values:
+    every frame's row is written as the frame is pushed, and every parameter row before
+    it is read, but for the first, set here. Compiled without reference counting (as the
+    tracer's walks are, jit.py): with it, the atomic counts of the arrays its steps pass
+    around were two thirds of this walk's time on two threads."""
+    fr[0, :] = 0
     buffered = first >= 0
     if buffered:
         fr[0, NODE] = items[first, 0]
         fr[0, LEVEL] = items[first, 1]
         fr[0, CUT] = items[first, 2]
         hs[0] = item_hash[first]
-        params[0, :] = item_params[first]
+        copy_into(params[0], item_params[first])
     else:
         fr[0, NODE] = flat.root
         hs[0] = vm.ROOT_HASH
+        params[0, :] = np.nan
     sp = 1
     visits = 0
     while sp > 0:
@@ -115,7 +136,7 @@ def walk(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, per_l
                 acc[f, :3] = -r
                 acc[f, 3:] = r
             else:
-                acc[f, :] = BOXES[flat.code[node]]
+                copy_into(acc[f], BOXES[flat.code[node]])
         elif kind == SELECT:
             if phase == 0:
                 level = fr[f, LEVEL] + 1
@@ -132,9 +153,9 @@ def walk(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, per_l
                         items[i, 1] = level - 1
                         items[i, 2] = fr[f, CUT]
                         item_hash[i] = hs[f]
-                        item_params[i, :] = params[fr[f, SLOT]]
+                        copy_into(item_params[i], params[fr[f, SLOT]])
                     else:
-                        acc[f, :] = item_boxes[i]
+                        copy_into(acc[f], item_boxes[i])
                 else:
                     if level > max_depth:
                         fr[f, CUT] = 1
@@ -162,12 +183,12 @@ def walk(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, per_l
             elif kind == TRANSFORM:
                 if node_affine(flat, node, params, fr[f, SLOT], hs[f], stack, args, m34):
                     _transform_box(m34, acc[f + 1], tmp)
-                    acc[f, :] = tmp
+                    copy_into(acc[f], tmp)
                 else:               # non-finite arguments: the tracer empties the instance
                     acc[f, :3] = np.inf
                     acc[f, 3:] = -np.inf
             else:
-                acc[f, :] = acc[f + 1]
+                copy_into(acc[f], acc[f + 1])
         else:   # UNION, INTERSECTION, DIFFERENCE: children one by one
             if phase > 0:
                 b = acc[f + 1]
@@ -187,7 +208,7 @@ def walk(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, per_l
             if sp >= capacity:
                 return -1
             g = sp
-            fr[g, :] = fr[f, :]
+            copy_into(fr[g], fr[f])
             fr[g, NODE] = flat.children[flat.child_start[node] + child]
             fr[g, PHASE] = 0
             hs[g] = hs[f]
@@ -205,11 +226,11 @@ def walk(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, per_l
         _unite(boxes[node], acc[f])
         sp -= 1
     if buffered:
-        item_boxes[first, :] = acc[0]
+        copy_into(item_boxes[first], acc[0])
     return visits
 
 
-BUDGET = 60_000_000        # node visits of one walk: about 6 s on two cores
+BUDGET = 60_000_000        # node visits of one walk: about 1.5 s on two cores
 
 
 FIRST_DEPTH = 4        # the first walk, which measures how fast the instances grow

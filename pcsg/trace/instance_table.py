@@ -13,6 +13,7 @@ import numpy as np
 from numba import njit
 
 from . import vm
+from .jit import copy_into, kernel
 from .nodes import table_slot
 
 TABLE_SLOTS = 1 << 19      # instance boxes kept: ~30 MB at most, whatever the order
@@ -84,7 +85,7 @@ def new_book(deepest: int, most: int) -> np.ndarray:
     return book
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def record(level, node, owner, h, box, table, keys, used, vals, per_level):
     """Count the instance at its level; keep its box in the table if its level is within
     table[0], the deepest level kept. When the table would pass table[1] entries, its
@@ -108,11 +109,11 @@ def record(level, node, owner, h, box, table, keys, used, vals, per_level):
         table[3 + level] += 1
     used[slot] = 1 + level          # 0: empty; else the entry's level + 1
     keys[slot] = key
-    vals[slot, :OWNER] = box
+    copy_into(vals[slot, :OWNER], box)
     vals[slot, OWNER] = owner
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def drop_level(level, keys, used, vals):
     """Delete every entry of `level` (used == level + 1), keeping every other entry
     reachable: linear-probing deletion that moves later entries of a run back (Knuth's
@@ -133,12 +134,12 @@ def drop_level(level, keys, used, vals):
                         (hole > j and home <= hole and home > j):
                     keys[hole] = keys[j]
                     used[hole] = used[j]
-                    vals[hole, :] = vals[j]
+                    copy_into(vals[hole], vals[j])
                     hole = j
             used[hole] = 0
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def append(level, node, owner, h, box, book, keys, used, vals, per_level):
     """record's rule on a buffer (entries in order, not hashed): count the instance at its
     level and keep its entry while its level fits, dropping the deepest level when the
@@ -153,7 +154,7 @@ def append(level, node, owner, h, box, book, keys, used, vals, per_level):
             if used[i] != book[0] + 1:
                 keys[kept] = keys[i]
                 used[kept] = used[i]
-                vals[kept, :] = vals[i]
+                copy_into(vals[kept], vals[i])
                 kept += 1
         book[2] = kept
         book[3 + book[0]] = 0
@@ -163,7 +164,7 @@ def append(level, node, owner, h, box, book, keys, used, vals, per_level):
     i = book[2]
     keys[i] = vm.mix(h, node)
     used[i] = 1 + level
-    vals[i, :OWNER] = box
+    copy_into(vals[i, :OWNER], box)
     vals[i, OWNER] = owner
     book[2] += 1
     book[3 + level] += 1

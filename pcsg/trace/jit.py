@@ -17,6 +17,14 @@ inline = njit(cache=True, error_model="numpy", nogil=True, _nrt=False, inline="a
 share = njit(cache=True, error_model="numpy", nogil=True)
 
 
+@inline
+def copy_into(dst, src):
+    """dst[:] = src[:len(dst)] element by element: numba lowers an array assigned to a
+    slice with a temporary copy, which code without reference counting cannot make."""
+    for i in range(dst.shape[0]):
+        dst[i] = src[i]
+
+
 _threads = config.NUMBA_NUM_THREADS
 
 
