@@ -8,6 +8,7 @@ import numpy as np
 from ..language.names import FRACTAL_PRIMITIVES, PIXELS, PRIMITIVES
 from ..trace.fractals import ARG_WIDTH, fractal_row
 from ..trace.instance_table import probe_rows
+from ..trace.native import native_blocks
 from ..trace.transforms import CODES as TRANSFORM_CODES
 from ..trace.transforms import matrix as transform_matrix
 from ..trace.vm import RAND, SALT, STORE
@@ -54,6 +55,8 @@ Flat = namedtuple("Flat", [
     "calc_start",    # int32[n]     C-nodes: their block as one program in vm_code
     "calc_end",      # int32[n]
     "calc_cache",    # int8[n]      C-nodes whose results the walk caches (long blocks)
+    "calc_fn",       # int64[n]     C-nodes: the address of their compiled block, 0: none
+                     #              (trace/native.py)
     "defer",         # int8[n]      C- and paint nodes the first-hit walks leave to a hit
                      #              (graph/defer.py)
     "root",          # int64
@@ -96,6 +99,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
     calc_start = np.where(is_calc, remap[calc_start], 0).astype(np.int32)
     calc_end = np.where(is_calc, remap[calc_end], 0).astype(np.int32)
     calc_cache = (calc_end - calc_start >= CACHED_CALC_ROWS).astype(np.int8)
+    calc_fn = native_blocks(vm_code, calc_start, calc_end, is_calc)
     if table is None:
         table = (np.zeros(2, dtype=np.uint64), np.zeros(2, dtype=np.int16), np.zeros((2, 6)))
     fixed, fixed_map = _fixed_nodes(graph)
@@ -128,6 +132,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
         state_start=_starts(np.maximum(state_count, 0)),
         state_slots=np.concatenate([np.zeros(0, dtype=np.int32), *keyed]),
         vm_code=vm_code, calc_start=calc_start, calc_end=calc_end, calc_cache=calc_cache,
+        calc_fn=calc_fn,
         defer=defer,
         vm_consts=np.asarray(vm["consts"], dtype=np.float64),
         vm_start=vm_start, vm_end=vm_end,

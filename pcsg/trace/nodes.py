@@ -14,6 +14,7 @@ import numpy as np
 
 from . import vm
 from .jit import inline, kernel
+from .native import call_block
 from .primitives import _roots
 from .transforms import affine
 
@@ -383,12 +384,16 @@ def expr(flat, params, slot, k, h, salt_slot, stack):
 
 @inline
 def run_calc(flat, node, params, src, dst, h, stack):
-    """A C-node: copy the parameter state into slot dst, then run its block."""
+    """A C-node: copy the parameter state into slot dst, then run its block, compiled
+    where it could be (native.py), else on the expression machine."""
     if src != dst:
         for p in range(params.shape[1]):
             params[dst, p] = params[src, p]
-    vm.eval_row(flat.vm_code, flat.vm_consts, flat.calc_start[node], flat.calc_end[node],
-                params, dst, h, -1, stack)
+    if flat.calc_fn[node] != 0:
+        call_block(flat.calc_fn[node], params, dst, flat.vm_consts, h)
+    else:
+        vm.eval_row(flat.vm_code, flat.vm_consts, flat.calc_start[node], flat.calc_end[node],
+                    params, dst, h, -1, stack)
 
 
 @inline

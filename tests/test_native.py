@@ -1,0 +1,168 @@
+"""Compiled calculation blocks (trace/native.py) give the expression machine's bits,
+opcode by opcode and through the walks, and a second start loads them compiled."""
+import itertools
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from numba import njit
+
+import pcsg
+from pcsg.compiler import compile_file
+from pcsg.graph.flat import flatten_graph
+from pcsg.graph.model import CALC
+from pcsg.trace import native, vm
+from pcsg.trace.boxwalk import walk_boxes
+
+from .conftest import GRAMMARS, ROOT
+
+SPECIAL = [0.0, -0.0, 1.0, -1.0, 0.5, -1.5, 2.0, 3.0, -7.25, 1e-5, 1e300, -1e-300, 255.0,
+           np.inf, -np.inf, np.nan]
+WIDTH = 6                   # parameter slots of the test programs: a, b, out, c, d, e
+CONSTS = np.array([0.75, -3.0, np.nan, 1e-3])
+
+
+@njit
+def run_native(address, params, consts, h):
+    native.call_block(address, params, 1, consts, h)
+
+
+def bits(a):
+    return np.ascontiguousarray(a).view(np.uint64)
+
+
+def programs():
+    """(name, rows) of small blocks covering every opcode the compiler takes."""
+    out = []
+    for op in native.BINARY:
+        name = vm.OPCODE_NAMES[op]
+        out.append((name, [(vm.LOAD, 0), (vm.LOAD, 1), (op, 0), (vm.STORE, 2)]))
+        out.append((f"{name} fused with a load", [(vm.LOAD, 0), (vm.BIN_LOAD, op | 1 << 6),
+                                                  (vm.STORE, 2)]))
+        out.append((f"{name} fused with a constant",
+                    [(vm.LOAD, 0), (vm.BIN_CONST, op | 1 << 6), (vm.STORE, 2)]))
+    for op in native.UNARY:
+        out.append((vm.OPCODE_NAMES[op], [(vm.LOAD, 0), (op, 0), (vm.STORE, 2)]))
+    out.append(("CLAMP", [(vm.LOAD, 0), (vm.LOAD, 1), (vm.LOAD, 3), (vm.CLAMP, 0),
+                          (vm.STORE, 2)]))
+    out.append(("CONST", [(vm.CONST, 2), (vm.STORE, 2), (vm.CONST, 0), (vm.STORE, 3)]))
+    # rand() before any SALT draws from the instance hash itself; each SALT restarts the
+    # count of draws from a salted hash
+    out.append(("RAND and SALT", [(vm.RAND, 0), (vm.STORE, 2), (vm.SALT, 1), (vm.RAND, 0),
+                                  (vm.STORE, 3), (vm.RAND, 0), (vm.STORE, 4), (vm.SALT, 2),
+                                  (vm.RAND, 0), (vm.LOAD, 0), (vm.ADD, 0), (vm.STORE, 5)]))
+    out.append(("a block's worth", [(vm.LOAD, 0), (vm.LOAD, 1), (vm.ADD, 0),
+                                    (vm.BIN_CONST, vm.MUL | 0 << 6), (vm.STORE, 3),
+                                    (vm.LOAD, 3), (vm.RAND_SEED, 0), (vm.LN, 0),
+                                    (vm.BIN_LOAD, vm.SUB | 1 << 6), (vm.STORE, 2),
+                                    (vm.LOAD, 2), (vm.LOAD, 3), (vm.LOAD, 0), (vm.CLAMP, 0),
+                                    (vm.NEG, 0), (vm.STORE, 4)]))
+    return out
+
+
+@pytest.fixture(scope="module")
+def compiled():
+    rows, blocks, names = [], {}, {}
+    for k, (name, prog) in enumerate(programs()):
+        blocks[k] = (len(rows), len(rows) + len(prog))
+        names[k] = name
+        rows += prog
+    code = np.array(rows, dtype=np.int32)
+    addresses = native.compile_blocks(code, blocks)
+    assert sorted(addresses) == sorted(blocks), "a program without jumps was not compiled"
+    return code, blocks, names, addresses
+
+
+def test_every_opcode_gives_the_machines_bits(compiled):
+    code, blocks, names, addresses = compiled
+    rng = np.random.default_rng(7)
+    values = SPECIAL + list(rng.normal(size=6) * 10.0 ** rng.integers(-3, 4, size=6))
+    stack = np.zeros(16)
+    checked = 0
+    for k, (start, end) in blocks.items():
+        for a, b in itertools.product(values, repeat=2):
+            state = np.array([a, b, -1.0, rng.normal(), 0.25, 4.0])
+            mine = np.tile(state, (2, 1))
+            theirs = mine.copy()
+            h = np.uint64(rng.integers(0, 2 ** 63))
+            run_native(np.int64(addresses[k]), mine, CONSTS, h)
+            vm.eval_row(code, CONSTS, start, end, theirs, 1, h, -1, stack)
+            assert np.array_equal(bits(mine), bits(theirs)), (names[k], a, b, mine[1],
+                                                              theirs[1])
+            checked += 1
+    assert checked == len(blocks) * len(values) ** 2
+
+
+def test_blocks_with_jumps_stay_on_the_machine():
+    code = np.array([(vm.LOAD, 0), (vm.JUMP_IF_FALSE, 3), (vm.CONST, 0), (vm.JUMP, 2),
+                     (vm.CONST, 1), (vm.STORE, 2)], dtype=np.int32)
+    assert native.block_source(code, 0, len(code), "b") is None
+    assert native.compile_blocks(code, {0: (0, len(code))}) == {}
+
+
+def terrain(order):
+    return compile_file(GRAMMARS / "carpenter_terrain.pcsg", {"cnt": order})
+
+
+def test_the_terrains_long_blocks_are_compiled_and_the_switch_turns_them_off(monkeypatch):
+    graph = terrain(3)
+    n = len(graph.nodes)
+    flat = flatten_graph(graph, np.zeros((n, 6)))
+    long = (flat.kind == CALC) & (flat.calc_end - flat.calc_start >= native.MIN_ROWS)
+    assert long.sum() >= 8                      # the eight subdivision blocks at least
+    assert np.all((flat.calc_fn != 0) == long)
+    monkeypatch.setenv("PCSG_NATIVE", "0")
+    assert not flatten_graph(graph, np.zeros((n, 6))).calc_fn.any()
+
+
+def test_the_walks_give_the_same_bits_with_compiled_blocks(monkeypatch):
+    """The bounding walk's boxes and table, and every ray's hit, with the terrain's blocks
+    compiled and on the machine."""
+    from pcsg.render.camera import make_camera
+    results = []
+    for switch in ("1", "0"):
+        monkeypatch.setenv("PCSG_NATIVE", switch)
+        graph = terrain(4)
+        boxes, complete, table, depth = walk_boxes(graph, 64, instances=True)
+        obj = pcsg.Traced(graph)
+        assert (obj.flat.calc_fn != 0).any() == (switch == "1")
+        cam = make_camera(obj, 4 / 3)
+        ys, xs = np.mgrid[0:48, 0:64]
+        o, d = cam.rays(64, 48, xs.ravel() + 0.5, ys.ravel() + 0.5)
+        hits = obj.trace(o, d)
+        results.append((boxes, table, hits))
+    (b1, t1, h1), (b0, t0, h0) = results
+    assert np.array_equal(bits(b1), bits(b0))
+    for x, y in zip(t1, t0):
+        assert np.array_equal(x, y)
+    assert h1.hit.sum() > 1000
+    for field in ("t", "normal", "paint"):
+        assert np.array_equal(bits(getattr(h1, field)), bits(getattr(h0, field))), field
+
+
+LOADS = """
+import numpy as np, sys
+from pcsg.compiler import compile_file
+from pcsg.graph.flat import flatten_graph
+g = compile_file("grammars/carpenter_terrain.pcsg", {"cnt": 2})
+flatten_graph(g, np.zeros((len(g.nodes), 6)))
+module = [m for name, m in sys.modules.items() if name.startswith("pcsg_blocks_")][0]
+fns = [getattr(module, k) for k in dir(module) if k.startswith("block_")]
+print(len(fns), sum(f.cache_hits for f in fns))
+"""
+
+
+def test_a_second_start_loads_the_compiled_blocks(tmp_path):
+    env = {**os.environ, "PCSG_CACHE_DIR": str(tmp_path)}
+    counts = []
+    for _ in range(2):
+        r = subprocess.run([sys.executable, "-c", LOADS], cwd=ROOT, env=env,
+                           capture_output=True, text=True, timeout=600)
+        assert r.returncode == 0, r.stderr
+        counts.append(tuple(map(int, r.stdout.split())))
+    (blocks, first_hits), (again, second_hits) = counts
+    assert blocks == again >= 8
+    assert first_hits == 0 and second_hits == blocks
+    assert list((tmp_path / "blocks").glob("pcsg_blocks_*.py"))
