@@ -1,22 +1,20 @@
 """Calculation blocks compiled to machine code, for the systems that run them by the
-million.
+million (the terrain's bounding walk runs one per instance).
 
-The expression machine (vm.py) decodes each row of a block as it runs it: about
-2.7 ns a row, 270 ns for one of the terrain's subdivision blocks, most of the
-bounding walk's time and a fifth of the terrain's rays'. A block without jumps
-(no `if`, `&&` or `||`) keeps the same stack depth at every row, so its stack slots can
-be local variables: each row becomes one statement calling the same helper the
-machine calls for it (vm.binary, vm.unary, ...), in the same order, and numba
-compiles the block to what that arithmetic costs, 39 ns for that block: the same
-results to the bit, since they are the same operations on the same values.
+The expression machine (vm.py) decodes each row of a block as it runs it: 261 to 414 ns
+for one of the terrain's subdivision blocks (105 and 153 rows). A block without jumps (no
+`if`, `&&` or `||`) keeps the same stack depth at every row, so its stack slots can be
+local variables: each row becomes one statement, the expression the machine evaluates for
+that opcode (BINARY, UNARY below), in the machine's order. numba compiles that to what
+the arithmetic costs, 21 to 33 ns for those blocks, with the same results to the bit: the
+same operations on the same values (tests/test_native.py holds every opcode to it).
 
 The blocks of a system are written to one module in the user's cache directory, named
-after a hash of its source, and compiled as C callbacks with numba's on-disk cache:
-about a second the first time a system is rendered, a few milliseconds after that. The
-kernels call a block through its address (call_block), so that the cached kernels
-serve every system. Only blocks of at least MIN_ROWS rows are compiled, and only for
-systems that run them often enough to repay that second (`worth`); PCSG_NATIVE=0 keeps
-every block on the machine."""
+after a hash of its source, and compiled as C callbacks with numba's on-disk cache: 1.6 s
+for the terrain's eleven blocks the first time it is rendered, 27 ms to load them after
+that. The kernels call a block through its address (call_block), so the cached kernels
+serve every system. Blocks shorter than MIN_ROWS rows stay on the machine, as do blocks
+with jumps; PCSG_NATIVE=0 keeps every block there."""
 from __future__ import annotations
 
 import hashlib
@@ -179,12 +177,12 @@ def compile_blocks(code: np.ndarray, blocks: dict[int, tuple[int, int]]) -> dict
     if not sources:
         return {}
     text = HEADER + "\n\n".join(sources[n] for n in sorted(sources)) + "\n"
-    digest = hashlib.sha256((kernel_digest() + text).encode()).hexdigest()[:20]
+    digest = hashlib.sha256((machine_digest() + text).encode()).hexdigest()[:20]
     module = _load(text, f"pcsg_blocks_{digest}")
     return {node: getattr(module, f"block_{node}").address for node in sources}
 
 
-def kernel_digest() -> str:
+def machine_digest() -> str:
     """The machine's own source: a block compiled against another version of vm.py is
     another module."""
     return hashlib.sha256(Path(vm.__file__).read_bytes()).hexdigest()
@@ -210,5 +208,9 @@ def _load(text: str, name: str):
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
-    spec.loader.exec_module(module)
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[name]       # not half a module for the next flatten to find
+        raise
     return module
