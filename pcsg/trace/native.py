@@ -17,6 +17,7 @@ serve every system. Blocks shorter than MIN_ROWS rows stay on the machine, as do
 with jumps; PCSG_NATIVE=0 keeps every block there."""
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.util
 import os
@@ -182,9 +183,11 @@ def compile_blocks(code: np.ndarray, blocks: dict[int, tuple[int, int]]) -> dict
     return {node: getattr(module, f"block_{node}").address for node in sources}
 
 
+@functools.cache
 def machine_digest() -> str:
     """The machine's own source: a block compiled against another version of vm.py is
-    another module."""
+    another module. Read once: every flatten (two per render of an instance-walked
+    system) asks."""
     return hashlib.sha256(Path(vm.__file__).read_bytes()).hexdigest()
 
 
