@@ -27,7 +27,8 @@ PNG_LEVEL = 4
 @dataclass
 class Frame:
     rgb: np.ndarray             # (h, w, 3) linear, sky included
-    object_rgb: np.ndarray      # (h, w, 3) linear, the object's samples only (for --alpha)
+    object_rgb: np.ndarray | None   # (h, w, 3) linear, the object's samples only: for
+                                    # --alpha, None when the render was not asked for it
     coverage: np.ndarray        # (h, w) fraction of samples that hit the object
     depth: np.ndarray           # (h, w) float32 first-hit distance of the pixel centre
     seconds: float = 0.0
@@ -69,10 +70,12 @@ def _offsets(n: int, rng) -> np.ndarray:
 
 def render_frame(traced, camera: Camera, light: Lighting, width: int, height: int,
                  samples: int = 1, adaptive: bool = True, progress: Progress | None = None,
-                 check=None, rows: tuple[int, int] | None = None) -> Frame:
+                 check=None, rows: tuple[int, int] | None = None, alpha: bool = False) -> Frame:
     """`check()` runs between batches of rows and may raise to stop the render.
     `rows=(y0, y1)` renders only those rows of the width x height image (a tile), with
-    exactly the pixels the whole image has there."""
+    exactly the pixels the whole image has there. `alpha` keeps the object's own colour
+    apart (Frame.object_rgb, for a transparent background): 7 MB more at 640x480, whose
+    first writes cost the render 3 to 10 ms on this machine's virtual memory."""
     t0 = time.perf_counter()
     light.lod = camera.pixel_angle(height)
     light.rays[0] = 0
@@ -87,7 +90,7 @@ def render_frame(traced, camera: Camera, light: Lighting, width: int, height: in
     depth = np.full((band, width), np.inf, dtype=np.float32)
     rng = np.random.default_rng(20240607)        # the same jitter every render
     offs = np.array([[0.5, 0.5]]) if samples <= 1 else _offsets(samples, rng)
-    obj = np.zeros((band, width, 3))
+    obj = np.zeros((band, width, 3) if alpha else (1, 1, 3))
     for y0 in range(0, band, ROWS_PER_BATCH):       # rows of the band
         y1 = min(band, y0 + ROWS_PER_BATCH)
         ys, xs = np.mgrid[a0 + y0:a0 + y1, 0:width]
@@ -95,15 +98,17 @@ def render_frame(traced, camera: Camera, light: Lighting, width: int, height: in
         ys, xs = ys.ravel()[order], xs.ravel()[order]
         n = (y1 - y0) * width
         # the samples add up in the frame's own rows (views), not in arrays copied there
-        acc, acc_obj = rgb[y0:y1].reshape(n, 3), obj[y0:y1].reshape(n, 3)
+        acc = rgb[y0:y1].reshape(n, 3)
+        acc_obj = obj[y0:y1].reshape(n, 3) if alpha else obj[0]
         hit, band_depth = cover[y0:y1].reshape(n), depth[y0:y1].reshape(n)
         pixels = (ys * width + xs).astype(np.int64)
         for k, (ox, oy) in enumerate(offs):
             o, d = camera.rays(width, height, xs + ox, ys + oy)
             c, t, hits = shade(traced, light, o, d, ids=sample_ids(pixels, k, width, height))
-            _gather(order, c, hits.hit, t, acc, acc_obj, hit, band_depth, k == 0)
+            _gather(order, c, hits.hit, t, acc, acc_obj, hit, band_depth, k == 0, alpha)
         if len(offs) > 1:       # one sample: each division would be by 1, which changes nothing
-            acc_obj /= np.maximum(hit, 1)[:, None]
+            if alpha:
+                acc_obj /= np.maximum(hit, 1)[:, None]
             acc /= len(offs)
             hit /= len(offs)
         if progress:
@@ -111,26 +116,28 @@ def render_frame(traced, camera: Camera, light: Lighting, width: int, height: in
         if check:
             check()
     if refine:
-        _refine(traced, camera, light, rgb, obj, cover, rng, height, a0, (top - a0, bottom - a0))
+        _refine(traced, camera, light, rgb, obj if alpha else None, cover, rng, height, a0,
+                (top - a0, bottom - a0))
     if progress:
         progress.close()
     keep = slice(top - a0, bottom - a0)
-    return Frame(rgb[keep], obj[keep], cover[keep], depth[keep], time.perf_counter() - t0,
-                 light.rays[0])
+    return Frame(rgb[keep], obj[keep] if alpha else None, cover[keep], depth[keep],
+                 time.perf_counter() - t0, light.rays[0])
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _gather(order, c, hit, t, acc, acc_obj, hits, depth, first):
+def _gather(order, c, hit, t, acc, acc_obj, hits, depth, first, alpha):
     """A batch's sample results, in tile order, added to its pixels, row-major: colour,
-    colour where the object is hit, hits, and with `first` the depth. numpy's scattered
-    += took 3 ms of every batch. Adds 0.0 + x and x * 1.0 or 0.0 as numpy did: the same
-    bits."""
+    with `alpha` colour where the object is hit, hits, and with `first` the depth.
+    numpy's scattered += took 3 ms of every batch. Adds 0.0 + x and x * 1.0 or 0.0 as
+    numpy did: the same bits."""
     for i in range(order.shape[0]):
         p = order[i]
         h = 1.0 if hit[i] else 0.0
         for a in range(3):
             acc[p, a] += c[i, a]
-            acc_obj[p, a] += c[i, a] * h
+            if alpha:
+                acc_obj[p, a] += c[i, a] * h
         hits[p] += h
         if first:
             depth[p] = t[i] if hit[i] else np.inf
@@ -139,7 +146,8 @@ def _gather(order, c, hit, t, acc, acc_obj, hits, depth, first):
 def _refine(traced, camera, light, rgb, obj, cover, rng, height, a0, keep):
     """The paper's adaptive oversampling: more samples only where a pixel differs from
     a neighbour, so edges are smooth and flat areas cost nothing extra. The arrays hold
-    rows a0... of the image; only the rows `keep` (band rows) are refined."""
+    rows a0... of the image; only the rows `keep` (band rows) are refined. obj None: the
+    render keeps no object-only colour (no --alpha)."""
     _, w = cover.shape
     s = to_srgb(rgb)
     diff = np.zeros(cover.shape)
@@ -159,16 +167,18 @@ def _refine(traced, camera, light, rgb, obj, cover, rng, height, a0, keep):
     offs = _offsets(ADAPTIVE_SAMPLES, rng)
     acc = rgb[ys, xs] * 1.0
     hit = cover[ys, xs] * 1.0
-    acc_obj = obj[ys, xs] * hit[:, None]
+    acc_obj = obj[ys, xs] * hit[:, None] if obj is not None else None
     pixels = ((ys + a0) * w + xs).astype(np.int64)
     for k, (ox, oy) in enumerate(offs):
         o, d = camera.rays(w, height, xs + ox, ys + a0 + oy)
         c, _, hits = shade(traced, light, o, d, ids=sample_ids(pixels, 1 + k, w, height))
         acc += c
-        acc_obj += c * hits.hit[:, None]
+        if obj is not None:
+            acc_obj += c * hits.hit[:, None]
         hit += hits.hit
     rgb[ys, xs] = acc / (1 + len(offs))
-    obj[ys, xs] = acc_obj / np.maximum(hit, 1)[:, None]
+    if obj is not None:
+        obj[ys, xs] = acc_obj / np.maximum(hit, 1)[:, None]
     cover[ys, xs] = hit / (1 + len(offs))
 
 
@@ -214,6 +224,8 @@ def to_srgb(linear: np.ndarray) -> np.ndarray:
 
 def pixels(frame: Frame, alpha: bool) -> np.ndarray:
     """The PNG's samples: (h, w, 3) uint8 sRGB, or (h, w, 4) with --alpha."""
+    if alpha and frame.object_rgb is None:
+        raise ValueError("a transparent background needs the frame rendered with alpha=True")
     srgb = to_srgb(frame.object_rgb if alpha else frame.rgb)
     srgb *= 255
     srgb = np.round(srgb, out=srgb).astype(np.uint8)

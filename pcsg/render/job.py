@@ -147,7 +147,7 @@ def render_scene(scene: Scene, label: str, opts: Options, deadline: float | None
     progress = Progress(label, w * (y1 - y0), not opts.quiet)
     check_deadline(deadline, opts.timeout)
     frame = render_frame(target, camera, light, w, h, opts.samples, opts.adaptive, progress,
-                         lambda: check_deadline(deadline, opts.timeout), rows)
+                         lambda: check_deadline(deadline, opts.timeout), rows, opts.alpha)
     return frame, getattr(target, "events", None)
 
 

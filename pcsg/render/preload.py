@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import threading
 
-import numpy as np
-
 
 def start() -> threading.Thread | None:
     """The loading thread, started; None when there is nothing to load. Join it before
@@ -34,20 +32,22 @@ def cached() -> bool:
 
 
 def _load() -> None:
-    """Shade one ray of a sphere, built without the parser (its line joiner keeps state,
-    so two threads must not parse at once): the same types as any render's call, hence
-    the same compiled kernel."""
+    """Render a sphere at 2x2 pixels, built without the parser (its line joiner keeps
+    state, so two threads must not parse at once): the same types as any render's
+    calls, hence the same compiled shading kernel, camera rays and gather into pixels.
+    The last two are small, but loading each from the cache took 4 ms of the render."""
     from ..graph.expr import ExprTable
     from ..graph.model import PRIMITIVE, Graph, Node, Scene
     from ..language.source import Source
     from ..tracer import Traced
     from .camera import make_camera
-    from .shade import make_lighting, shade
+    from .image import render_frame
+    from .shade import make_lighting
     try:
         graph = Graph(Source("<preload>", "sphere"), [Node(PRIMITIVE, "sphere")], 0, {}, {},
                       ExprTable({}, lambda *_: None), [], Scene(), [])
         traced = Traced(graph)
-        light = make_lighting(traced, make_camera(traced, 1.0))
-        shade(traced, light, np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]))
+        camera = make_camera(traced, 1.0)
+        render_frame(traced, camera, make_lighting(traced, camera), 2, 2, adaptive=False)
     except Exception:       # only ever a head start: the render loads what it needs itself
         pass
