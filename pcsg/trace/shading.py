@@ -4,7 +4,7 @@ on every core, without numpy temporaries between them. render/shade.py stays the
 readable model (and shades --reference renders); the tests hold the two to the same
 colours.
 
-The rays of a chunk of 64 pixel samples are traced as packets (packet.py): the
+The rays of a chunk of 256 pixel samples are traced as packets (packet.py): the
 camera rays; for the surfaces they hit, one packet per occlusion direction and one
 per light sample; then the reflected and the refracted rays as two more packets.
 Pending packets sit on a small stack, the one of bounce depth d at d, each ray with
