@@ -20,8 +20,11 @@ from .transforms import affine
 
 # F columns; INV is 1/DX, kept so that box tests multiply instead of divide
 # NAVG: the running average of the world normals of the boxes the walk entered
-OX, DX, M0, T0, T1, PAINT, INV, NAVG = 0, 3, 6, 15, 16, 17, 20, 23
+OX, DX, INV, M0, T0, T1, PAINT, NAVG = 0, 3, 6, 9, 18, 19, 20, 23
 F_WIDTH = 26
+# the ray's own columns come first: a packet's ray blocks (packet.py) hold only these,
+# 72 bytes a ray instead of the frame's 208
+RAY_WIDTH = 9
 # I columns; DCALC and DPAINT: the C-node and paint node the walk passed without running
 # them, for a hit to run (trace/deferred.py), -1 if none
 NODE, SLOT, LEVEL, MAT, CUT, PHASE, DCALC, DPAINT = 0, 1, 2, 3, 4, 5, 6, 7

@@ -31,7 +31,8 @@ from .jit import inline, kernel
 from .deferred import defer_step
 from .nodes import (BOXED, CUT, DCALC, DPAINT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, INV, LEVEL, M0, MAT, NAVG,
-                    NODE, OX, PAINT, PHASE, SLOT, T0, T1, axis_aligned, box_window, child_hash,
+                    NODE, OX, PAINT, PHASE, RAY_WIDTH, SLOT, T0, T1, axis_aligned, box_window,
+                    child_hash,
                     copy_frame, entry_slot, entry_window, instance_slot, map_matrix, map_ray,
                     note, pick_rule, set_inverse, state_slot, transform_map, volume_window,
                     world_size)
@@ -48,6 +49,7 @@ Packet = namedtuple("Packet", [
     "block",            # the ray block each frame reads
     "params",           # the frames' parameter slots
     "R",                # ray blocks: row block * PACKET + k is ray k in that block's frame
+                        # (nodes.py's ray columns only: OX, DX, INV)
     "act", "win", "n",  # per frame: its rays, their windows [t0, t1], how many
     "tact", "twin", "tn", "tkey", "tk", "th", "tphase", "order",  # a union's children
                         # being sorted: rays, windows, count, key, number, hash, PHASE
@@ -63,7 +65,7 @@ def make_packet(flat):
         np.empty((FRAMES, F_WIDTH)), np.zeros((FRAMES, I_WIDTH), dtype=np.int64),
         np.zeros(FRAMES, dtype=np.uint64), np.zeros(FRAMES, dtype=np.int64),
         np.full((FRAMES + 1, flat.n_params), np.nan),      # + the spare (trace/deferred.py)
-        np.empty(((FRAMES + 1) * PACKET, F_WIDTH)),
+        np.empty(((FRAMES + 1) * PACKET, RAY_WIDTH)),
         np.zeros((FRAMES, PACKET), dtype=np.int64), np.empty((FRAMES, PACKET, 2)),
         np.zeros(FRAMES, dtype=np.int64),
         np.zeros((c, PACKET), dtype=np.int64), np.empty((c, PACKET, 2)),
