@@ -32,10 +32,9 @@ from .deferred import defer_step
 from .nodes import (BOXED, CUT, DCALC, DPAINT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, INV, LEVEL, M0, MAT, NAVG,
                     NODE, OX, PAINT, PHASE, RAY_WIDTH, SLOT, T0, T1, axis_aligned, box_window,
-                    child_hash,
-                    copy_frame, entry_slot, entry_window, instance_slot, map_matrix, map_ray,
-                    note, pick_rule, set_inverse, state_slot, transform_map, volume_window,
-                    world_size)
+                    child_hash, copy_frame, entry_slot, entry_window, instance_slot, map_matrix,
+                    map_ray, note, pick_rule, set_inverse, state_slot, transform_map,
+                    volume_window, world_size)
 from .walk import finish, hit_primitive, hit_volume, step_unary, walk
 
 # rays per packet: one 16x16 tile of image.tile_order. Per-instance work (hash,
