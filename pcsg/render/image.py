@@ -90,7 +90,7 @@ def render_frame(traced, camera: Camera, light: Lighting, width: int, height: in
     depth = np.full((band, width), np.inf, dtype=np.float32)
     rng = np.random.default_rng(20240607)        # the same jitter every render
     offs = np.array([[0.5, 0.5]]) if samples <= 1 else _offsets(samples, rng)
-    obj = np.zeros((band, width, 3) if alpha else (1, 1, 3))
+    obj = np.zeros((band, width, 3)) if alpha else None
     for y0 in range(0, band, ROWS_PER_BATCH):       # rows of the band
         y1 = min(band, y0 + ROWS_PER_BATCH)
         ys, xs = np.mgrid[a0 + y0:a0 + y1, 0:width]
@@ -99,7 +99,7 @@ def render_frame(traced, camera: Camera, light: Lighting, width: int, height: in
         n = (y1 - y0) * width
         # the samples add up in the frame's own rows (views), not in arrays copied there
         acc = rgb[y0:y1].reshape(n, 3)
-        acc_obj = obj[y0:y1].reshape(n, 3) if alpha else obj[0]
+        acc_obj = obj[y0:y1].reshape(n, 3) if alpha else np.empty((0, 3))   # unused
         hit, band_depth = cover[y0:y1].reshape(n), depth[y0:y1].reshape(n)
         pixels = (ys * width + xs).astype(np.int64)
         for k, (ox, oy) in enumerate(offs):
@@ -116,12 +116,11 @@ def render_frame(traced, camera: Camera, light: Lighting, width: int, height: in
         if check:
             check()
     if refine:
-        _refine(traced, camera, light, rgb, obj if alpha else None, cover, rng, height, a0,
-                (top - a0, bottom - a0))
+        _refine(traced, camera, light, rgb, obj, cover, rng, height, a0, (top - a0, bottom - a0))
     if progress:
         progress.close()
     keep = slice(top - a0, bottom - a0)
-    return Frame(rgb[keep], obj[keep] if alpha else None, cover[keep], depth[keep],
+    return Frame(rgb[keep], None if obj is None else obj[keep], cover[keep], depth[keep],
                  time.perf_counter() - t0, light.rays[0])
 
 

@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from . import vm
-from .jit import inline, kernel
+from .jit import copy_into, inline, kernel
 from .native import call_block
 from .primitives import _roots
 from .transforms import affine
@@ -65,10 +65,8 @@ def add_events(total: np.ndarray, ev: np.ndarray) -> np.ndarray:
 @inline
 def copy_frame(F, I, H, src, dst):
     if src != dst:
-        for k in range(F_WIDTH):
-            F[dst, k] = F[src, k]
-        for k in range(I_WIDTH):
-            I[dst, k] = I[src, k]
+        copy_into(F[dst], F[src])
+        copy_into(I[dst], I[src])
         H[dst] = H[src]
 
 
@@ -390,8 +388,7 @@ def run_calc(flat, node, params, src, dst, h, stack):
     """A C-node: copy the parameter state into slot dst, then run its block, compiled
     where it could be (native.py), else on the expression machine."""
     if src != dst:
-        for p in range(params.shape[1]):
-            params[dst, p] = params[src, p]
+        copy_into(params[dst], params[src])
     if flat.calc_fn[node] != 0:
         call_block(flat.calc_fn[node], params, dst, flat.vm_consts, h)
     else:
@@ -411,13 +408,11 @@ def cached_calc(flat, node, params, src, dst, h, stack, ckeys, cvals):
     key = vm.mix(h, node) | np.uint64(1)
     slot = np.int64(key & np.uint64(ckeys.shape[0] - 1))
     if ckeys[slot] == key:
-        for p in range(params.shape[1]):
-            params[dst, p] = cvals[slot, p]
+        copy_into(params[dst], cvals[slot])
         return
     run_calc(flat, node, params, src, dst, h, stack)
     ckeys[slot] = key
-    for p in range(params.shape[1]):
-        cvals[slot, p] = params[dst, p]
+    copy_into(cvals[slot], params[dst])
 
 
 @inline

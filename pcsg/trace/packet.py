@@ -27,10 +27,10 @@ from numba import njit
 
 from ..graph.model import DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, UNION
 from . import vm
-from .jit import inline, kernel
+from .jit import copy_into, inline, kernel
 from .deferred import defer_step
 from .nodes import (BOXED, CUT, DCALC, DPAINT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
-                    EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, INV, LEVEL, M0, MAT, NAVG,
+                    EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, LEVEL, M0, MAT, NAVG,
                     NODE, OX, PAINT, PHASE, RAY_WIDTH, SLOT, T0, T1, axis_aligned, box_window,
                     child_hash, copy_frame, entry_slot, entry_window, instance_slot, map_matrix,
                     map_ray, note, pick_rule, set_inverse, state_slot, transform_map,
@@ -83,21 +83,15 @@ def alone(flat, P, g, j, phase, tmin, tmax, any_hit, lod, max_depth, S, ev, res)
     k = P.act[g, j]
     row = P.block[g] * PACKET + k
     F, I, H = S.F, S.I, S.H
-    for c in range(F_WIDTH):
-        F[0, c] = P.F[g, c]
-    for c in range(3):
-        F[0, OX + c] = P.R[row, OX + c]
-        F[0, DX + c] = P.R[row, DX + c]
-        F[0, INV + c] = P.R[row, INV + c]
+    copy_into(F[0], P.F[g])
+    copy_into(F[0, :RAY_WIDTH], P.R[row])     # the frame's own ray columns come first
     F[0, T0] = P.win[g, j, 0]
     F[0, T1] = P.win[g, j, 1]
-    for c in range(I_WIDTH):
-        I[0, c] = P.I[g, c]
+    copy_into(I[0], P.I[g])
     I[0, PHASE] = phase
     I[0, SLOT] = 0
     src = P.I[g, SLOT]
-    for p in range(S.params.shape[1]):
-        S.params[0, p] = P.params[src, p]
+    copy_into(S.params[0], P.params[src])
     H[0] = P.H[g]
     S.visits[0] = P.visits[k]
     found, t = walk(flat, 1, P.best[k], tmin, tmax, any_hit, lod, P.cone[k], P.dnorm[k],

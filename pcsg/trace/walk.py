@@ -12,9 +12,9 @@ import numpy as np
 from ..graph.model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, PAINT as PAINT_NODE,
                            PRIMITIVE, SELECT, TRANSFORM, UNION)
 from . import vm
-from .jit import inline, kernel
+from .jit import copy_into, inline, kernel
 from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE,
-                    EV_SELECTION, EV_SINGULAR, EV_STACK, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE,
+                    EV_SELECTION, EV_SINGULAR, EV_STACK, EV_VISITS, INSIDE,
                     DPAINT, LEVEL, MAT, NODE, OX, PAINT, PHASE, SLOT, T0, T1, axis_aligned,
                     child_hash, copy_frame, enter_paint, entry_slot, entry_window, instance_slot,
                     node_window, enter_transform, instance_window, note, pick_rule, cached_calc,
@@ -204,10 +204,8 @@ def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, dnorm, max_depth, ev):
     slot_base = S.F.shape[0]
     cap_f = F.shape[0]
     cap_iv = iv.shape[0]
-    for k in range(F_WIDTH):
-        F[0, k] = F0[f0, k]
-    for k in range(I_WIDTH):
-        I[0, k] = I0[f0, k]
+    copy_into(F[0], F0[f0])
+    copy_into(I[0], I0[f0])
     H[0] = H0[f0]
     F[0, T0] = tmin
     F[0, T1] = tmax
