@@ -17,7 +17,8 @@ IMPORTS_BEGAN = time.perf_counter()     # for --timings: the imports start here
 
 from .distributed.sweep import sweep_set  # noqa: E402
 from .language.errors import PcsgError  # noqa: E402
-from .limits import INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, bounces_problem  # noqa: E402
+from .limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES,  # noqa: E402
+                     bounces_problem)
 from .timings import Timings, note_startup  # noqa: E402
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
@@ -154,6 +155,10 @@ def _render_options() -> argparse.ArgumentParser:
     r.add_argument("--max-instances", type=int, default=MAX_INSTANCES, metavar="N",
                    help=f"S-node instances one ray may enter (default {MAX_INSTANCES:,}); "
                         "bounds systems that neither end nor contract")
+    r.add_argument("--bounds-budget", type=int, default=BOUNDS_BUDGET, metavar="N",
+                   help=f"node visits the bounding walk may make (default {BOUNDS_BUDGET:,}, "
+                        "about 1.5 s on two cores); past it the boxes, and the refinement, "
+                        "stop at the deepest derivation depth whose instances fit")
     r.add_argument("--no-shadows", action="store_true", help="skip shadow rays")
     r.add_argument("--shadow-samples", type=int, default=8, metavar="N",
                    help="shadow rays per area light (default 8; 1: lights are points)")
@@ -367,7 +372,8 @@ def _options(args, overrides: dict | None = None):
                    reference=args.reference, shadow_samples=args.shadow_samples,
                    adaptive=not args.no_adaptive, strict=args.strict, timeout=args.timeout,
                    stack_depth=args.stack_depth, interval_rows=args.interval_rows,
-                   max_instances=args.max_instances, ao=args.ao,
+                   max_instances=args.max_instances, bounds_budget=args.bounds_budget,
+                   ao=args.ao,
                    ao_distance=args.ao_distance)
     problem = check_options(opts)
     if problem and getattr(args, "tiles", 1) > 1:

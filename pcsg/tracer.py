@@ -19,7 +19,7 @@ from .trace.pad import pad_boxes
 from .trace.nodes import (EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
                           EV_SINGULAR, EV_STACK, EV_VISITS, N_EVENTS, add_events,
                           no_events)
-from .limits import INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES
+from .limits import BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES
 from .trace.walk import R_HIT, R_MAT, R_N, R_PAINT, R_T, R_WIDTH
 
 BATCH = 1 << 16             # rays per kernel call: bounds the per-chunk event arrays
@@ -57,10 +57,10 @@ class Traced:
 
     def __init__(self, graph: Graph, max_depth: int = MAX_DEPTH, stack_depth: int | None = None,
                  interval_rows: int = INTERVAL_ROWS, max_instances: int = MAX_INSTANCES,
-                 average_normals: bool = True):
+                 bounds_budget: int = BOUNDS_BUDGET, average_normals: bool = True):
         self.graph = graph
         self.asked_depth = int(max_depth)
-        volumes = bounding_volumes(graph, self.asked_depth)
+        volumes = bounding_volumes(graph, self.asked_depth, int(bounds_budget))
         # less than asked where the instances are too many to bound deeper
         self.max_depth = volumes.depth
         self.bounds_method = volumes.method
@@ -176,16 +176,17 @@ class Traced:
 
 def load(path: str | Path, max_depth: int = MAX_DEPTH, stack_depth: int | None = None,
          interval_rows: int = INTERVAL_ROWS, max_instances: int = MAX_INSTANCES,
-         **overrides: float) -> Traced:
+         bounds_budget: int = BOUNDS_BUDGET, **overrides: float) -> Traced:
     """Compile a .pcsg file (raising PcsgError on errors) and prepare it for tracing.
     Keyword arguments override initial parameters, like --set; the others are the
     render options of the same names."""
     return Traced(compile_file(path, overrides), max_depth, stack_depth, interval_rows,
-                  max_instances)
+                  max_instances, bounds_budget)
 
 
 def loads(text: str, file: str = "<string>", max_depth: int = MAX_DEPTH,
           stack_depth: int | None = None, interval_rows: int = INTERVAL_ROWS,
-          max_instances: int = MAX_INSTANCES, **overrides: float) -> Traced:
+          max_instances: int = MAX_INSTANCES, bounds_budget: int = BOUNDS_BUDGET,
+          **overrides: float) -> Traced:
     return Traced(compile_text(text, file, overrides), max_depth, stack_depth, interval_rows,
-                  max_instances)
+                  max_instances, bounds_budget)

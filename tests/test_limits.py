@@ -1,5 +1,7 @@
 """The walk's fixed-capacity buffers: an overflow ends the ray's walk there, is counted,
 and is reported once with where it happened and the option that raises the limit."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -65,7 +67,8 @@ def test_the_render_names_the_overflow_and_strict_fails_on_it(capsys, tmp_path):
 @pytest.mark.parametrize("flag, value", [("--stack-depth", "4"), ("--stack-depth", "10000000"),
                                          ("--interval-rows", "0"),
                                          ("--interval-rows", "100000000"),
-                                         ("--max-instances", "0")])
+                                         ("--max-instances", "0"),
+                                         ("--bounds-budget", "0")])
 def test_buffer_sizes_out_of_range_are_usage_errors(capsys, flag, value):
     assert main(["render", "x.pcsg", flag, value]) == 2
     assert flag in capsys.readouterr().err
@@ -112,3 +115,18 @@ def test_an_empty_box_culls_every_ray(monkeypatch):
     assert obj.bounds[0] > obj.bounds[3]
     h = obj.trace([[-5.0, 0, 0], [0, 0, 5]], [[1.0, 0, 0], [0, 0, -1]])
     assert not h.hit.any() and h.events.sum() == 0
+
+
+def test_the_bounds_budget_decides_how_deep_a_large_system_is_bounded(capsys, tmp_path):
+    """--bounds-budget reaches the bounding walk: the terrain at 7 (depth 9, 87 000
+    instances, 610 000 node visits) is bounded in full by default, and with a budget of
+    150 000 visits only down to the depth that fits, which the render says; both write a
+    picture."""
+    terrain = str(Path(__file__).resolve().parent.parent / "grammars" / "carpenter_terrain.pcsg")
+    args = ["render", terrain, "--set", "cnt=7", "--size", "32x24", "--no-shadows", "-q"]
+    assert main(args + ["-o", str(tmp_path / "full.png")]) == 0
+    assert "too many to bound" not in capsys.readouterr().err
+    assert main(args + ["-o", str(tmp_path / "cut.png"), "--bounds-budget", "150000"]) == 0
+    err = capsys.readouterr().err
+    assert "too many to bound one by one" in err and "--bounds-budget 150,000" in err
+    assert (tmp_path / "full.png").exists() and (tmp_path / "cut.png").exists()

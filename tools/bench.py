@@ -28,7 +28,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 WORK = ROOT / ".bench"
 SIZE = (640, 480)
-# (grammar, parameter, order, also POV-Ray)
+# (grammar, parameter, order, also POV-Ray[, pcsg's own options])
 WORKLOADS = [
     ("sierpinski", "c", 6, True), ("sierpinski", "c", 8, True), ("sierpinski", "c", 10, True),
     ("sierpinski", "c", 16, False),
@@ -36,6 +36,8 @@ WORKLOADS = [
     ("sympodial_tree", "cnt", 15, True), ("sympodial_tree", "cnt", 20, False),
     ("carpenter_terrain", "cnt", 8, True), ("carpenter_terrain", "cnt", 9, True),
     ("carpenter_terrain", "cnt", 12, False),
+    # in full: a bounding walk of all its 44 million instances, past the default budget
+    ("carpenter_terrain", "cnt", 12, False, ("--bounds-budget", "400000000")),
 ]
 COMMON = ["--shadow-samples", "1"]      # point lights: POV-Ray's light_source
 
@@ -64,10 +66,15 @@ def run(cmd: list[str], timeout: float) -> dict:
     return {"wall": wall, "rss_mb": usage.ru_maxrss / 1024, "output": text}
 
 
-def pcsg_cmd(grammar: str, param: str, order: int, png: Path) -> list[str]:
+def pcsg_cmd(workload: tuple, png: Path) -> list[str]:
+    grammar, param, order = workload[:3]
     return [sys.executable, "-m", "pcsg.cli", "render", str(ROOT / "grammars" / f"{grammar}.pcsg"),
             "--set", f"{param}={order}", "-o", str(png), "--size", f"{SIZE[0]}x{SIZE[1]}",
-            "--no-adaptive", "-q", *COMMON]
+            "--no-adaptive", "-q", *COMMON, *options(workload)]
+
+
+def options(workload: tuple) -> tuple:
+    return workload[4] if len(workload) > 4 else ()
 
 
 def pcsg_result(r: dict) -> dict:
@@ -142,15 +149,16 @@ def main():
     subprocess.run([sys.executable, "-m", "compileall", "-q", str(ROOT / "pcsg")], check=True)
     # the first pcsg start may compile the kernels: measured once, reported apart
     state = kernel_cache_state()
-    first = run(pcsg_cmd(*loads[0][:3], WORK / "first.png"), args.timeout)
+    first = run(pcsg_cmd(loads[0], WORK / "first.png"), args.timeout)
     results = {w: {"pcsg": [], "pov": []} for w in loads}
     for rep in range(args.repeat):
         for w in loads:
-            print(f"run {rep + 1}/{args.repeat}: {w[0]} {w[1]}={w[2]}", flush=True)
+            print(f"run {rep + 1}/{args.repeat}: {w[0]} {w[1]}={w[2]} {' '.join(options(w))}",
+                  flush=True)
             done = results[w]["pcsg"]
             if done and done[-1]["wall"] is None:
                 continue                # timed out once: not again
-            done.append(pcsg_result(run(pcsg_cmd(*w[:3], WORK / "pcsg.png"), args.timeout)))
+            done.append(pcsg_result(run(pcsg_cmd(w, WORK / "pcsg.png"), args.timeout)))
             if w[3] and not (results[w]["pov"] and results[w]["pov"][-1]["wall"] is None):
                 results[w]["pov"].append(pov_result(run(
                     [povray, f"+I{povs[w]}", f"+O{WORK / 'pov.png'}", f"+W{SIZE[0]}",
@@ -159,7 +167,7 @@ def main():
     rows = []
     for w in loads:
         p, v = results[w]["pcsg"], results[w]["pov"]
-        row = {"object": w[0], "order": f"{w[1]}={w[2]}",
+        row = {"object": w[0], "order": " ".join([f"{w[1]}={w[2]}", *options(w)]),
                **{f"pcsg_{k}": median(p, k) for k in ("wall", "trace_s", "rays_per_s", "rss_mb")},
                "pcsg_depth_bound": next((x.get("depth_bound") for x in p if x.get("depth_bound")),
                                         None)}
@@ -187,8 +195,8 @@ def main():
 
 
 def table(report: dict) -> str:
-    def f(x, fmt):
-        return "—" if x is None else format(x, fmt)
+    def f(x, fmt, unit=""):
+        return "—" if x is None else format(x, fmt) + unit
     lines = [f"{report['machine']}; POV-Ray {report['povray']}; medians of {report['repeat']} "
              f"runs; kernel cache {report['kernel_cache_before_first_start']} at the first "
              f"start ({report['first_start_wall_s']:.1f} s)", "",
@@ -201,11 +209,11 @@ def table(report: dict) -> str:
         cut = r.get("pcsg_depth_bound")
         lines.append(
             f"| {r['object']} | {r['order']}{f' (depth {cut})' if cut else ''} | "
-            f"{f(r['pcsg_wall'], '.2f')} s | "
-            f"{f(r.get('pov_wall'), '.2f')} s | {f(r.get('wall_ratio'), '.1f')}x | "
-            f"{f(mega(r['pcsg_rays_per_s']), '.2f')} M | "
-            f"{f(mega(r.get('pov_rays_per_s')), '.2f')} M | "
-            f"{f(r['pcsg_rss_mb'], '.0f')} MiB | {f(r.get('pov_rss_mb'), '.0f')} MiB |")
+            f"{f(r['pcsg_wall'], '.2f', ' s')} | "
+            f"{f(r.get('pov_wall'), '.2f', ' s')} | {f(r.get('wall_ratio'), '.1f', 'x')} | "
+            f"{f(mega(r['pcsg_rays_per_s']), '.2f', ' M')} | "
+            f"{f(mega(r.get('pov_rays_per_s')), '.2f', ' M')} | "
+            f"{f(r['pcsg_rss_mb'], '.0f', ' MiB')} | {f(r.get('pov_rss_mb'), '.0f', ' MiB')} |")
     lines.append("")
     lines.append(f"— : not run, or past the {report['timeout_s']:.0f} s timeout; (depth N): "
                  f"too many instances to bound, refined to derivation depth N only")

@@ -51,7 +51,7 @@ def _scene(unit: Unit) -> Scene:
     o = unit.opts
     key = (hashlib.sha256(unit.source.encode()).hexdigest(), unit.label,
            tuple(sorted(o.overrides.items())), o.max_depth, o.stack_depth, o.interval_rows,
-           o.max_instances)
+           o.max_instances, o.bounds_budget)
     with _lock:
         if key in _scenes:
             _scenes.move_to_end(key)

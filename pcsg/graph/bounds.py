@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..language.errors import Diagnostic, PcsgError
+from ..limits import BOUNDS_BUDGET
 from ..language.names import PIXELS
 from ..recursion import recursion_limit
 from ..trace.primitives import object_box
@@ -312,12 +313,13 @@ def hyper_boxes(graph: Graph, max_depth: int = 64):
     return bound(graph, max_depth)[:4]
 
 
-def bound(graph: Graph, max_depth: int = 64):
+def bound(graph: Graph, max_depth: int = 64, budget: int | None = None):
     """hyper_boxes, the instance table (for the memoised method a StateTable or
     None: graph/states.py), for the memoised method the re-entered states'
     final bounds (see _memoised; empty otherwise), and the derivation depth the boxes
-    hold: max_depth, or less where the instances are too many to visit (the tracer must
-    then stop refining there; a warning says so)."""
+    hold: max_depth, or less where the instances are more than `budget` node visits
+    (default limits.BOUNDS_BUDGET) can visit (the tracer must then stop refining there;
+    a warning says so)."""
     problems = []
     try:
         with recursion_limit(20 * MAX_LEVELS):
@@ -333,11 +335,12 @@ def bound(graph: Graph, max_depth: int = 64):
     if PIXELS in graph.params:      # the instance walk knows no pixel sizes: no boxes
         n = len(graph.nodes)
         return np.tile(-EMPTY, (n, 1)), "unbounded", problems, empty_table(), {}, max_depth
-    boxes, complete, table, depth = walk_boxes(graph, max_depth, instances=True)
+    budget = BOUNDS_BUDGET if budget is None else budget
+    boxes, complete, table, depth = walk_boxes(graph, max_depth, budget, instances=True)
     if depth < max_depth:
         problems.append(Diagnostic(
             "warning", f"the instances below derivation depth {depth} are too many to bound "
             f"one by one; refinement stops there, as with --max-depth {depth}: deeper "
-            f"instances are finished with their terminating rule", None, graph.source,
-            code="depth-bounded"))
+            f"instances are finished with their terminating rule (--bounds-budget "
+            f"{budget:,} node visits; a larger budget bounds deeper, and takes longer)", None, graph.source, code="depth-bounded"))
     return boxes, "every instance" if complete else "unbounded", problems, table, {}, depth

@@ -67,8 +67,8 @@ def graftal_nodes(graph: Graph) -> list[int]:
     return sorted(s for s, r in terminating_rules(graph).items() if r < 0)
 
 
-def bounding_volumes(graph: Graph, max_depth: int = 64) -> Volumes:
-    boxes, method, problems, table, hulls, depth = bound(graph, max_depth)
+def bounding_volumes(graph: Graph, max_depth: int = 64, budget: int | None = None) -> Volumes:
+    boxes, method, problems, table, hulls, depth = bound(graph, max_depth, budget)
     out = Volumes(boxes, None, method, problems, table, [], depth)
     graftals = [s for s in graftal_nodes(graph)
                 if boxes[s, 0] <= boxes[s, 3] and np.all(np.isfinite(boxes[s]))]

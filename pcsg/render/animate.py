@@ -73,7 +73,8 @@ def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
     if not timed and anim.eye_path is None and anim.at_path is None:
         raise BadAnimation(f"{anim.source} assigns no {TIME} in its axiom and no --path or "
                            f"--at-path moves the camera: every frame would be the same")
-    traced = Traced(graph, o.max_depth, o.stack_depth, o.interval_rows, o.max_instances)
+    traced = Traced(graph, o.max_depth, o.stack_depth, o.interval_rows, o.max_instances,
+                    o.bounds_budget)
     w, h = o.size
     still = make_camera(traced, w / h, o.eye, o.at, o.up, o.fov)
     # the default sun stands where the unmoved camera would put it, in every frame: one

@@ -14,8 +14,8 @@ from ..graph.model import Graph
 from ..trace.nodes import (EV_INTERVALS, EV_NONFINITE, EV_SELECTION, EV_SINGULAR, EV_STACK,
                            EV_VISITS, no_events)
 from ..scene import MAX_AO_SAMPLES
-from ..limits import (INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, MAX_INTERVAL_ROWS,
-                      MAX_STACK_DEPTH, bounces_problem)
+from ..limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES,
+                      MAX_INTERVAL_ROWS, MAX_STACK_DEPTH, bounces_problem)
 from ..timings import Timings
 from ..tracer import Hits, Traced
 from . import preload
@@ -55,6 +55,7 @@ class Options:
     stack_depth: int | None = None  # None: Traced's default
     interval_rows: int = INTERVAL_ROWS
     max_instances: int = MAX_INSTANCES
+    bounds_budget: int = BOUNDS_BUDGET   # node visits of the bounding walk
 
 
 class RenderFailed(Exception):
@@ -91,6 +92,8 @@ def check_options(o: Options) -> str | None:
         return f"--interval-rows {o.interval_rows}: use 16 to {MAX_INTERVAL_ROWS}"
     if not 1 <= o.max_instances <= 2 ** 62:
         return f"--max-instances {o.max_instances}: give a positive number"
+    if not 1 <= o.bounds_budget <= 2 ** 62:
+        return f"--bounds-budget {o.bounds_budget}: give a positive number of node visits"
     if o.light is not None and not all(math.isfinite(v) for v in o.light):
         point = ",".join(f"{v:g}" for v in o.light)
         return f"--light {point}: give a point with finite coordinates"
@@ -127,7 +130,7 @@ class Scene:
 def prepare_scene(graph: Graph, opts: Options) -> Scene:
     notes = [w.format(show_source=False) for w in graph.warnings]
     traced = Traced(graph, opts.max_depth, opts.stack_depth, opts.interval_rows,
-                    opts.max_instances)
+                    opts.max_instances, opts.bounds_budget)
     notes += [w.format(show_source=False) for w in traced.warnings
               if w not in graph.warnings]
     return Scene(graph, traced, notes)

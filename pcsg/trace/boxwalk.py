@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..limits import BOUNDS_BUDGET
 from ..graph.model import (CALC, INTERSECTION, MATERIAL, PAINT, PRIMITIVE, SELECT,
                            TRANSFORM, UNION)
 from . import vm
@@ -230,9 +231,6 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
     return visits
 
 
-BUDGET = 60_000_000        # node visits of one walk: about 1.5 s on two cores
-
-
 FIRST_DEPTH = 4        # the first walk, which measures how fast the instances grow
 
 
@@ -253,7 +251,7 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
     unbounded without the walk that would find out: for a graftal that neither ends nor
     contracts that walk spent the whole budget, 15 s of every `pcsg stats` and render."""
     from ..graph.flat import flatten_graph
-    budget = BUDGET if budget is None else budget
+    budget = BOUNDS_BUDGET if budget is None else budget
     n = len(graph.nodes)
     empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
     flat = flatten_graph(graph, empty)
