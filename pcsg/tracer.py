@@ -80,7 +80,8 @@ class Traced:
         spheres = None if self.spheres is None else _pad_spheres(self.spheres)
         # a graftal hit's normal: averaged over the boxes that led to it, else its box's
         self.flat = flatten_graph(graph, padded, table,
-                                  NORMAL_DECAY if average_normals else 0.0, spheres, states)
+                                  NORMAL_DECAY if average_normals else 0.0, spheres, states,
+                                  native_args=self.bounds_method == "every instance")
         self.events = no_events(len(graph.nodes))      # of all traces so far
         kids = int(self.flat.max_children)
         self.stack_depth = int(stack_depth or kids + (self.max_depth + 2) * min(kids, 16) + 32)

@@ -12,7 +12,7 @@ from numba import njit
 import pcsg
 from pcsg.compiler import compile_file
 from pcsg.graph.flat import flatten_graph
-from pcsg.graph.model import CALC
+from pcsg.graph.model import CALC, PAINT, SELECT, TRANSFORM
 from pcsg.trace import native, vm
 from pcsg.trace.boxwalk import walk_boxes
 
@@ -59,6 +59,22 @@ def programs():
                                     (vm.BIN_LOAD, vm.SUB | 1 << 6), (vm.STORE, 2),
                                     (vm.LOAD, 2), (vm.LOAD, 3), (vm.LOAD, 0), (vm.CLAMP, 0),
                                     (vm.NEG, 0), (vm.STORE, 4)]))
+    # the jumps of if(a, b, 0.75), a && b, a || b: if and else in the compiled block
+    out.append(("if", [(vm.LOAD, 0), (vm.JUMP_IF_FALSE, 3), (vm.LOAD, 1), (vm.JUMP, 2),
+                       (vm.CONST, 0), (vm.STORE, 2)]))
+    out.append(("&&", [(vm.LOAD, 0), (vm.AND_JUMP, 3), (vm.LOAD, 1), (vm.TRUTH, 0),
+                       (vm.STORE, 2)]))
+    out.append(("||", [(vm.LOAD, 0), (vm.OR_JUMP, 3), (vm.LOAD, 1), (vm.TRUTH, 0),
+                       (vm.STORE, 2)]))
+    # a branch that draws: the draws after it count from where that branch left them
+    out.append(("if drawing", [(vm.SALT, 3), (vm.LOAD, 0), (vm.JUMP_IF_FALSE, 3), (vm.RAND, 0),
+                               (vm.JUMP, 2), (vm.CONST, 0), (vm.STORE, 2), (vm.RAND, 0),
+                               (vm.STORE, 3)]))
+    # if(a, if(b, 0.75, -3), b && a), nested both ways
+    out.append(("nested ifs", [(vm.LOAD, 0), (vm.JUMP_IF_FALSE, 7), (vm.LOAD, 1),
+                               (vm.JUMP_IF_FALSE, 3), (vm.CONST, 0), (vm.JUMP, 2),
+                               (vm.CONST, 1), (vm.JUMP, 5), (vm.LOAD, 1), (vm.AND_JUMP, 3),
+                               (vm.LOAD, 0), (vm.TRUTH, 0), (vm.STORE, 2)]))
     return out
 
 
@@ -71,7 +87,7 @@ def compiled():
         rows += prog
     code = np.array(rows, dtype=np.int32)
     addresses = native.compile_blocks(code, blocks)
-    assert sorted(addresses) == sorted(blocks), "a program without jumps was not compiled"
+    assert sorted(addresses) == sorted(blocks), "a program was not compiled"
     return code, blocks, names, addresses
 
 
@@ -95,11 +111,15 @@ def test_every_opcode_gives_the_machines_bits(compiled):
     assert checked == len(blocks) * len(values) ** 2
 
 
-def test_blocks_with_jumps_stay_on_the_machine():
-    code = np.array([(vm.LOAD, 0), (vm.JUMP_IF_FALSE, 3), (vm.CONST, 0), (vm.JUMP, 2),
-                     (vm.CONST, 1), (vm.STORE, 2)], dtype=np.int32)
+def test_jumps_that_do_not_nest_stay_on_the_machine():
+    code = np.array([(vm.JUMP, 2), (vm.CONST, 0), (vm.CONST, 1), (vm.STORE, 2)],
+                    dtype=np.int32)
     assert native.block_source(code, 0, len(code), "b") is None
     assert native.compile_blocks(code, {0: (0, len(code))}) == {}
+    # a jump past the end of its block
+    code = np.array([(vm.LOAD, 0), (vm.JUMP_IF_FALSE, 9), (vm.CONST, 0), (vm.STORE, 2)],
+                    dtype=np.int32)
+    assert native.block_source(code, 0, len(code), "b") is None
 
 
 def terrain(order):
@@ -109,12 +129,22 @@ def terrain(order):
 def test_the_terrains_long_blocks_are_compiled_and_the_switch_turns_them_off(monkeypatch):
     graph = terrain(3)
     n = len(graph.nodes)
-    flat = flatten_graph(graph, np.zeros((n, 6)))
+    flat = flatten_graph(graph, np.zeros((n, 6)), native_args=True)
     long = (flat.kind == CALC) & (flat.calc_end - flat.calc_start >= native.MIN_ROWS)
     assert long.sum() >= 8                      # the eight subdivision blocks at least
     assert np.all((flat.calc_fn != 0) == long)
+    # the arguments of the final triangles' move(0,0,z1) and zshear(...), of any length
+    dynamic = np.isin(flat.kind, (TRANSFORM, PAINT)) & (flat.fixed == 0)
+    assert dynamic.sum() >= 4
+    # and every S-node's selection, `if(cnt > 0, 2, 1)` with its jumps among them
+    assert np.all((flat.arg_fn != 0) == (dynamic | (flat.kind == SELECT)))
+    assert flat.n_params == len(graph.params) + 3 == flat.arg_base + 3
+    # only asked for: a system bounded by its states would load them for nothing
+    plain = flatten_graph(graph, np.zeros((n, 6)))
+    assert not plain.arg_fn.any() and plain.n_params == len(graph.params)
     monkeypatch.setenv("PCSG_NATIVE", "0")
-    assert not flatten_graph(graph, np.zeros((n, 6))).calc_fn.any()
+    off = flatten_graph(graph, np.zeros((n, 6)), native_args=True)
+    assert not off.calc_fn.any() and not off.arg_fn.any()
 
 
 def test_the_walks_give_the_same_bits_with_compiled_blocks(monkeypatch):
@@ -128,6 +158,7 @@ def test_the_walks_give_the_same_bits_with_compiled_blocks(monkeypatch):
         boxes, complete, table, depth = walk_boxes(graph, 64, instances=True)
         obj = pcsg.Traced(graph)
         assert (obj.flat.calc_fn != 0).any() == (switch == "1")
+        assert (obj.flat.arg_fn != 0).any() == (switch == "1")
         cam = make_camera(obj, 4 / 3)
         ys, xs = np.mgrid[0:48, 0:64]
         o, d = cam.rays(64, 48, xs.ravel() + 0.5, ys.ravel() + 0.5)
@@ -138,6 +169,38 @@ def test_the_walks_give_the_same_bits_with_compiled_blocks(monkeypatch):
     for x, y in zip(t1, t0):
         assert np.array_equal(x, y)
     assert h1.hit.sum() > 1000
+    for field in ("t", "normal", "paint"):
+        assert np.array_equal(bits(getattr(h1, field)), bits(getattr(h0, field))), field
+
+
+# rand() in arguments draws from the instance hash salted per argument (vm.py), and
+# a compiled argument list must draw the same numbers
+RANDOM_ARGS = """{ n = 4 } S
+S if(n > 0 && rand() < 0.9, 2, 1)
+1: S → paint(rand(), 0.5, rand()) sphere
+2: S → sphere ∪
+       { n = n - 1 } move(2 + rand(), rand() - 0.5, n * 0.1) rotz(40 * rand()) scale(0.8, 0.8, 0.8) S ∪
+       { n = n - 1 } move(-2, rand(), 0) uscale(0.5 + 0.2 * rand()) S
+"""
+
+
+def test_random_arguments_give_the_same_bits_compiled(monkeypatch):
+    from pcsg.graph import bounds
+    from pcsg.render.camera import make_camera
+    monkeypatch.setattr(bounds, "MAX_STATES", 0)    # bounded instance by instance
+    results = []
+    for switch in ("1", "0"):
+        monkeypatch.setenv("PCSG_NATIVE", switch)
+        obj = pcsg.loads(RANDOM_ARGS)
+        assert obj.bounds_method == "every instance"
+        assert (obj.flat.arg_fn != 0).sum() == (6 if switch == "1" else 0)   # and S's
+        cam = make_camera(obj, 4 / 3)
+        ys, xs = np.mgrid[0:96, 0:128]
+        o, d = cam.rays(128, 96, xs.ravel() + 0.5, ys.ravel() + 0.5)
+        results.append((obj.boxes, obj.trace(o, d)))
+    (b1, h1), (b0, h0) = results
+    assert np.array_equal(bits(b1), bits(b0))
+    assert h1.hit.sum() > 200 and len(np.unique(h1.paint[h1.hit], axis=0)) > 3
     for field in ("t", "normal", "paint"):
         assert np.array_equal(bits(getattr(h1, field)), bits(getattr(h0, field))), field
 

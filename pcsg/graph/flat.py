@@ -8,7 +8,7 @@ import numpy as np
 from ..language.names import FRACTAL_PRIMITIVES, PIXELS, PRIMITIVES
 from ..trace.fractals import ARG_WIDTH, fractal_row
 from ..trace.instance_table import probe_rows
-from ..trace.native import native_blocks
+from ..trace.native import MIN_ROWS, native_blocks
 from ..trace.transforms import CODES as TRANSFORM_CODES
 from ..trace.transforms import matrix as transform_matrix
 from ..trace.vm import RAND, SALT, STORE
@@ -57,10 +57,17 @@ Flat = namedtuple("Flat", [
     "calc_cache",    # int8[n]      C-nodes whose results the walk caches (long blocks)
     "calc_fn",       # int64[n]     C-nodes: the address of their compiled block, 0: none
                      #              (trace/native.py)
+    "arg_fn",        # int64[n]     T- and paint nodes with arguments that are not constants:
+                     #              their arguments compiled as one block that stores them in
+                     #              the parameter columns from arg_base on (nodes.eval_args);
+                     #              S-nodes: their selection, into arg_base (nodes.pick_rule)
     "defer",         # int8[n]      C- and paint nodes the first-hit walks leave to a hit
                      #              (graph/defer.py)
+    "chain",         # int8[n]      1: the node heads a run of single-child steps (C-, T-,
+                     #              paint, material nodes) that ends in a primitive
     "root",          # int64
-    "n_params",      # int64
+    "n_params",      # int64        the system's parameters, then arg_base's columns
+    "arg_base",      # int64        the first column of compiled arguments (scratch)
     "max_stack",     # int64        expression stack depth
     "max_children",  # int64
     "hashed",        # int64        1 if anything reads instance hashes (rand(), the table)
@@ -71,9 +78,13 @@ Flat = namedtuple("Flat", [
 
 
 def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
-                  normal_decay: float = NORMAL_DECAY, spheres=None, states=None) -> Flat:
+                  normal_decay: float = NORMAL_DECAY, spheres=None, states=None,
+                  native_args: bool = False) -> Flat:
     """`table`: (keys, used, boxes) of the instance table; keyed by state where
-    `states` gives each node's key slots (graph/states.py; None: not keyed)."""
+    `states` gives each node's key slots (graph/states.py; None: not keyed). With
+    `native_args`, the arguments of T- and paint nodes are compiled too (Flat.arg_fn):
+    for the systems bounded instance by instance, whose walks visit millions of them; a
+    system bounded by its states would pay their load (4 ms for the tree's) for nothing."""
     nodes = graph.nodes
     n = len(nodes)
     kind = np.array([x.kind for x in nodes], dtype=np.int8)
@@ -91,18 +102,30 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
     for s, r in terminating_rules(graph).items():
         term[s] = r
     vm = graph.exprs.arrays()
-    vm_code, calc_start, calc_end = calc_programs(graph, vm)
+    fixed, fixed_map = _fixed_nodes(graph)
+    with_args = ((np.isin(kind, (TRANSFORM, PAINT)) & (fixed == 0) | (kind == SELECT))
+                 & (ecounts > 0) & native_args)
+    arg_base = len(graph.params)
+    vm_code, calc_start, calc_end = calc_programs(graph, vm, with_args, arg_base)
     is_calc = kind == CALC
-    vm_code, remap = fuse_operands(vm_code, np.concatenate([vm["start"], calc_start[is_calc]]))
+    programs = is_calc | with_args
+    vm_code, remap = fuse_operands(vm_code, np.concatenate([vm["start"], calc_start[programs]]))
     vm_start = remap[np.asarray(vm["start"], dtype=np.int64)].astype(np.int32)
     vm_end = remap[np.asarray(vm["end"], dtype=np.int64)].astype(np.int32)
-    calc_start = np.where(is_calc, remap[calc_start], 0).astype(np.int32)
-    calc_end = np.where(is_calc, remap[calc_end], 0).astype(np.int32)
+    prog_start = np.where(programs, remap[calc_start], 0).astype(np.int32)
+    prog_end = np.where(programs, remap[calc_end], 0).astype(np.int32)
+    calc_start = np.where(is_calc, prog_start, 0).astype(np.int32)
+    calc_end = np.where(is_calc, prog_end, 0).astype(np.int32)
     calc_cache = (calc_end - calc_start >= CACHED_CALC_ROWS).astype(np.int8)
-    calc_fn = native_blocks(vm_code, calc_start, calc_end, is_calc)
+    # short blocks cost little more on the machine than a call, but a node's arguments
+    # are one call instead of one run of the machine per argument
+    blocks = {int(i): (int(prog_start[i]), int(prog_end[i])) for i in np.flatnonzero(programs)
+              if with_args[i] or prog_end[i] - prog_start[i] >= MIN_ROWS}
+    compiled = native_blocks(vm_code, blocks, n)
+    calc_fn = np.where(is_calc, compiled, 0)
+    arg_fn = np.where(with_args, compiled, 0)
     if table is None:
         table = (np.zeros(2, dtype=np.uint64), np.zeros(2, dtype=np.int16), np.zeros((2, 6)))
-    fixed, fixed_map = _fixed_nodes(graph)
     fractal = np.zeros((n, ARG_WIDTH))
     for i, x in enumerate(nodes):
         if x.kind == PRIMITIVE and x.name in FRACTAL_PRIMITIVES:
@@ -117,6 +140,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
     starts = _starts(counts)
     _compose_fixed_chains(kind, fixed, fixed_map, starts, children)
     defer = deferrable(graph, vm, fixed, starts, children)
+    chain = _chains(kind, starts, children)
     return Flat(
         kind=kind, code=code,
         child_start=starts, child_count=counts,
@@ -132,11 +156,13 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
         state_start=_starts(np.maximum(state_count, 0)),
         state_slots=np.concatenate([np.zeros(0, dtype=np.int32), *keyed]),
         vm_code=vm_code, calc_start=calc_start, calc_end=calc_end, calc_cache=calc_cache,
-        calc_fn=calc_fn,
-        defer=defer,
+        calc_fn=calc_fn, arg_fn=arg_fn, arg_base=np.int64(arg_base),
+        defer=defer, chain=chain,
         vm_consts=np.asarray(vm["consts"], dtype=np.float64),
         vm_start=vm_start, vm_end=vm_end,
-        root=np.int64(graph.root), n_params=np.int64(max(1, len(graph.params))),
+        root=np.int64(graph.root),
+        n_params=np.int64(max(1, arg_base + int(np.where(kind == SELECT, np.minimum(ecounts, 1),
+                                                         ecounts)[with_args].max(initial=0)))),
         max_stack=np.int64(max(1, vm["max_stack"])),
         max_children=np.int64(max(1, counts.max(initial=1))),
         hashed=np.int64((len(table[0]) > 2 and states is None)
@@ -148,9 +174,12 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
     )
 
 
-def calc_programs(graph: Graph, vm: dict):
-    """vm's code with every C-node's assignments appended as one program (see vm.py);
-    returns the code and each node's program rows (empty for other nodes)."""
+def calc_programs(graph: Graph, vm: dict, with_args=None, arg_base: int = 0):
+    """vm's code with every C-node's assignments appended as one program (see vm.py), and
+    the arguments of the nodes `with_args` (an S-node's: its selection) as one program that
+    stores argument k into parameter column arg_base + k, each drawing rand() from the
+    salt that eval_args (pick_rule) gives it; returns the code and each node's program rows
+    (empty for other nodes)."""
     code = np.asarray(vm["code"], dtype=np.int32).reshape(-1, 2)
     n = len(graph.nodes)
     start = np.zeros(n, dtype=np.int32)
@@ -158,13 +187,20 @@ def calc_programs(graph: Graph, vm: dict):
     rows = [code]
     top = len(code)
     for i, node in enumerate(graph.nodes):
-        if node.kind != CALC:
+        exprs, first_salt = node.exprs, 1
+        if node.kind == CALC:
+            targets = node.targets
+        elif with_args is not None and with_args[i]:
+            if node.kind == SELECT:
+                exprs, first_salt = node.exprs[:1], 0
+            targets = [arg_base + k for k in range(len(exprs))]
+        else:
             continue
         start[i] = top
-        for k, (e, target) in enumerate(zip(node.exprs, node.targets)):
+        for k, (e, target) in enumerate(zip(exprs, targets)):
             body = code[vm["start"][e]:vm["end"][e]]
             if np.any(body[:, 0] == RAND):
-                rows.append(np.array([[SALT, k + 1]], dtype=np.int32))
+                rows.append(np.array([[SALT, k + first_salt]], dtype=np.int32))
                 top += 1
             rows += [body, np.array([[STORE, target]], dtype=np.int32)]
             top += len(body) + 1
@@ -223,6 +259,20 @@ def _compose_fixed_chains(kind, fixed, maps, starts, children):
             maps[i, 12:21] = np.linalg.inv(m[:3, :3]).ravel()
             children[starts[i]] = children[starts[c]]
             changed = True
+
+
+def _chains(kind, starts, children):
+    """Flat.chain: a terminating rule is mostly such a run (calc paint move ... primitive),
+    which the bounding walk takes in one step instead of a frame per node."""
+    step = np.isin(kind, (CALC, TRANSFORM, PAINT, MATERIAL))
+    chain = np.zeros(len(kind), dtype=np.int8)
+    for i in np.nonzero(step)[0]:
+        seen, node = set(), i
+        while step[node] and node not in seen:
+            seen.add(node)
+            node = children[starts[node]]
+        chain[i] = kind[node] == PRIMITIVE
+    return chain
 
 
 def _affine4(row):

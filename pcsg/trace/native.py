@@ -1,20 +1,25 @@
 """Calculation blocks compiled to machine code, for the systems that run them by the
-million (the terrain's bounding walk runs one per instance).
+million (the terrain's bounding walk runs one per instance), and for the systems bounded
+instance by instance also the arguments of T- and paint nodes and the selections of
+S-nodes (graph/flat.py: one block per node, storing into scratch parameter columns).
 
 The expression machine (vm.py) decodes each row of a block as it runs it: 261 to 414 ns
-for one of the terrain's subdivision blocks (105 and 153 rows). A block without jumps (no
-`if`, `&&` or `||`) keeps the same stack depth at every row, so its stack slots can be
-local variables: each row becomes one statement, the expression the machine evaluates for
-that opcode (BINARY, UNARY below), in the machine's order. numba compiles that to what
-the arithmetic costs, 21 to 33 ns for those blocks, with the same results to the bit: the
-same operations on the same values (tests/test_native.py holds every opcode to it).
+for one of the terrain's subdivision blocks (105 and 153 rows). A block keeps the same
+stack depth at every row, whichever way its jumps go (the jumps of `if`, `&&` and `||`
+nest, and both ways leave one value), so its stack slots can be local variables: each
+row becomes one statement, the expression the machine evaluates for that opcode (BINARY,
+UNARY below), in the machine's order, and each jump an if and else. numba compiles that
+to what the arithmetic costs, 21 to 33 ns for those blocks, with the same results to the
+bit: the same operations on the same values (tests/test_native.py holds every opcode and
+jump to it). A terrain T-node's arguments took 56 to 66 ns on the machine with its
+matrix, 13 to 14 ns compiled; an S-node's selection `if(cnt > 0, 2, 1)` 15 ns.
 
 The blocks of a system are written to one module in the user's cache directory, named
 after a hash of its source, and compiled as C callbacks with numba's on-disk cache: 1.6 s
 for the terrain's eleven blocks the first time it is rendered, 27 ms to load them after
 that. The kernels call a block through its address (call_block), so the cached kernels
-serve every system. Blocks shorter than MIN_ROWS rows stay on the machine, as do blocks
-with jumps; PCSG_NATIVE=0 keeps every block there."""
+serve every system. Calculation blocks shorter than MIN_ROWS rows stay on the machine;
+PCSG_NATIVE=0 keeps every block there."""
 from __future__ import annotations
 
 import functools
@@ -84,50 +89,85 @@ UNARY = {vm.NEG: "-{a}", vm.NOT: "0.0 if truth({a}) else 1.0",
 def block_source(code: np.ndarray, start: int, end: int, name: str) -> str | None:
     """Python source of a C callback that runs rows [start, end) of `code` as
     vm.eval_row runs them on a row of parameters (for a block: no value is returned,
-    and the salt is its own SALT rows'); None for a block with jumps."""
-    lines = ["@cfunc(SIGNATURE, cache=True, error_model='numpy', nopython=True)",
-             f"def {name}(p, c, h0):"]
-    sp = 0
-    h = "h0"          # the hash rand() draws from: the instance's until a SALT row
-    draws = 0
-    salt_slot = -1
-    for pc in range(start, end):
+    and the salt is its own SALT rows'); the jumps of `if`, `&&` and `||` become if and
+    else. None for a jump that does not nest that way, or an opcode it does not know."""
+    body = _statements(code, start, end, 0, "    ")
+    if body is None:
+        return None
+    # rand() draws from the instance's hash until a SALT row salts it (vm.py); nd counts
+    # the draws since, at run time, since a branch may draw or not
+    return "\n".join(["@cfunc(SIGNATURE, cache=True, error_model='numpy', nopython=True)",
+                      f"def {name}(p, c, h0):", "    h = h0", "    nd = 0", *body[0],
+                      "    return"])
+
+
+def _statements(code, pc: int, end: int, sp: int, indent: str):
+    """(lines, stack depth after) for rows [pc, end) entered with sp values on the stack;
+    None where a jump leaves the range or its branches leave different depths."""
+    out = []
+    inner = indent + "    "
+    while pc < end:
         op, arg = int(code[pc, 0]), int(code[pc, 1])
-        top = f"s{sp - 1}"
-        if op in (vm.BIN_LOAD, vm.BIN_CONST):
-            pool = "p" if op == vm.BIN_LOAD else "c"
-            template = BINARY.get(arg & vm.OP_MASK)
-            if template is None:
+        if op in (vm.JUMP_IF_FALSE, vm.AND_JUMP, vm.OR_JUMP):
+            target = pc + arg                   # jumps count from their own row
+            if not pc < target <= end:
                 return None
-            line = f"{top} = " + template.format(a=top, b=f"{pool}[{arg >> vm.OP_BITS}]")
-        elif op == vm.LOAD:
-            line, sp = f"s{sp} = p[{arg}]", sp + 1
-        elif op == vm.CONST:
-            line, sp = f"s{sp} = c[{arg}]", sp + 1
-        elif op == vm.STORE:
-            line, sp = f"p[{arg}] = s{sp - 1}", sp - 1
-        elif op == vm.SALT:
-            salt_slot, draws, line = arg, 0, ""
-        elif op == vm.RAND:
-            line = ""
-            if salt_slot >= 0:
-                line = f"h = salt(h0, np.uint64({salt_slot})); "
-                h, salt_slot = "h", -1
-            line += f"s{sp} = hash_to_unit(mix({h}, np.uint64({draws})))"
-            draws, sp = draws + 1, sp + 1
-        elif op in BINARY:
-            line = f"s{sp - 2} = " + BINARY[op].format(a=f"s{sp - 2}", b=top)
-            sp -= 1
-        elif op == vm.CLAMP:
-            line, sp = f"s{sp - 3} = fmin(fmax(s{sp - 3}, s{sp - 2}), s{sp - 1})", sp - 2
-        elif op in UNARY:
-            line = f"{top} = " + UNARY[op].format(a=top)
-        else:
-            return None       # the jumps, or an opcode this module does not know
+            top = f"s{sp - 1}"
+            if op == vm.JUMP_IF_FALSE:          # if(c, a, b): [c] JIF [a] JUMP [b]
+                then_end = after = target
+                if target - 1 > pc and int(code[target - 1, 0]) == vm.JUMP:
+                    then_end, after = target - 1, target - 1 + int(code[target - 1, 1])
+                    if not target <= after <= end:
+                        return None
+                yes = _statements(code, pc + 1, then_end, sp - 1, inner)
+                no = _statements(code, target, after, sp - 1, inner)
+            else:                               # && and ||: the right side or a constant
+                after = target
+                right = _statements(code, pc + 1, target, sp - 1, inner)
+                fixed = ([f"{inner}{top} = {'0.0' if op == vm.AND_JUMP else '1.0'}"], sp)
+                yes, no = (right, fixed) if op == vm.AND_JUMP else (fixed, right)
+            if yes is None or no is None or yes[1] != no[1]:
+                return None
+            out += [f"{indent}if truth({top}):", *(yes[0] or [inner + "pass"]),
+                    f"{indent}else:", *(no[0] or [inner + "pass"])]
+            sp, pc = yes[1], after
+            continue
+        row = _row(op, arg, sp)
+        if row is None:
+            return None       # a jump out of an if's shape, or an opcode this does not know
+        line, sp = row
         if line:
-            lines.append("    " + line)
-    lines.append("    return")
-    return "\n".join(lines)
+            out.append(indent + line)
+        pc += 1
+    return out, sp
+
+
+def _row(op: int, arg: int, sp: int):
+    """(statement, stack depth after) of one row that does not jump."""
+    top = f"s{sp - 1}"
+    if op in (vm.BIN_LOAD, vm.BIN_CONST):
+        pool = "p" if op == vm.BIN_LOAD else "c"
+        template = BINARY.get(arg & vm.OP_MASK)
+        if template is None:
+            return None
+        return f"{top} = " + template.format(a=top, b=f"{pool}[{arg >> vm.OP_BITS}]"), sp
+    if op == vm.LOAD:
+        return f"s{sp} = p[{arg}]", sp + 1
+    if op == vm.CONST:
+        return f"s{sp} = c[{arg}]", sp + 1
+    if op == vm.STORE:
+        return f"p[{arg}] = s{sp - 1}", sp - 1
+    if op == vm.SALT:
+        return f"h = salt(h0, np.uint64({arg})); nd = 0", sp
+    if op == vm.RAND:
+        return f"s{sp} = hash_to_unit(mix(h, np.uint64(nd))); nd += 1", sp + 1
+    if op in BINARY:
+        return f"s{sp - 2} = " + BINARY[op].format(a=f"s{sp - 2}", b=top), sp - 1
+    if op == vm.CLAMP:
+        return f"s{sp - 3} = fmin(fmax(s{sp - 3}, s{sp - 2}), s{sp - 1})", sp - 2
+    if op in UNARY:
+        return f"{top} = " + UNARY[op].format(a=top), sp
+    return None
 
 
 HEADER = '''"""Calculation blocks of one system, written by pcsg.trace.native: do not edit."""
@@ -149,16 +189,13 @@ def cache_dir() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "pcsg"
 
 
-def native_blocks(code: np.ndarray, starts: np.ndarray, ends: np.ndarray,
-                  is_calc: np.ndarray) -> np.ndarray:
-    """Flat.calc_fn: per node the address of its compiled block, 0 where it has none
-    (not a C-node, a short block, a block with jumps, PCSG_NATIVE=0, or compiling
-    failed: the machine then runs it, with the same results)."""
-    out = np.zeros(len(starts), dtype=np.int64)
+def native_blocks(code: np.ndarray, blocks: dict[int, tuple[int, int]], n: int) -> np.ndarray:
+    """Per node (n of them) the address of its compiled program among `blocks` {node:
+    (start, end)}, 0 where it has none (not asked for, a program with jumps,
+    PCSG_NATIVE=0, or compiling failed: the machine then runs it, with the same results)."""
+    out = np.zeros(n, dtype=np.int64)
     if os.environ.get("PCSG_NATIVE", "1") == "0":
         return out
-    blocks = {int(i): (int(starts[i]), int(ends[i])) for i in np.flatnonzero(is_calc)
-              if ends[i] - starts[i] >= MIN_ROWS}
     try:
         for node, address in compile_blocks(code, blocks).items():
             out[node] = address
