@@ -342,5 +342,6 @@ def bound(graph: Graph, max_depth: int = 64, budget: int | None = None):
             "warning", f"the instances below derivation depth {depth} are too many to bound "
             f"one by one; refinement stops there, as with --max-depth {depth}: deeper "
             f"instances are finished with their terminating rule (--bounds-budget "
-            f"{budget:,} node visits; a larger budget bounds deeper, and takes longer)", None, graph.source, code="depth-bounded"))
+            f"{budget:,} node visits; a larger budget bounds deeper, and takes longer)", None,
+            graph.source, code="depth-bounded"))
     return boxes, "every instance" if complete else "unbounded", problems, table, {}, depth

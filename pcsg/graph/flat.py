@@ -82,9 +82,10 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
                   native_args: bool = False) -> Flat:
     """`table`: (keys, used, boxes) of the instance table; keyed by state where
     `states` gives each node's key slots (graph/states.py; None: not keyed). With
-    `native_args`, the arguments of T- and paint nodes are compiled too (Flat.arg_fn):
-    for the systems bounded instance by instance, whose walks visit millions of them; a
-    system bounded by its states would pay their load (4 ms for the tree's) for nothing."""
+    `native_args`, the arguments of T- and paint nodes and the selections of S-nodes are
+    compiled too (Flat.arg_fn): for the systems bounded instance by instance, whose walks
+    visit millions of instances; a system bounded by its states would pay their load
+    (4 ms for the tree's arguments) for nothing."""
     nodes = graph.nodes
     n = len(nodes)
     kind = np.array([x.kind for x in nodes], dtype=np.int8)
@@ -106,6 +107,8 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
     with_args = ((np.isin(kind, (TRANSFORM, PAINT)) & (fixed == 0) | (kind == SELECT))
                  & (ecounts > 0) & native_args)
     arg_base = len(graph.params)
+    # scratch columns after the parameters: as many as a node stores (a selection: one)
+    scratch = int(np.where(kind == SELECT, 1, ecounts)[with_args].max(initial=0))
     vm_code, calc_start, calc_end = calc_programs(graph, vm, with_args, arg_base)
     is_calc = kind == CALC
     programs = is_calc | with_args
@@ -161,8 +164,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
         vm_consts=np.asarray(vm["consts"], dtype=np.float64),
         vm_start=vm_start, vm_end=vm_end,
         root=np.int64(graph.root),
-        n_params=np.int64(max(1, arg_base + int(np.where(kind == SELECT, np.minimum(ecounts, 1),
-                                                         ecounts)[with_args].max(initial=0)))),
+        n_params=np.int64(max(1, arg_base + scratch)),
         max_stack=np.int64(max(1, vm["max_stack"])),
         max_children=np.int64(max(1, counts.max(initial=1))),
         hashed=np.int64((len(table[0]) > 2 and states is None)

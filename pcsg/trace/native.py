@@ -11,8 +11,9 @@ row becomes one statement, the expression the machine evaluates for that opcode 
 UNARY below), in the machine's order, and each jump an if and else. numba compiles that
 to what the arithmetic costs, 21 to 33 ns for those blocks, with the same results to the
 bit: the same operations on the same values (tests/test_native.py holds every opcode and
-jump to it). A terrain T-node's arguments took 56 to 66 ns on the machine with its
-matrix, 13 to 14 ns compiled; an S-node's selection `if(cnt > 0, 2, 1)` 15 ns.
+jump to it). A terrain T-node took 56 to 66 ns with its arguments on the machine and its
+matrix, 13 to 14 ns with them compiled; an S-node's selection `if(cnt > 0, 2, 1)` took 15 ns
+on the machine.
 
 The blocks of a system are written to one module in the user's cache directory, named
 after a hash of its source, and compiled as C callbacks with numba's on-disk cache: 1.6 s

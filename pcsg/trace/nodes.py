@@ -431,7 +431,7 @@ def eval_args(flat, node, params, slot, h, stack, args):
     """A T- or paint node's arguments into args; False if one is not finite. Compiled
     where they could be (Flat.arg_fn): one call that leaves them in params[slot]'s
     scratch columns, where the machine took a run per argument (a T-node of the terrain's
-    final triangles cost 56 to 66 ns that way, against 14 ns for its arithmetic)."""
+    final triangles, with its matrix, took 56 to 66 ns that way and 13 to 14 ns compiled)."""
     compiled = flat.arg_fn[node] != 0
     if compiled:
         call_block(flat.arg_fn[node], params, slot, flat.vm_consts, h)
