@@ -118,8 +118,8 @@ def test_an_empty_box_culls_every_ray(monkeypatch):
 
 
 def test_the_bounds_budget_decides_how_deep_a_large_system_is_bounded(capsys, tmp_path):
-    """--bounds-budget reaches the bounding walk: the terrain at 7 (depth 9, 87 000
-    instances, 610 000 node visits) is bounded in full by default, and with a budget of
+    """--bounds-budget reaches the bounding walk: the terrain at 7 (depth 9, 43 691 S-node
+    instances, 305 838 node visits) is bounded in full by default, and with a budget of
     150 000 visits only down to the depth that fits, which the render says; both write a
     picture."""
     terrain = str(Path(__file__).resolve().parent.parent / "grammars" / "carpenter_terrain.pcsg")
