@@ -104,21 +104,21 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
         term[s] = r
     vm = graph.exprs.arrays()
     fixed, fixed_map = _fixed_nodes(graph)
-    with_args = ((np.isin(kind, (TRANSFORM, PAINT)) & (fixed == 0) | (kind == SELECT))
-                 & (ecounts > 0) & native_args)
+    dynamic = np.isin(kind, (TRANSFORM, PAINT)) & (fixed == 0)
+    with_args = (dynamic | (kind == SELECT)) & (ecounts > 0) & native_args
     arg_base = len(graph.params)
     # scratch columns after the parameters: as many as a node stores (a selection: one)
     scratch = int(np.where(kind == SELECT, 1, ecounts)[with_args].max(initial=0))
-    vm_code, calc_start, calc_end = calc_programs(graph, vm, with_args, arg_base)
+    vm_code, prog_start, prog_end = calc_programs(graph, vm, with_args, arg_base)
     is_calc = kind == CALC
     programs = is_calc | with_args
-    vm_code, remap = fuse_operands(vm_code, np.concatenate([vm["start"], calc_start[programs]]))
+    vm_code, remap = fuse_operands(vm_code, np.concatenate([vm["start"], prog_start[programs]]))
     vm_start = remap[np.asarray(vm["start"], dtype=np.int64)].astype(np.int32)
     vm_end = remap[np.asarray(vm["end"], dtype=np.int64)].astype(np.int32)
-    prog_start = np.where(programs, remap[calc_start], 0).astype(np.int32)
-    prog_end = np.where(programs, remap[calc_end], 0).astype(np.int32)
-    calc_start = np.where(is_calc, prog_start, 0).astype(np.int32)
-    calc_end = np.where(is_calc, prog_end, 0).astype(np.int32)
+    prog_start = np.where(programs, remap[prog_start], 0).astype(np.int32)
+    prog_end = np.where(programs, remap[prog_end], 0).astype(np.int32)
+    calc_start = np.where(is_calc, prog_start, 0)
+    calc_end = np.where(is_calc, prog_end, 0)
     calc_cache = (calc_end - calc_start >= CACHED_CALC_ROWS).astype(np.int8)
     # short blocks cost little more on the machine than a call, but a node's arguments
     # are one call instead of one run of the machine per argument
