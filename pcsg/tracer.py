@@ -75,8 +75,7 @@ class Traced:
         padded = _pad(boxes)
         if table is not None:
             table = (table[0], table[1], _pad(table[2], in_place=True))   # nothing else keeps it
-            if states is None:
-                clip_to_owners(table[1], table[2], padded)
+            clip_to_owners(table[1], table[2], padded)
         spheres = None if self.spheres is None else _pad_spheres(self.spheres)
         # a graftal hit's normal: averaged over the boxes that led to it, else its box's
         self.flat = flatten_graph(graph, padded, table,

@@ -42,7 +42,7 @@ def expand(entries):
     """The table again from compact's entries (the same entries; their slots may differ,
     which no lookup sees)."""
     keys, used, vals, slots = entries
-    table = empty_table(slots, vals.shape[1])     # a StateTable's rows have no owner
+    table = empty_table(slots, vals.shape[1])
     _insert(keys, used, vals, *table)
     return table
 

@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from ..graph.model import SELECT
 from . import vm
 from .jit import copy_into, inline, kernel
 from .native import call_block
@@ -272,6 +273,18 @@ def state_slot(flat, node, params, row):
         h = vm.mix(h, vm.float_bits(params[row, flat.state_slots[s + j]]))
     slot = table_slot(flat.inst_keys, flat.inst_used, h)
     return slot if flat.inst_used[slot] else -1
+
+
+@inline
+def operand_slot(flat, child, params, I, f):
+    """The table slot of the box of a union's operand in frame f's state, for a table
+    keyed by state, where the operand is not an S-node and the frame refines; -1 if
+    none. An S-node operand's entry is its instance's, which only a refining instance
+    may take (state_slot)."""
+    if flat.by_state == 0 or I[f, CUT] != 0 or flat.state_count[child] < 0 \
+            or flat.kind[child] == SELECT:
+        return -1
+    return state_slot(flat, child, params, I[f, SLOT])
 
 
 @inline

@@ -33,8 +33,8 @@ from .nodes import (BOXED, CUT, DCALC, DPAINT, DX, EV_DEPTH, EV_LOD, EV_NONFINIT
                     EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, LEVEL, M0, MAT, NAVG,
                     NODE, OX, PAINT, PHASE, RAY_WIDTH, SLOT, T0, T1, axis_aligned, box_window,
                     child_hash, copy_frame, entry_slot, entry_window, instance_slot, map_matrix,
-                    map_ray, note, pick_rule, set_inverse, state_slot, transform_map,
-                    volume_window, world_size)
+                    map_ray, note, operand_slot, pick_rule, set_inverse, state_slot,
+                    transform_map, volume_window, world_size)
 from .walk import finish, hit_primitive, hit_volume, step_unary, walk
 
 # rays per packet: one 16x16 tile of image.tile_order. Per-instance work (hash,
@@ -355,7 +355,10 @@ def split(flat, node, P, g, blk, has_table):
     for k in range(n):
         c = flat.children[flat.child_start[node] + k]
         hk = child_hash(flat, H[g], node, k)
-        slot = entry_slot(flat, node, hk, I[g, LEVEL]) if has_table else -1
+        if has_table:
+            slot = entry_slot(flat, node, hk, I[g, LEVEL])
+        else:
+            slot = operand_slot(flat, c, P.params, I, g)
         q = 0
         near = np.inf
         for j in range(m):
@@ -375,7 +378,7 @@ def split(flat, node, P, g, blk, has_table):
         tn[used] = q
         tk[used] = k
         th[used] = hk
-        P.tphase[used] = BOXED if slot >= 0 else INSIDE
+        P.tphase[used] = BOXED if has_table and slot >= 0 else INSIDE
         # descending, so the nearest pops first; on a tie the earlier operand first
         j = used
         while j > 0 and tkey[order[j - 1]] <= near:

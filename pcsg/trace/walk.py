@@ -17,9 +17,9 @@ from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE
                     EV_SELECTION, EV_SINGULAR, EV_STACK, EV_VISITS, INSIDE,
                     DPAINT, LEVEL, MAT, NODE, OX, PAINT, PHASE, SLOT, T0, T1, axis_aligned,
                     child_hash, copy_frame, enter_paint, entry_slot, entry_window, instance_slot,
-                    node_window, enter_transform, instance_window, note, pick_rule, cached_calc,
-                    state_window, volume_window, world_diameter, world_normal, world_size,
-                    average_box_normal, volume_normal)
+                    node_window, enter_transform, instance_window, note, operand_slot, pick_rule,
+                    cached_calc, state_window, volume_window, world_diameter, world_normal,
+                    world_size, average_box_normal, volume_normal)
 from .deferred import defer_step, deferred_paint
 from .fractals import march
 from .primitives import FRACTAL_MIN, JULIA, intersect
@@ -475,10 +475,11 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                     # the child's instance hash, found once: for the table and its frame;
                     # before its box only where the table is keyed by it
                     hk = H[f]
-                    es = -1
                     if has_table:
                         hk = child_hash(flat, H[f], node, k)
                         es = entry_slot(flat, node, hk, I[f, LEVEL])
+                    else:
+                        es = operand_slot(flat, c, params, I, f)
                     e0, e1 = volume_window(flat, c, es, F, f)
                     e0 = max(e0, t0)
                     e1 = min(e1, t1)
@@ -499,7 +500,7 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                         keys[j, 1] = e1
                         order[j] = k
                         hashes[j] = hk
-                        phases[j] = BOXED if es >= 0 else INSIDE
+                        phases[j] = BOXED if has_table and es >= 0 else INSIDE
                         m += 1
                 for j in range(m - 1, -1, -1):     # the source frame f is overwritten last
                     g = sp + j
