@@ -313,13 +313,12 @@ def hyper_boxes(graph: Graph, max_depth: int = 64):
     return bound(graph, max_depth)[:4]
 
 
-def bound(graph: Graph, max_depth: int = 64, budget: int | None = None):
+def bound(graph: Graph, max_depth: int = 64, budget: int = BOUNDS_BUDGET):
     """hyper_boxes, the instance table (for the memoised method a StateTable or
     None: graph/states.py), for the memoised method the re-entered states'
     final bounds (see _memoised; empty otherwise), and the derivation depth the boxes
     hold: max_depth, or less where the instances are more than `budget` node visits
-    (default limits.BOUNDS_BUDGET) can visit (the tracer must then stop refining there;
-    a warning says so)."""
+    can visit (the tracer must then stop refining there; a warning says so)."""
     problems = []
     try:
         with recursion_limit(20 * MAX_LEVELS):
@@ -335,7 +334,6 @@ def bound(graph: Graph, max_depth: int = 64, budget: int | None = None):
     if PIXELS in graph.params:      # the instance walk knows no pixel sizes: no boxes
         n = len(graph.nodes)
         return np.tile(-EMPTY, (n, 1)), "unbounded", problems, empty_table(), {}, max_depth
-    budget = BOUNDS_BUDGET if budget is None else budget
     boxes, complete, table, depth = walk_boxes(graph, max_depth, budget, instances=True)
     if depth < max_depth:
         problems.append(Diagnostic(

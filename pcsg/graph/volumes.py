@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..limits import BOUNDS_BUDGET
 from .bounds import _Walker, bound
 from .model import Graph
 from .states import StateTable
@@ -67,7 +68,8 @@ def graftal_nodes(graph: Graph) -> list[int]:
     return sorted(s for s, r in terminating_rules(graph).items() if r < 0)
 
 
-def bounding_volumes(graph: Graph, max_depth: int = 64, budget: int | None = None) -> Volumes:
+def bounding_volumes(graph: Graph, max_depth: int = 64,
+                     budget: int = BOUNDS_BUDGET) -> Volumes:
     boxes, method, problems, table, hulls, depth = bound(graph, max_depth, budget)
     out = Volumes(boxes, None, method, problems, table, [], depth)
     graftals = [s for s in graftal_nodes(graph)

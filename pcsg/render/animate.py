@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..language.errors import PcsgError
-from .job import Options, RenderFailed, render_file
+from .job import Options, RenderFailed, render_file, traced_for
 from .path import bezier
 from ..resume import Manifest, output_key
 
@@ -62,7 +62,6 @@ def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
     camera that cannot look."""
     from ..compiler import compile_file
     from ..language.parser import read_source_text
-    from ..tracer import Traced
     from .camera import Camera, make_camera
     from .shade import default_light
     o = anim.opts
@@ -73,8 +72,7 @@ def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
     if not timed and anim.eye_path is None and anim.at_path is None:
         raise BadAnimation(f"{anim.source} assigns no {TIME} in its axiom and no --path or "
                            f"--at-path moves the camera: every frame would be the same")
-    traced = Traced(graph, o.max_depth, o.stack_depth, o.interval_rows, o.max_instances,
-                    o.bounds_budget)
+    traced = traced_for(graph, o)
     w, h = o.size
     still = make_camera(traced, w / h, o.eye, o.at, o.up, o.fov)
     # the default sun stands where the unmoved camera would put it, in every frame: one

@@ -127,10 +127,15 @@ class Scene:
         return notes, errors
 
 
+def traced_for(graph: Graph, opts: Options) -> Traced:
+    """The graph bounded and flattened with the options' limits."""
+    return Traced(graph, opts.max_depth, opts.stack_depth, opts.interval_rows,
+                  opts.max_instances, opts.bounds_budget)
+
+
 def prepare_scene(graph: Graph, opts: Options) -> Scene:
     notes = [w.format(show_source=False) for w in graph.warnings]
-    traced = Traced(graph, opts.max_depth, opts.stack_depth, opts.interval_rows,
-                    opts.max_instances, opts.bounds_budget)
+    traced = traced_for(graph, opts)
     notes += [w.format(show_source=False) for w in traced.warnings
               if w not in graph.warnings]
     return Scene(graph, traced, notes)
