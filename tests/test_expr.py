@@ -6,8 +6,10 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
+from pcsg.compiler import compile_text
 from pcsg.graph.expr import FUNCTIONS, ExprTable
 from pcsg.graph.peephole import fuse_operands
+from pcsg.language.errors import PcsgError
 from pcsg.language.ast import Binary, Call, Num, Unary, Var
 from pcsg.language.unparse import unparse_arith
 from pcsg.trace import vm
@@ -226,6 +228,37 @@ def test_partial_folding():
     j = t.add(B('*', V('p'), N(0)))
     assert t.reads(j) == {'p'}
     assert math.isnan(t.evaluate(j, [INF]))
+
+
+HEAD = """
+{ s = 2; a = 3; b = a * 2; d = 1 / s; e = d + 1; s = s + 0 } S
+S if(s > 0, 2, 1)
+1: S → move(0, 0, d) sphere
+2: S → move(b, e, d) cube ∪ {s = s - 1} S
+"""
+
+
+def head_constants(text, **overrides):
+    """The parameters whose reads fold to a constant, with their values."""
+    g = compile_text(text, "t.pcsg", overrides)
+    return {name: g.exprs.constant(g.exprs.add(V(name))) for name in g.params
+            if g.exprs.constant(g.exprs.add(V(name))) is not None}
+
+
+def test_the_axiom_head_folds_what_it_computes():
+    """A parameter assigned once in the axiom's head block from constants reads as
+    that constant everywhere: also from parameters assigned before it in the head
+    (b from a), and from one assigned again later (d from s, which the rules change:
+    at the head s is 2 on every path)."""
+    assert head_constants(HEAD) == {"a": 3.0, "b": 6.0, "d": 0.5, "e": 1.5}
+    assert head_constants(HEAD, a=5) == {"a": 5.0, "b": 10.0, "d": 0.5, "e": 1.5}
+
+
+def test_a_read_before_the_assignment_stays_an_error():
+    """Folding q's later value into d would hide the read that checks.py reports."""
+    text = HEAD.replace("d = 1 / s;", "d = 1 / s + q; q = 1;")
+    with pytest.raises(PcsgError, match="'q' may be read before it is assigned"):
+        compile_text(text, "t.pcsg")
 
 
 def test_constant_pool_is_shared_and_keeps_signed_zero():

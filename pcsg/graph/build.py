@@ -206,17 +206,20 @@ class _Builder:
         counts = defaultdict(int)
         for a in _assignments(stmts):
             counts[a.name] += 1
-        known: dict[str, float] = {}
+        # the head's values so far: a parameter assigned again later (the tree's
+        # `segments`) still has its head value where the head reads it (`dSG =
+        # 1/segments`), and what is computed from it there is a constant
+        now: dict[str, float] = {}
         read_before: set[str] = set()        # a read before the assignment must stay an error
-        probe = ExprTable(self.params, lambda *_: None, known)
+        probe = ExprTable(self.params, lambda *_: None, now)
         for a in head:
             read_before |= names_in(a.value)
-            if counts[a.name] != 1 or a.name in read_before:
-                continue
-            value = probe.constant(probe.add(a.value))
-            if value is not None:
-                known[a.name] = value
-        return known
+            value = None if a.name in read_before else probe.constant(probe.add(a.value))
+            if value is None:
+                now.pop(a.name, None)
+            else:
+                now[a.name] = value
+        return {name: v for name, v in now.items() if counts[name] == 1}
 
     def _constant(self, node) -> float:
         """A directive value: numbers and pi only."""

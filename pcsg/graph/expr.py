@@ -69,7 +69,8 @@ class ExprTable:
     def __init__(self, params: dict[str, int], report, constants: dict[str, float] | None = None):
         self.params = params
         self.report = report
-        self.constants = constants or {}      # parameters known to hold one value everywhere
+        # parameters known to hold one value everywhere (the caller may still add to them)
+        self.constants = {} if constants is None else constants
         self._code: list[tuple[int, int]] = []
         self._consts: list[float] = []
         self._const_index: dict[bytes, int] = {}
