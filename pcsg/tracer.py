@@ -9,6 +9,7 @@ import numpy as np
 
 from .compiler import compile_file, compile_text
 from .graph.flat import NORMAL_DECAY, flatten_graph
+from .graph.regroup import regroup
 from .graph.states import StateTable
 from .graph.volumes import bounding_volumes
 from .graph.model import KIND_NAMES, SELECT, Graph
@@ -57,8 +58,11 @@ class Traced:
 
     def __init__(self, graph: Graph, max_depth: int = MAX_DEPTH, stack_depth: int | None = None,
                  interval_rows: int = INTERVAL_ROWS, max_instances: int = MAX_INSTANCES,
-                 bounds_budget: int = BOUNDS_BUDGET, average_normals: bool = True):
-        self.graph = graph
+                 bounds_budget: int = BOUNDS_BUDGET, average_normals: bool = True,
+                 regrouped: bool = True):
+        # the same object with fewer frames per ray (graph/regroup.py); False traces the
+        # graph as written, for comparisons
+        self.graph = graph = regroup(graph) if regrouped else graph
         self.asked_depth = int(max_depth)
         volumes = bounding_volumes(graph, self.asked_depth, int(bounds_budget))
         # less than asked where the instances are too many to bound deeper

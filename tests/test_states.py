@@ -33,7 +33,8 @@ def tree(cnt=6, by_state=True, empty=False, operands=True, **options):
         return t
     bounds.state_table = table
     try:
-        return pcsg.load(GRAMMARS / "sympodial_tree.pcsg", cnt=cnt, **options)
+        return pcsg.Traced(compile_file(GRAMMARS / "sympodial_tree.pcsg", {"cnt": cnt}),
+                           **options)
     finally:
         bounds.state_table = real
 
@@ -49,11 +50,14 @@ def test_the_tree_is_keyed_by_order_and_trunk():
     assert flat.by_state == 1
     keyed = [i for i in range(len(g.nodes)) if flat.state_count[i] >= 0]
     assert {g.nodes[i].name for i in keyed if g.nodes[i].kind == SELECT} == {"TR", "SG"}
-    # and the operands that carry the sub-crowns: the T-node before both, the C-node
-    # that starts each
+    # and the operands that carry the sub-crowns: the C-node that starts each (the
+    # T-node before both went into them, graph/regroup.py); as written, that T-node too
     operands = [i for i in keyed if g.nodes[i].kind != SELECT]
     assert set(operands) <= union_operands(g)
-    assert {g.nodes[i].kind for i in operands} == {TRANSFORM, CALC}
+    assert {g.nodes[i].kind for i in operands} == {CALC}
+    written = tree(regrouped=False)
+    assert {written.graph.nodes[i].kind for i in range(len(written.graph.nodes))
+            if written.flat.state_count[i] >= 0} == {SELECT, TRANSFORM, CALC}
     tr = next(i for i in keyed if g.nodes[i].name == "TR")
     names = {g.param_names[s] for s in
              flat.state_slots[flat.state_start[tr]:flat.state_start[tr] + flat.state_count[tr]]}
@@ -146,10 +150,15 @@ def test_the_table_culls():
     assert entered[0] < 0.92 * entered[1]       # 1823 against 2104 when written
 
 
-def test_the_operands_cull():
-    """A ray that misses a branch's operand box at the union does not enter its TR."""
-    both, selects = tree(cnt=9), tree(cnt=9, operands=False)
+@pytest.mark.parametrize("regrouped, share", [(False, 0.9), (True, 0.95)])
+def test_the_operands_cull(regrouped, share):
+    """A ray that misses a branch's operand box at the union does not enter its TR: as
+    written, where the T-node that carries both sub-crowns is an operand too, and
+    regrouped, where the C-nodes that start each are the operands."""
+    both = tree(cnt=9, regrouped=regrouped)
+    selects = tree(cnt=9, operands=False, regrouped=regrouped)
     assert ((selects.flat.state_count >= 0) & (selects.flat.kind != SELECT)).sum() == 0
     o, d = camera_rays(finite_bounds(both), 32, np.array([1.0, -1.3, 0.8]))
     entered = [instances_entered(obj, o, d, 80) for obj in (both, selects)]
-    assert entered[0] < 0.9 * entered[1]        # 1600 against 1823 when written
+    # as written 1600 against 1823, regrouped 1608 against 1772
+    assert entered[0] < share * entered[1]

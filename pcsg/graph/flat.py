@@ -218,26 +218,38 @@ def _fixed_nodes(graph: Graph):
     fixed = np.zeros(n, dtype=np.int8)
     maps = np.zeros((n, 24))
     for i, node in enumerate(graph.nodes):
-        if node.kind not in (TRANSFORM, PAINT):
-            continue
-        args = [graph.exprs.constant(e) for e in node.exprs]
-        if any(a is None for a in args):
-            continue
         if node.kind == PAINT:
-            if np.isfinite(args).all():
+            args = [graph.exprs.constant(e) for e in node.exprs]
+            if all(a is not None for a in args) and np.isfinite(args).all():
                 fixed[i] = 1
                 maps[i, :3] = args
             continue
-        m = transform_matrix(node.name, args)
-        lin = m[:3, :3]
-        det = np.linalg.det(lin)
-        if not (np.isfinite(m).all() and det != 0 and np.isfinite(det)):
+        m = fixed_matrix(graph, i)
+        if m is None:
             continue
+        lin = m[:3, :3]
         fixed[i] = 1
         maps[i, :9] = lin.ravel()
         maps[i, 9:12] = m[:3, 3]
         maps[i, 12:21] = np.linalg.inv(lin).ravel()
     return fixed, maps
+
+
+def fixed_matrix(graph: Graph, i: int) -> np.ndarray | None:
+    """The 4x4 matrix of T-node i where its arguments folded to constants and it is
+    finite and invertible; None otherwise (a T-node that the walk evaluates, and reports
+    where singular)."""
+    node = graph.nodes[i]
+    if node.kind != TRANSFORM:
+        return None
+    args = [graph.exprs.constant(e) for e in node.exprs]
+    if any(a is None for a in args):
+        return None
+    m = transform_matrix(node.name, args)
+    det = np.linalg.det(m[:3, :3])
+    if not (np.isfinite(m).all() and det != 0 and np.isfinite(det)):
+        return None
+    return m
 
 
 def _compose_fixed_chains(kind, fixed, maps, starts, children):

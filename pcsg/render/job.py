@@ -145,7 +145,7 @@ def render_scene(scene: Scene, label: str, opts: Options, deadline: float | None
                  rows: tuple[int, int] | None = None) -> tuple[Frame, np.ndarray | None]:
     """The frame (or its rows y0..y1) and the runtime events of this render alone."""
     traced = copy.copy(scene.traced)        # its own events, however often the scene is used
-    traced.events = no_events(len(scene.graph.nodes))
+    traced.events = no_events(len(traced.graph.nodes))
     target = _ReferenceTarget(traced) if opts.reference else traced
     w, h = opts.size
     camera = make_camera(traced, w / h, opts.eye, opts.at, opts.up, opts.fov)

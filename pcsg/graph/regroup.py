@@ -1,0 +1,123 @@
+"""Unions regrouped for the tracer: the same object, with fewer frames and ray maps per
+ray. Traced builds from a regrouped copy; check, expand and stats see the graph as
+written.
+
+- A run of T-nodes with constant arguments over a union goes into each operand, and
+  down past the operand's C-nodes, which cannot change what it does. The sympodial
+  tree's `move(0,0,1) rotz(gamma) ({cnt=cnt-1} rotx(alpha1) uscale(fBR1) TR ∪ ...)`
+  becomes `{cnt=cnt-1} move(0,0,1) rotz(gamma) rotx(alpha1) uscale(fBR1) TR ∪ ...`,
+  whose four maps the flat graph composes into one (flat._compose_fixed_chains): a ray
+  that enters a sub-crown is mapped once where it was mapped twice, and every ray that
+  reaches the union is mapped no more often than before.
+- A union's operand that is a union of at most SPLICE operands is spliced into it:
+  `SG ∪ (A ∪ B)` becomes `SG ∪ A ∪ B`, one frame and one box test fewer for a ray
+  that enters A or B, up to OPERANDS operands: bigger unions stay nested, since a
+  nest's boxes may spare a ray many tests (a balanced nest of unions is a hierarchy
+  of boxes).
+
+rand() and the instance table hash an instance's path: the S-nodes and unions on it,
+with their node and child numbers (vm.edge_hash), while T- and C-nodes do not hash.
+The first rewrite keeps every union's node and its operands' order, so every hash is
+kept. The second numbers the spliced operands anew, so it is done only in systems
+without rand(): their pictures do not depend on the hashes, and the instance table is
+built from the regrouped graph. Nodes are rewritten in place only where nothing else
+refers to them; none is renumbered (the numbers are in the hashes), so a spliced union
+stays in the list, unreachable.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+from ..trace.vm import RAND
+from .flat import fixed_matrix
+from .model import CALC, TRANSFORM, UNION, Graph
+
+SPLICE = 2      # the most operands of a union spliced into the union above it
+OPERANDS = 4    # and the most that union may get: a deeper nest of unions is a hierarchy
+
+
+def regroup(graph: Graph) -> Graph:
+    nodes = [replace(n, children=list(n.children), edge_spans=list(n.edge_spans))
+             for n in graph.nodes]
+    g = replace(graph, nodes=nodes)
+    refs = [0] * len(nodes)
+    refs[g.root] += 1
+    for n in nodes:
+        for c in n.children:
+            refs[c] += 1
+    g.root = _distribute(g, refs)
+    if not any(op == RAND for op, _ in g.exprs.arrays()["code"]):
+        _splice(g, refs)
+    return g
+
+
+def _distribute(g: Graph, refs: list[int]) -> int:
+    """Every constant run of T-nodes over a union pushed into the union's operands;
+    returns the root (the union, where the root was such a run)."""
+    nodes = g.nodes
+    i = 0
+    while i < len(nodes):           # nodes appended on the way are visited too
+        for j, head in enumerate(nodes[i].children):
+            nodes[i].children[j] = _pushed(g, refs, head)
+        i += 1
+    return _pushed(g, refs, g.root)
+
+
+def _pushed(g: Graph, refs: list[int], head: int) -> int:
+    """What a parent points to instead of `head`: the union below head's run of constant
+    T-nodes, which now carries the run in each operand; head itself where it is no such
+    run."""
+    nodes = g.nodes
+    chain, x = [], head
+    while nodes[x].kind == TRANSFORM and refs[x] == 1 and fixed_matrix(g, x) is not None:
+        chain.append(x)
+        x = nodes[x].children[0]
+    if not chain or nodes[x].kind != UNION or refs[x] != 1:
+        return head
+    for k, operand in enumerate(nodes[x].children):
+        # the first operand takes the run itself, which nothing else refers to
+        nodes[x].children[k] = _push(g, refs, chain if k == 0 else _copy(g, refs, chain),
+                                     operand)
+    return x
+
+
+def _copy(g: Graph, refs: list[int], chain: list[int]) -> list[int]:
+    """New nodes for the run `chain`, linked in its order; the last one's child is set
+    by _push."""
+    out = []
+    for t in chain:
+        node = g.nodes[t]
+        g.nodes.append(replace(node, children=[-1], edge_spans=list(node.edge_spans)))
+        refs.append(1)
+        out.append(len(g.nodes) - 1)
+    for a, b in zip(out, out[1:]):
+        g.nodes[a].children[0] = b
+    return out
+
+
+def _push(g: Graph, refs: list[int], chain: list[int], operand: int) -> int:
+    """The operand with the run of T-nodes `chain` (nodes of its own) below its C-nodes:
+    a C-node only assigns parameters, which constant arguments do not read."""
+    node = g.nodes[operand]
+    if node.kind == CALC and refs[operand] == 1:
+        node.children[0] = _push(g, refs, chain, node.children[0])
+        return operand
+    g.nodes[chain[-1]].children[0] = operand
+    return _pushed(g, refs, chain[0])      # the operand may be a union too
+
+
+def _splice(g: Graph, refs: list[int]):
+    for i, node in enumerate(g.nodes):
+        if node.kind != UNION or refs[i] == 0:
+            continue
+        k = 0
+        while k < len(node.children):
+            c = node.children[k]
+            inner = g.nodes[c]
+            if (inner.kind == UNION and refs[c] == 1 and len(inner.children) <= SPLICE
+                    and len(node.children) + len(inner.children) - 1 <= OPERANDS):
+                node.children[k:k + 1] = inner.children
+                node.edge_spans[k:k + 1] = inner.edge_spans
+                refs[c] = 0
+            else:
+                k += 1
