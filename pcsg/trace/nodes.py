@@ -84,27 +84,55 @@ def box_window(boxes, b, F, f):
         # empty (the box walks make every side of an empty box inverted): the slabs
         # below would make it all of space
         return np.inf, -np.inf
-    t0 = -np.inf
-    t1 = np.inf
-    for a in range(3):
-        o = F[f, OX + a]
-        d = F[f, DX + a]
-        lo = boxes[b, a]
-        hi = boxes[b, a + 3]
-        if d == 0.0:
-            if o < lo or o > hi:
-                return np.inf, -np.inf
-            continue
-        inv = F[f, INV + a]
-        ta = (lo - o) * inv
-        tb = (hi - o) * inv
-        if ta > tb:
-            ta, tb = tb, ta
-        if ta > t0:
-            t0 = ta
-        if tb < t1:
-            t1 = tb
+    return slabs(boxes[b, 0], boxes[b, 1], boxes[b, 2], boxes[b, 3], boxes[b, 4], boxes[b, 5],
+                 F, f)
+
+
+@inline
+def slabs(x0, y0, z0, x1, y1, z1, F, f):
+    """box_window of the box (x0, y0, z0)-(x1, y1, z1), which is not empty: the packets
+    read a frame's box once for all its rays."""
+    t0, t1 = _slab(F[f, OX], F[f, DX], F[f, INV], x0, x1, -np.inf, np.inf)
+    t0, t1 = _slab(F[f, OX + 1], F[f, DX + 1], F[f, INV + 1], y0, y1, t0, t1)
+    return _slab(F[f, OX + 2], F[f, DX + 2], F[f, INV + 2], z0, z1, t0, t1)
+
+
+@inline
+def _slab(o, d, inv, lo, hi, t0, t1):
+    """[t0, t1] narrowed to one axis' slab; (inf, -inf) stays so: no later slab widens it."""
+    if d == 0.0:
+        if o < lo or o > hi:
+            return np.inf, -np.inf
+        return t0, t1
+    ta = (lo - o) * inv
+    tb = (hi - o) * inv
+    if ta > tb:
+        ta, tb = tb, ta
+    if ta > t0:
+        t0 = ta
+    if tb < t1:
+        t1 = tb
     return t0, t1
+
+
+@inline
+def packet_box(flat, node, slot, test):
+    """What every ray of a packet frame at `node` is tested against, read once for all:
+    with `test`, its volume_window; else only the instance table's entry `slot`
+    (entry_window). (1, x0, y0, z0, x1, y1, z1) where that is one box; -1 where the box
+    is empty, 0 where a sphere bounds the node (volume_window per ray), 2 for no test."""
+    if not test and slot < 0:
+        return 2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    if test and flat.sphere.shape[0] > 0 and flat.sphere[node, 3] >= 0.0:
+        return 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    boxes = flat.box
+    b = node
+    if slot >= 0:
+        boxes = flat.inst_boxes
+        b = slot
+    if boxes[b, 0] > boxes[b, 3]:
+        return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    return 1, boxes[b, 0], boxes[b, 1], boxes[b, 2], boxes[b, 3], boxes[b, 4], boxes[b, 5]
 
 
 @inline

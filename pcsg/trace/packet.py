@@ -31,9 +31,9 @@ from .jit import copy_into, inline, kernel
 from .deferred import defer_step
 from .nodes import (BOXED, CUT, DCALC, DPAINT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, LEVEL, M0, MAT, NAVG,
-                    NODE, OX, PAINT, PHASE, RAY_WIDTH, SLOT, T0, T1, axis_aligned, box_window,
-                    child_hash, copy_frame, entry_slot, entry_window, instance_slot, map_matrix,
-                    map_ray, note, operand_slot, pick_rule, set_inverse, state_slot,
+                    NODE, OX, PAINT, PHASE, RAY_WIDTH, SLOT, T0, T1, axis_aligned, child_hash,
+                    copy_frame, entry_slot, instance_slot, map_matrix, map_ray, note,
+                    operand_slot, packet_box, pick_rule, set_inverse, slabs, state_slot,
                     transform_map, volume_window, world_size)
 from .walk import finish, hit_primitive, hit_volume, step_unary, walk
 
@@ -168,17 +168,19 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                 slot = instance_slot(flat, node, H[g], I, g)
             test = I[g, PHASE] == 0 and not (boxed and kind == SELECT)
             I[g, PHASE] = 0
+            use, x0, y0, z0, x1, y1, z1 = packet_box(flat, node, slot, test)
             m = 0
-            for j in range(cnt[g]):
+            for j in range(cnt[g] if use >= 0 else 0):
                 k = act[g, j]
                 t0 = win[g, j, 0]
                 t1 = min(win[g, j, 1], best[k])
-                if test:
-                    b0, b1 = volume_window(flat, node, slot, R, blk + k)
+                if use != 2:
+                    if use == 1:
+                        b0, b1 = slabs(x0, y0, z0, x1, y1, z1, R, blk + k)
+                    else:
+                        b0, b1 = volume_window(flat, node, slot, R, blk + k)
                     t0 = max(t0, b0)
                     t1 = min(t1, b1)
-                else:
-                    t0, t1 = entry_window(flat, slot, R, blk + k, t0, t1)
                 if t0 <= t1:
                     act[g, m] = k
                     win[g, m, 0] = t0
@@ -328,10 +330,11 @@ def narrow(flat, P, g, slot, blk):
     """Keeps frame g's rays that meet the table's box `slot`, their windows narrowed to
     it: returns how many."""
     act, win, R = P.act, P.win, P.R
+    use, x0, y0, z0, x1, y1, z1 = packet_box(flat, 0, slot, False)
     q = 0
-    for j in range(P.n[g]):
+    for j in range(P.n[g] if use == 1 else 0):
         k = act[g, j]
-        b0, b1 = box_window(flat.inst_boxes, slot, R, blk + k)
+        b0, b1 = slabs(x0, y0, z0, x1, y1, z1, R, blk + k)
         t0 = max(win[g, j, 0], b0)
         t1 = min(win[g, j, 1], b1)
         if t0 <= t1:
@@ -359,11 +362,15 @@ def split(flat, node, P, g, blk, has_table):
             slot = entry_slot(flat, node, hk, I[g, LEVEL])
         else:
             slot = operand_slot(flat, c, P.params, I, g)
+        use, x0, y0, z0, x1, y1, z1 = packet_box(flat, c, slot, True)
         q = 0
         near = np.inf
-        for j in range(m):
+        for j in range(m if use >= 0 else 0):
             ray = act[g, j]
-            e0, e1 = volume_window(flat, c, slot, R, blk + ray)
+            if use == 1:
+                e0, e1 = slabs(x0, y0, z0, x1, y1, z1, R, blk + ray)
+            else:
+                e0, e1 = volume_window(flat, c, slot, R, blk + ray)
             e0 = max(e0, win[g, j, 0])
             e1 = min(e1, win[g, j, 1])
             if e0 > e1:
