@@ -37,87 +37,96 @@ OPERANDS = 4    # and the most that union may get: a deeper nest of unions is a 
 
 
 def regroup(graph: Graph) -> Graph:
+    """The regrouped copy; `graph` itself is left as it is."""
     nodes = [replace(n, children=list(n.children), edge_spans=list(n.edge_spans))
              for n in graph.nodes]
     g = replace(graph, nodes=nodes)
-    refs = [0] * len(nodes)
-    refs[g.root] += 1
-    for n in nodes:
-        for c in n.children:
-            refs[c] += 1
-    g.root = _distribute(g, refs)
-    if not any(op == RAND for op, _ in g.exprs.arrays()["code"]):
-        _splice(g, refs)
+    r = _Regroup(g)
+    g.root = r.distribute()
+    if not (g.exprs.arrays()["code"][:, 0] == RAND).any():
+        r.splice()
     return g
 
 
-def _distribute(g: Graph, refs: list[int]) -> int:
-    """Every constant run of T-nodes over a union pushed into the union's operands;
-    returns the root (the union, where the root was such a run)."""
-    nodes = g.nodes
-    i = 0
-    while i < len(nodes):           # nodes appended on the way are visited too
-        for j, head in enumerate(nodes[i].children):
-            nodes[i].children[j] = _pushed(g, refs, head)
-        i += 1
-    return _pushed(g, refs, g.root)
+class _Regroup:
+    def __init__(self, g: Graph):
+        self.g = g
+        self.refs = [0] * len(g.nodes)     # how many edges (and the root) lead to each node
+        self.refs[g.root] += 1
+        for n in g.nodes:
+            for c in n.children:
+                self.refs[c] += 1
+        # T-nodes already pushed into an operand stay there: pushed on through the unions
+        # below, every map would go down to every primitive of an expanded system (the
+        # tree at 10 written out: 192 303 nodes became 896 570)
+        self.landed: set[int] = set()
 
+    def distribute(self) -> int:
+        """Every constant run of T-nodes over a union pushed into the union's operands;
+        returns the root (the union, where the root was such a run)."""
+        nodes = self.g.nodes
+        i = 0
+        while i < len(nodes):           # nodes appended on the way are visited too
+            for j, head in enumerate(nodes[i].children):
+                nodes[i].children[j] = self.pushed(head)
+            i += 1
+        return self.pushed(self.g.root)
 
-def _pushed(g: Graph, refs: list[int], head: int) -> int:
-    """What a parent points to instead of `head`: the union below head's run of constant
-    T-nodes, which now carries the run in each operand; head itself where it is no such
-    run."""
-    nodes = g.nodes
-    chain, x = [], head
-    while nodes[x].kind == TRANSFORM and refs[x] == 1 and fixed_matrix(g, x) is not None:
-        chain.append(x)
-        x = nodes[x].children[0]
-    if not chain or nodes[x].kind != UNION or refs[x] != 1:
-        return head
-    for k, operand in enumerate(nodes[x].children):
-        # the first operand takes the run itself, which nothing else refers to
-        nodes[x].children[k] = _push(g, refs, chain if k == 0 else _copy(g, refs, chain),
-                                     operand)
-    return x
+    def pushed(self, head: int) -> int:
+        """What a parent points to instead of `head`: the union below head's run of
+        constant T-nodes, which now carries the run in each operand; head itself where it
+        is no such run."""
+        nodes, refs = self.g.nodes, self.refs
+        chain, x = [], head
+        while nodes[x].kind == TRANSFORM and refs[x] == 1 and x not in self.landed:
+            chain.append(x)
+            x = nodes[x].children[0]
+        # the matrices last: most runs end elsewhere, and a run with a map that is not
+        # constant is taken from below that map, when its own parent is visited
+        if (not chain or nodes[x].kind != UNION or refs[x] != 1
+                or any(fixed_matrix(self.g, t) is None for t in chain)):
+            return head
+        for k, operand in enumerate(nodes[x].children):
+            # the first operand takes the run itself, which nothing else refers to
+            nodes[x].children[k] = self.push(chain if k == 0 else self.copy(chain), operand)
+        return x
 
+    def copy(self, chain: list[int]) -> list[int]:
+        """New nodes for the run `chain`, linked in its order; the last one's child is set
+        by push."""
+        nodes, out = self.g.nodes, []
+        for t in chain:
+            nodes.append(replace(nodes[t], children=[-1], edge_spans=list(nodes[t].edge_spans)))
+            self.refs.append(1)
+            out.append(len(nodes) - 1)
+        for a, b in zip(out, out[1:]):
+            nodes[a].children[0] = b
+        return out
 
-def _copy(g: Graph, refs: list[int], chain: list[int]) -> list[int]:
-    """New nodes for the run `chain`, linked in its order; the last one's child is set
-    by _push."""
-    out = []
-    for t in chain:
-        node = g.nodes[t]
-        g.nodes.append(replace(node, children=[-1], edge_spans=list(node.edge_spans)))
-        refs.append(1)
-        out.append(len(g.nodes) - 1)
-    for a, b in zip(out, out[1:]):
-        g.nodes[a].children[0] = b
-    return out
+    def push(self, chain: list[int], operand: int) -> int:
+        """The operand with the run of T-nodes `chain` (nodes of its own) below its
+        C-nodes: a C-node only assigns parameters, which constant arguments do not read."""
+        node = self.g.nodes[operand]
+        if node.kind == CALC and self.refs[operand] == 1:
+            node.children[0] = self.push(chain, node.children[0])
+            return operand
+        self.g.nodes[chain[-1]].children[0] = operand
+        self.landed.update(chain)
+        return chain[0]
 
-
-def _push(g: Graph, refs: list[int], chain: list[int], operand: int) -> int:
-    """The operand with the run of T-nodes `chain` (nodes of its own) below its C-nodes:
-    a C-node only assigns parameters, which constant arguments do not read."""
-    node = g.nodes[operand]
-    if node.kind == CALC and refs[operand] == 1:
-        node.children[0] = _push(g, refs, chain, node.children[0])
-        return operand
-    g.nodes[chain[-1]].children[0] = operand
-    return _pushed(g, refs, chain[0])      # the operand may be a union too
-
-
-def _splice(g: Graph, refs: list[int]):
-    for i, node in enumerate(g.nodes):
-        if node.kind != UNION or refs[i] == 0:
-            continue
-        k = 0
-        while k < len(node.children):
-            c = node.children[k]
-            inner = g.nodes[c]
-            if (inner.kind == UNION and refs[c] == 1 and len(inner.children) <= SPLICE
-                    and len(node.children) + len(inner.children) - 1 <= OPERANDS):
-                node.children[k:k + 1] = inner.children
-                node.edge_spans[k:k + 1] = inner.edge_spans
-                refs[c] = 0
-            else:
-                k += 1
+    def splice(self):
+        nodes, refs = self.g.nodes, self.refs
+        for i, node in enumerate(nodes):
+            if node.kind != UNION or refs[i] == 0:
+                continue
+            k = 0
+            while k < len(node.children):
+                c = node.children[k]
+                inner = nodes[c]
+                if (inner.kind == UNION and refs[c] == 1 and len(inner.children) <= SPLICE
+                        and len(node.children) + len(inner.children) - 1 <= OPERANDS):
+                    node.children[k:k + 1] = inner.children
+                    node.edge_spans[k:k + 1] = inner.edge_spans
+                    refs[c] = 0
+                else:
+                    k += 1
