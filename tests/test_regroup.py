@@ -145,3 +145,23 @@ def test_shared_nodes_are_left_as_they_are():
     for i, (a, b) in enumerate(zip(written.nodes, g.nodes)):
         if a.kind == UNION and i in reachable_unions(written):
             assert b.children == a.children
+
+
+def test_a_run_goes_below_thousands_of_calculations():
+    """The run goes down past the operand's C-nodes in a loop: a recursion would stop
+    at Python's limit on this system (it did)."""
+    text = ("{ x = 0 } move(1, 0, 0) (" + "{x = x + 1} " * 5000
+            + "sphere ∪ move(0, 2, 0) cube)\n")
+    written = compile_text(text, "t.pcsg")
+    g = regroup(written)
+    below = g.nodes[g.nodes[g.root].children[0]]      # past { x = 0 }: the union
+    assert below.kind == UNION
+    for c in below.children:
+        node = g.nodes[c]
+        while node.kind == CALC:
+            node = g.nodes[node.children[0]]
+        assert node.kind == TRANSFORM       # the move, below the 5 000 C-nodes
+    # the sphere and the cube moved by (1, 0, 0); the third ray meets them unmoved only
+    hits = pcsg.Traced(written).trace(np.array([[1.0, 0, -5], [1.0, 2, -5], [-0.9, 0, -5]]),
+                                      np.array([[0, 0, 1.0]] * 3))
+    assert list(hits.hit) == [True, True, False] and np.allclose(hits.t[:2], 4.0)

@@ -106,13 +106,16 @@ class _Regroup:
     def push(self, chain: list[int], operand: int) -> int:
         """The operand with the run of T-nodes `chain` (nodes of its own) below its
         C-nodes: a C-node only assigns parameters, which constant arguments do not read."""
-        node = self.g.nodes[operand]
-        if node.kind == CALC and self.refs[operand] == 1:
-            node.children[0] = self.push(chain, node.children[0])
-            return operand
-        self.g.nodes[chain[-1]].children[0] = operand
+        nodes = self.g.nodes
+        parent, below = None, operand      # a loop: the C-nodes may be thousands deep
+        while nodes[below].kind == CALC and self.refs[below] == 1:
+            parent, below = below, nodes[below].children[0]
+        nodes[chain[-1]].children[0] = below
         self.landed.update(chain)
-        return chain[0]
+        if parent is None:
+            return chain[0]
+        nodes[parent].children[0] = chain[0]
+        return operand
 
     def splice(self):
         nodes, refs = self.g.nodes, self.refs
