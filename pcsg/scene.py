@@ -2,6 +2,8 @@
 (ambient occlusion, a pcsg extension)."""
 from __future__ import annotations
 
+import math
+
 from .graph.model import Scene
 from .language import ast
 
@@ -23,7 +25,25 @@ RANGES = {
     ("occlusion", "samples"): (lambda v: 0 <= v <= MAX_AO_SAMPLES and v == int(v),
                                f"a whole number of rays from 0 (off) to {MAX_AO_SAMPLES}"),
     ("occlusion", "distance"): (lambda v: 0 < v < float("inf"), "a positive distance"),
+    ("camera", "fov"): (lambda v: 0 < v < 180, "an angle in degrees between 0 and 180"),
 }
+
+
+def _camera_problem(camera: dict) -> str | None:
+    """What keeps a #camera with both eye and at from being placed (render/camera.py
+    checks the same where at or eye is the renderer's)."""
+    if "eye" not in camera or "at" not in camera:
+        return None
+    view = [a - e for a, e in zip(camera["at"], camera["eye"])]
+    if not any(view):
+        return "#camera: eye and at are the same point"
+    ux, uy, uz = camera.get("up", (0.0, 0.0, 1.0))
+    vx, vy, vz = view
+    cross = (vy * uz - vz * uy, vz * ux - vx * uz, vx * uy - vy * ux)
+    if math.hypot(*cross) <= 1e-12 * math.hypot(*view) * math.hypot(ux, uy, uz):
+        return ("#camera: up is parallel to the view from eye to at (up defaults to "
+                "(0, 0, 1)): give another up")
+    return None
 
 
 def _known(words) -> str:
@@ -68,6 +88,9 @@ def build_scene(directives: list[ast.Directive], constants, report) -> Scene:
                 report(item.value.span, f"'{item.key}' takes {shape}, got {len(parts)}", "directive")
                 continue
             nums = tuple(constants(p) for p in parts)
+            if d.kind == "camera" and not all(math.isfinite(x) for x in nums):
+                report(item.value.span, f"'{item.key}' takes finite numbers", "directive")
+                continue
             check, wanted = RANGES.get((d.kind, item.key), (None, ""))
             if check is not None and not check(nums[0]):
                 report(item.value.span, f"'{item.key}' takes {wanted}, got {nums[0]:g}",
@@ -75,6 +98,8 @@ def build_scene(directives: list[ast.Directive], constants, report) -> Scene:
                 continue
             values[item.key] = nums[0] if want == 1 else nums
         if d.kind == "camera":
+            if problem := _camera_problem(values):
+                report(d.kind_span, problem, "directive")
             scene.camera = values
         elif d.kind == "light":
             scene.lights.append(values)

@@ -223,6 +223,27 @@ def test_timeout_stops_the_render_and_keeps_the_old_image(capsys, tmp_path):
     assert out.read_bytes() == b"earlier"
 
 
+@pytest.mark.parametrize("text, options, message", [
+    # the object's box overflows the framing: the eye would be at infinity
+    ("uscale(1e300) sphere ∪ move(1e300, 0, 0) uscale(1e300) sphere\n", [],
+     "is too large to frame: place the camera with #camera eye=... at=..."),
+    (SIERPINSKI, ["--eye", "1,1,1", "--at", "1,1,1"],
+     "the camera's eye and at are the same point (1, 1, 1)"),
+    (SIERPINSKI, ["--eye", "0,0,5", "--at", "0,0,0"],
+     "the camera's up (0, 0, 1) is parallel to its viewing direction"),
+])
+def test_a_camera_that_cannot_be_placed_fails_cleanly(capsys, tmp_path, text, options,
+                                                      message):
+    """A clear line and nothing written, not NaN pixels or an internal error."""
+    path = tmp_path / "c.pcsg"
+    path.write_text(text, encoding="utf-8")
+    out = tmp_path / "c.png"
+    code = main(["render", str(path), "-o", str(out), "--size", "40x30", "-q", *options])
+    err = capsys.readouterr().err
+    assert code == 1 and message in err and "internal error" not in err
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("value", ["0", "-1", "nan"])
 def test_timeout_must_be_positive(capsys, value):
     assert main(["render", str(GRAMMARS / "sierpinski.pcsg"), "--timeout", value]) == 2

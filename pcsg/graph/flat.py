@@ -246,7 +246,8 @@ def fixed_matrix(graph: Graph, i: int) -> np.ndarray | None:
     if any(a is None for a in args):
         return None
     m = transform_matrix(node.name, args)
-    det = np.linalg.det(m[:3, :3])
+    with np.errstate(over="ignore", invalid="ignore"):     # an overflow is not finite: None
+        det = np.linalg.det(m[:3, :3])
     if not (np.isfinite(m).all() and det != 0 and np.isfinite(det)):
         return None
     return m

@@ -14,6 +14,11 @@ DEFAULT_DIRECTION = np.array([1.0, -1.6, 0.9])      # from the front right, a li
 DEFAULT_FOV = 35.0
 
 
+class CameraError(ValueError):
+    """A camera that cannot be placed: its eye on the point it looks at, its up along
+    its view, or not finite (an object too large to frame)."""
+
+
 @dataclass
 class Camera:
     eye: np.ndarray
@@ -22,14 +27,19 @@ class Camera:
     fov: float              # vertical field of view, degrees
 
     def basis(self):
+        for name, v in (("eye", self.eye), ("at", self.at), ("up", self.up)):
+            if not np.all(np.isfinite(v)):
+                raise CameraError(f"the camera's {name} is not finite: {_point(v)}")
         fwd = self.at - self.eye
         norm = np.linalg.norm(fwd)
-        if not norm > 0:
-            raise ValueError("the camera's eye and at are the same point")
+        if not (norm > 0 and math.isfinite(norm)):
+            raise CameraError(f"the camera's eye and at are the same point {_point(self.eye)}"
+                              if not norm > 0 else "the camera's eye is too far from at")
         fwd = fwd / norm
         right = np.cross(fwd, self.up)
         if np.linalg.norm(right) < 1e-12:
-            raise ValueError("the camera's up is parallel to its viewing direction")
+            raise CameraError(f"the camera's up {_point(self.up)} is parallel to its "
+                              f"viewing direction: give another up")
         right /= np.linalg.norm(right)
         return fwd, right, np.cross(right, fwd)
 
@@ -90,8 +100,13 @@ def finite_bounds(traced) -> np.ndarray:
     return np.concatenate([f[:, :3].min(axis=0), f[:, 3:].max(axis=0)])
 
 
+def _point(v) -> str:
+    return "(" + ", ".join(f"{float(x):g}" for x in v) + ")"
+
+
 def make_camera(traced, aspect: float, eye=None, at=None, up=None, fov=None) -> Camera:
-    """Options first, then #camera, then framing the object's box."""
+    """Options first, then #camera, then framing the object's box. Raises CameraError
+    where that camera cannot be placed."""
     file = traced.graph.scene.camera
     up = np.asarray(up if up is not None else file.get("up", (0.0, 0.0, 1.0)), float)
     fov = float(fov if fov is not None else file.get("fov", DEFAULT_FOV))
@@ -100,8 +115,15 @@ def make_camera(traced, aspect: float, eye=None, at=None, up=None, fov=None) -> 
     at = np.asarray(at if at is not None else file.get("at", centre), float)
     eye = eye if eye is not None else file.get("eye")
     if eye is None:
-        radius = max(np.linalg.norm(box[3:] - box[:3]) / 2, 1e-9)
+        with np.errstate(over="ignore", invalid="ignore"):     # a box too large: below
+            radius = max(np.linalg.norm(box[3:] - box[:3]) / 2, 1e-9)
         half = math.radians(fov) / 2
         fit = radius / math.sin(min(half, half * aspect)) * 1.08
         eye = at + DEFAULT_DIRECTION / np.linalg.norm(DEFAULT_DIRECTION) * fit
-    return Camera(np.asarray(eye, float), at, up, fov)
+        if not (np.all(np.isfinite(eye)) and np.all(np.isfinite(at))):
+            raise CameraError(f"the object's box {_point(box[:3])} to {_point(box[3:])} is "
+                              f"too large to frame: place the camera with #camera eye=... "
+                              f"at=... (or --eye and --at)")
+    camera = Camera(np.asarray(eye, float), at, up, fov)
+    camera.basis()
+    return camera

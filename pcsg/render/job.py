@@ -19,7 +19,7 @@ from ..limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES,
 from ..timings import Timings
 from ..tracer import Hits, Traced
 from . import preload
-from .camera import make_camera
+from .camera import CameraError, make_camera
 from .image import Frame, Progress, render_frame, write_depth, write_png
 from .shade import make_lighting
 
@@ -59,8 +59,8 @@ class Options:
 
 
 class RenderFailed(Exception):
-    """A render that stopped without writing anything: --timeout, or --strict with
-    runtime errors in the grammar."""
+    """A render that stopped without writing anything: --timeout, --strict with
+    runtime errors in the grammar, or a camera that cannot be placed."""
 
 
 def check_options(o: Options) -> str | None:
@@ -148,7 +148,10 @@ def render_scene(scene: Scene, label: str, opts: Options, deadline: float | None
     traced.events = no_events(len(traced.graph.nodes))
     target = _ReferenceTarget(traced) if opts.reference else traced
     w, h = opts.size
-    camera = make_camera(traced, w / h, opts.eye, opts.at, opts.up, opts.fov)
+    try:
+        camera = make_camera(traced, w / h, opts.eye, opts.at, opts.up, opts.fov)
+    except CameraError as e:
+        raise RenderFailed(str(e)) from None
     light = make_lighting(traced, camera, opts.shadows, opts.shadow_samples, opts.bounces,
                           opts.ao, opts.ao_distance, opts.light)
     y0, y1 = rows or (0, h)
