@@ -18,6 +18,7 @@ DIRECTIVES = {
 }
 MATERIAL_DEFAULTS = {"color": (0.8, 0.8, 0.8), "diffuse": 0.7, "specular": 0.3, "shininess": 40.0,
                      "reflect": 0.0, "ior": 1.0, "transmit": 0.0}
+DEFAULT_UP = (0.0, 0.0, 1.0)                # #camera's up where it gives none
 ONCE = ("camera", "sky", "occlusion")       # at most one per file
 MAX_AO_SAMPLES = 1024
 # (directive, key) -> (test of the value, what the error asks for)
@@ -29,18 +30,29 @@ RANGES = {
 }
 
 
-def _camera_problem(camera: dict) -> str | None:
-    """What keeps a #camera with both eye and at from being placed (render/camera.py
-    checks the same where at or eye is the renderer's)."""
-    if "eye" not in camera or "at" not in camera:
-        return None
-    view = [a - e for a, e in zip(camera["at"], camera["eye"])]
+def camera_degenerate(eye, at, up) -> str | None:
+    """'same' where eye is at, 'parallel' where up lies along the view from eye to at
+    (or is zero), else None: the one test of #camera here and of every camera the
+    renderer places (render/camera.py)."""
+    view = [float(a) - float(e) for a, e in zip(at, eye)]
     if not any(view):
-        return "#camera: eye and at are the same point"
-    ux, uy, uz = camera.get("up", (0.0, 0.0, 1.0))
+        return "same"
+    ux, uy, uz = (float(u) for u in up)
     vx, vy, vz = view
     cross = (vy * uz - vz * uy, vz * ux - vx * uz, vx * uy - vy * ux)
     if math.hypot(*cross) <= 1e-12 * math.hypot(*view) * math.hypot(ux, uy, uz):
+        return "parallel"
+    return None
+
+
+def _camera_problem(camera: dict) -> str | None:
+    """What keeps a #camera with both eye and at from being placed."""
+    if "eye" not in camera or "at" not in camera:
+        return None
+    what = camera_degenerate(camera["eye"], camera["at"], camera.get("up", DEFAULT_UP))
+    if what == "same":
+        return "#camera: eye and at are the same point"
+    if what == "parallel":
         return ("#camera: up is parallel to the view from eye to at (up defaults to "
                 "(0, 0, 1)): give another up")
     return None

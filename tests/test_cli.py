@@ -244,6 +244,16 @@ def test_a_camera_that_cannot_be_placed_fails_cleanly(capsys, tmp_path, text, op
     assert not out.exists()
 
 
+def test_an_animation_of_an_object_too_large_to_frame_fails_cleanly(capsys, tmp_path):
+    path = tmp_path / "c.pcsg"
+    path.write_text("uscale(1e300) sphere ∪ move(1e300, 0, 0) uscale(1e300) sphere\n",
+                    encoding="utf-8")
+    code = main(["animate", str(path), "--frames", "2", "--path", "1,1,1 2,2,2",
+                 "-o", str(tmp_path / "frames")])
+    err = capsys.readouterr().err
+    assert code != 0 and "too large to frame" in err and "internal error" not in err
+
+
 @pytest.mark.parametrize("value", ["0", "-1", "nan"])
 def test_timeout_must_be_positive(capsys, value):
     assert main(["render", str(GRAMMARS / "sierpinski.pcsg"), "--timeout", value]) == 2

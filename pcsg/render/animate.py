@@ -62,7 +62,7 @@ def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
     camera that cannot look."""
     from ..compiler import compile_file
     from ..language.parser import read_source_text
-    from .camera import Camera, make_camera
+    from .camera import Camera, CameraError, make_camera
     from .shade import default_light
     o = anim.opts
     if TIME in o.overrides:
@@ -74,7 +74,10 @@ def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
                            f"--at-path moves the camera: every frame would be the same")
     traced = traced_for(graph, o)
     w, h = o.size
-    still = make_camera(traced, w / h, o.eye, o.at, o.up, o.fov)
+    try:
+        still = make_camera(traced, w / h, o.eye, o.at, o.up, o.fov)
+    except CameraError as e:
+        raise BadAnimation(str(e)) from None
     # the default sun stands where the unmoved camera would put it, in every frame: one
     # that followed the camera path would move the shadows with it
     sun = o.light

@@ -9,6 +9,7 @@ import numpy as np
 from numba import njit
 
 from ..graph.model import CALC, MATERIAL, PAINT, UNION
+from ..scene import DEFAULT_UP, camera_degenerate
 
 DEFAULT_DIRECTION = np.array([1.0, -1.6, 0.9])      # from the front right, a little above
 DEFAULT_FOV = 35.0
@@ -30,16 +31,18 @@ class Camera:
         for name, v in (("eye", self.eye), ("at", self.at), ("up", self.up)):
             if not np.all(np.isfinite(v)):
                 raise CameraError(f"the camera's {name} is not finite: {_point(v)}")
-        fwd = self.at - self.eye
-        norm = np.linalg.norm(fwd)
-        if not (norm > 0 and math.isfinite(norm)):
-            raise CameraError(f"the camera's eye and at are the same point {_point(self.eye)}"
-                              if not norm > 0 else "the camera's eye is too far from at")
-        fwd = fwd / norm
-        right = np.cross(fwd, self.up)
-        if np.linalg.norm(right) < 1e-12:
+        what = camera_degenerate(self.eye, self.at, self.up)
+        if what == "same":
+            raise CameraError(f"the camera's eye and at are the same point {_point(self.eye)}")
+        if what == "parallel":
             raise CameraError(f"the camera's up {_point(self.up)} is parallel to its "
                               f"viewing direction: give another up")
+        fwd = self.at - self.eye
+        norm = np.linalg.norm(fwd)
+        if not math.isfinite(norm):
+            raise CameraError("the camera's eye is too far from at")
+        fwd = fwd / norm
+        right = np.cross(fwd, self.up)
         right /= np.linalg.norm(right)
         return fwd, right, np.cross(right, fwd)
 
@@ -106,9 +109,9 @@ def _point(v) -> str:
 
 def make_camera(traced, aspect: float, eye=None, at=None, up=None, fov=None) -> Camera:
     """Options first, then #camera, then framing the object's box. Raises CameraError
-    where that camera cannot be placed."""
+    for an object too large to frame; Camera.basis tells whether the camera can look."""
     file = traced.graph.scene.camera
-    up = np.asarray(up if up is not None else file.get("up", (0.0, 0.0, 1.0)), float)
+    up = np.asarray(up if up is not None else file.get("up", DEFAULT_UP), float)
     fov = float(fov if fov is not None else file.get("fov", DEFAULT_FOV))
     box = finite_bounds(traced)
     centre = (box[:3] + box[3:]) / 2
@@ -124,6 +127,4 @@ def make_camera(traced, aspect: float, eye=None, at=None, up=None, fov=None) -> 
             raise CameraError(f"the object's box {_point(box[:3])} to {_point(box[3:])} is "
                               f"too large to frame: place the camera with #camera eye=... "
                               f"at=... (or --eye and --at)")
-    camera = Camera(np.asarray(eye, float), at, up, fov)
-    camera.basis()
-    return camera
+    return Camera(np.asarray(eye, float), at, up, fov)

@@ -150,6 +150,7 @@ def render_scene(scene: Scene, label: str, opts: Options, deadline: float | None
     w, h = opts.size
     try:
         camera = make_camera(traced, w / h, opts.eye, opts.at, opts.up, opts.fov)
+        camera.basis()
     except CameraError as e:
         raise RenderFailed(str(e)) from None
     light = make_lighting(traced, camera, opts.shadows, opts.shadow_samples, opts.bounces,
