@@ -8,6 +8,7 @@ from hypothesis import given, settings, strategies as st
 import pcsg
 from pcsg.compiler import compile_file
 from pcsg.graph.model import DIFFERENCE, INTERSECTION, SELECT, UNION
+from pcsg.graph.regroup import regroup
 from pcsg.trace.boxwalk import walk_boxes
 from pcsg.trace.instance_table import OWNER, clip_to_owners, drop_level, empty_table, record
 from pcsg.trace.nodes import DX, F_WIDTH, INV, OX, box_window, table_slot
@@ -49,7 +50,7 @@ def test_record_keeps_the_most_levels_that_fit():
     for level in reversed(range(len(sizes))):
         for _ in range(sizes[level]):
             n += 1
-            record(level, 1, 1, np.uint64(n), box, book, keys, used, vals, per_level)
+            record(level, np.uint64(n), 1, box, book, keys, used, vals, per_level)
     assert list(per_level[:6]) == sizes
     assert book[0] == 3                      # 1 + 2 + 4 + 8 = 15 fit, + 16 would not
     assert book[2] == 15 == (used > 0).sum()
@@ -154,6 +155,27 @@ def test_the_tracer_reads_the_table_in_rows_of_one_cache_line():
     for i in kept:
         assert table_slot(flat.inst_keys, flat.inst_used, flat.inst_keys[i]) == i
     assert flat.inst_deepest == flat.inst_used.max() - 1
+
+
+def test_the_operands_of_an_instance_lie_side_by_side():
+    """A union's operands are tested one after another, so their entries are keyed to
+    neighbouring slots (vm.operand_key): in the terrain's table each of a subdividing
+    instance's four operands but the last has the next one's key, one slot on but where
+    probing moved it. (The walks read these entries, or the test below would fail.)"""
+    graph = regroup(compile_file(GRAMMARS / "carpenter_terrain.pcsg", {"cnt": 4}))
+    _, _, (keys, used, vals), _ = walk_boxes(graph, instances=True)
+    kinds = np.array([n.kind for n in graph.nodes])
+    kept = np.flatnonzero(used)
+    operands = kept[kinds[vals[kept, OWNER].astype(np.int64)] != SELECT]
+    slot = {int(keys[i]): i for i in operands}
+    pairs = [(i, slot[k + 1]) for k, i in slot.items() if k + 1 in slot]
+    # the T1 and T2 instances that subdivide, each into four operands, and the three
+    # operands that are no S-node above them: the two of MNT, and the sea (whose
+    # neighbour, MNT, is one)
+    subdividing = 2 * (1 + 4 + 16 + 64)
+    assert len(operands) == 4 * subdividing + 3 and len(pairs) == 3 * subdividing + 1
+    apart = np.array([(j - i) % len(keys) for i, j in pairs])
+    assert np.median(apart) == 1 and np.mean(apart <= 4) > 0.9
 
 
 @pytest.mark.parametrize("packets", [True, False])

@@ -12,7 +12,6 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from . import vm
 from .jit import copy_into, kernel
 from .nodes import table_slot
 
@@ -86,8 +85,9 @@ def new_book(deepest: int, most: int) -> np.ndarray:
 
 
 @kernel
-def record(level, node, owner, h, box, table, keys, used, vals, per_level):
-    """Count the instance at its level; keep its box in the table if its level is within
+def record(level, key, owner, box, table, keys, used, vals, per_level):
+    """Count the instance at its level; keep its box under `key` (an S-node instance's
+    vm.mix(hash, node), an operand's vm.operand_key) if its level is within
     table[0], the deepest level kept. When the table would pass table[1] entries, its
     deepest level is dropped (table[0] lowered): the levels kept in the end are the
     most that fit, all of them complete, as if they had been known in advance."""
@@ -102,7 +102,6 @@ def record(level, node, owner, h, box, table, keys, used, vals, per_level):
         table[0] -= 1
     if level > table[0]:
         return
-    key = vm.mix(h, node)
     slot = table_slot(keys, used, key)
     if not used[slot]:
         table[2] += 1
@@ -140,7 +139,7 @@ def drop_level(level, keys, used, vals):
 
 
 @kernel
-def append(level, node, owner, h, box, book, keys, used, vals, per_level):
+def append(level, key, owner, box, book, keys, used, vals, per_level):
     """record's rule on a buffer (entries in order, not hashed): count the instance at its
     level and keep its entry while its level fits, dropping the deepest level when the
     buffer would pass book[1] entries."""
@@ -162,7 +161,7 @@ def append(level, node, owner, h, box, book, keys, used, vals, per_level):
     if level > book[0]:
         return
     i = book[2]
-    keys[i] = vm.mix(h, node)
+    keys[i] = key
     used[i] = 1 + level
     copy_into(vals[i, :OWNER], box)
     vals[i, OWNER] = owner

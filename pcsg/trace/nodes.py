@@ -35,6 +35,7 @@ I_WIDTH = 8
 # table entry for it was met and only maps that keep boxes exact (axis_aligned) lie
 # between: that S-node's own box would cull nothing more
 INSIDE, BOXED = 1, 2
+MANTISSA = np.uint64((1 << 52) - 1)     # a float64's fraction bits
 
 # event kinds, counted per node and reported once per render. An events array has
 # 2 * N_EVENTS rows per node: the counts, then the deepest level each kind was met at.
@@ -224,13 +225,12 @@ def child_hash(flat, h, node, k):
 
 
 @inline
-def entry_slot(flat, node, h, level):
-    """The instance table's slot for the instance hash h at node (an S-node, or the
-    operator of an operand), -1 where it has none. `level` is the one the entry would
-    have: an S-node instance's own, an operand's the operator's."""
+def entry_slot(flat, key, level):
+    """The instance table's slot for `key`, -1 where it has none. `level` is the one the
+    entry would have: an S-node instance's own, an operand's the operator's."""
     if level > flat.inst_deepest:
         return -1
-    slot = table_slot(flat.inst_keys, flat.inst_used, vm.mix(h, node))
+    slot = table_slot(flat.inst_keys, flat.inst_used, key)
     return slot if flat.inst_used[slot] else -1
 
 
@@ -238,7 +238,13 @@ def entry_slot(flat, node, h, level):
 def instance_slot(flat, node, h, I, f):
     """entry_slot of an S-node instance whose frame f is on it, before its selection
     (choose_rule, packet.select) raises the frame's level to the instance's own."""
-    return entry_slot(flat, node, h, I[f, LEVEL] + 1)
+    return entry_slot(flat, vm.mix(h, node), I[f, LEVEL] + 1)
+
+
+@inline
+def operand_entry(flat, node, h, k, level):
+    """entry_slot of operand k of the instance h of the operator `node`, at `level`."""
+    return entry_slot(flat, vm.operand_key(h, node, k), level)
 
 
 @inline
@@ -553,6 +559,37 @@ def map_ray(L, F, f, G, g):
 
 
 @inline
+def exact_scaling(L):
+    """Whether the map L (transform_map's layout) only moves and scales along the axes by
+    powers of two, as the Sierpinski tetrahedron's and the terrain's do. Its inverse then
+    scales by the exact reciprocals, and 1/(s d) is (1/d)/s bit for bit: map_ray_scaled
+    maps a ray's 1/d by a product instead of three divisions."""
+    if not axis_aligned(L):
+        return False
+    for a in range(3):
+        s = L[4 * a]
+        # a power of two: no mantissa bits (a subnormal one has one); not infinite, as
+        # s * (1/s) == 1 says
+        if vm.float_bits(s) & MANTISSA != 0 or s * L[12 + 4 * a] != 1.0:
+            return False
+        for b in range(3):
+            if b != a and L[12 + 3 * a + b] != 0.0:
+                return False
+    return True
+
+
+@inline
+def map_ray_scaled(L, F, f, G, g):
+    """map_ray for an L of exact_scaling: the same values (where a product is zero, its
+    sign may differ, which no slab test reads: they test d == 0 first)."""
+    for a in range(3):
+        s = L[12 + 4 * a]
+        G[g, OX + a] = s * (F[f, OX + a] - L[9 + a])
+        G[g, DX + a] = s * F[f, DX + a]
+        G[g, INV + a] = F[f, INV + a] * L[4 * a]
+
+
+@inline
 def map_matrix(L, F, f):
     """Frame f's world-from-local M <- M L."""
     for row in range(3):
@@ -571,7 +608,10 @@ def enter_transform(flat, node, F, f, params, slot, h, stack, args, m34, m21):
     bad = transform_map(flat, node, params, slot, h, stack, args, m34, m21)
     if bad != 0:
         return bad
-    map_ray(m21, F, f, F, f)
+    if exact_scaling(m21):
+        map_ray_scaled(m21, F, f, F, f)
+    else:
+        map_ray(m21, F, f, F, f)
     map_matrix(m21, F, f)
     return 0
 

@@ -32,9 +32,9 @@ from .deferred import defer_step
 from .nodes import (BOXED, CUT, DCALC, DPAINT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, LEVEL, M0, MAT, NAVG,
                     NODE, OX, PAINT, PHASE, RAY_WIDTH, SLOT, T0, T1, axis_aligned, child_hash,
-                    copy_frame, entry_slot, instance_slot, map_matrix, map_ray, note,
-                    operand_slot, packet_box, pick_rule, set_inverse, slabs, state_slot,
-                    transform_map, volume_window, world_size)
+                    copy_frame, exact_scaling, instance_slot, map_matrix, map_ray,
+                    map_ray_scaled, note, operand_entry, operand_slot, packet_box, pick_rule,
+                    set_inverse, slabs, state_slot, transform_map, volume_window, world_size)
 from .walk import finish, hit_primitive, hit_volume, step_unary, walk
 
 # rays per packet: one 16x16 tile of image.tile_order. Per-instance work (hash,
@@ -226,9 +226,14 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                              m)
                     break
                 own = (g + 1) * PACKET
-                for j in range(m):
-                    k = act[g, j]
-                    map_ray(L, R, blk + k, R, own + k)
+                if exact_scaling(L):
+                    for j in range(m):
+                        k = act[g, j]
+                        map_ray_scaled(L, R, blk + k, R, own + k)
+                else:
+                    for j in range(m):
+                        k = act[g, j]
+                        map_ray(L, R, blk + k, R, own + k)
                 P.block[g] = g + 1
                 map_matrix(L, F, g)
                 boxed = boxed and axis_aligned(L)
@@ -357,9 +362,8 @@ def split(flat, node, P, g, blk, has_table):
     used = 0
     for k in range(n):
         c = flat.children[flat.child_start[node] + k]
-        hk = child_hash(flat, H[g], node, k)
         if has_table:
-            slot = entry_slot(flat, node, hk, I[g, LEVEL])
+            slot = operand_entry(flat, node, H[g], k, I[g, LEVEL])
         else:
             slot = operand_slot(flat, c, P.params, I, g)
         use, x0, y0, z0, x1, y1, z1 = packet_box(flat, c, slot, True)
@@ -384,7 +388,7 @@ def split(flat, node, P, g, blk, has_table):
             continue
         tn[used] = q
         tk[used] = k
-        th[used] = hk
+        th[used] = child_hash(flat, H[g], node, k)
         P.tphase[used] = BOXED if has_table and slot >= 0 else INSIDE
         # descending, so the nearest pops first; on a tie the earlier operand first
         j = used

@@ -16,7 +16,7 @@ from .jit import copy_into, inline, kernel
 from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE,
                     EV_SELECTION, EV_SINGULAR, EV_STACK, EV_VISITS, INSIDE,
                     DPAINT, LEVEL, MAT, NODE, OX, PAINT, PHASE, SLOT, T0, T1, axis_aligned,
-                    child_hash, copy_frame, enter_paint, entry_slot, entry_window, instance_slot,
+                    child_hash, copy_frame, enter_paint, entry_window, instance_slot, operand_entry,
                     node_window, enter_transform, instance_window, note, operand_slot, pick_rule,
                     cached_calc, state_window, volume_window, world_diameter, world_normal,
                     world_size, average_box_normal, volume_normal)
@@ -472,20 +472,15 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                 m = 0
                 for k in range(n):
                     c = flat.children[flat.child_start[node] + k]
-                    # the child's instance hash, found once: for the table and its frame;
-                    # before its box only where the table is keyed by it
-                    hk = H[f]
                     if has_table:
-                        hk = child_hash(flat, H[f], node, k)
-                        es = entry_slot(flat, node, hk, I[f, LEVEL])
+                        es = operand_entry(flat, node, H[f], k, I[f, LEVEL])
                     else:
                         es = operand_slot(flat, c, params, I, f)
                     e0, e1 = volume_window(flat, c, es, F, f)
                     e0 = max(e0, t0)
                     e1 = min(e1, t1)
                     if e0 <= e1:
-                        if not has_table:
-                            hk = child_hash(flat, H[f], node, k)
+                        hk = child_hash(flat, H[f], node, k)
                         j = m
                         # descending, so the nearest pops first; on a tie the earlier
                         # operand pops first and keeps the surface (as a union merges)
