@@ -50,7 +50,7 @@ def test_record_keeps_the_most_levels_that_fit():
     for level in reversed(range(len(sizes))):
         for _ in range(sizes[level]):
             n += 1
-            record(level, np.uint64(n), 1, box, book, keys, used, vals, per_level)
+            record(level, np.uint64(n), 1, -1, 1, box, book, keys, used, vals, per_level)
     assert list(per_level[:6]) == sizes
     assert book[0] == 3                      # 1 + 2 + 4 + 8 = 15 fit, + 16 would not
     assert book[2] == 15 == (used > 0).sum()

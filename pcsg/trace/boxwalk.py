@@ -105,11 +105,11 @@ def _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack, args, m34)
 
 
 @inline
-def _keep(buffered, level, key, owner, box, book, keys, used, vals, per_level):
+def _keep(buffered, level, h, node, k, owner, box, book, keys, used, vals, per_level):
     if buffered:
-        append(level, key, owner, box, book, keys, used, vals, per_level)
+        append(level, h, node, k, owner, box, book, keys, used, vals, per_level)
     else:
-        record(level, key, owner, box, book, keys, used, vals, per_level)
+        record(level, h, node, k, owner, box, book, keys, used, vals, per_level)
 
 
 @njit(cache=True, error_model="numpy")
@@ -230,8 +230,8 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
                         fr[f, PHASE] = 1 + r
             else:
                 _unite(acc[f], acc[f + 1])
-                _keep(buffered, fr[f, LEVEL], vm.mix(hs[f], node), node, acc[f], book, keys,
-                      used, vals, per_level)
+                _keep(buffered, fr[f, LEVEL], hs[f], node, -1, node, acc[f], book, keys, used,
+                      vals, per_level)
         elif kind == TRANSFORM or kind == CALC or kind == PAINT or kind == MATERIAL:
             if phase == 0:
                 child = 0
@@ -249,8 +249,8 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
             if phase > 0:
                 b = acc[f + 1]
                 # the operand's own box, in this operator's frame, for culling it unexpanded
-                _keep(buffered, fr[f, LEVEL], vm.operand_key(hs[f], node, phase - 1),
-                      fr[f + 1, NODE], b, book, keys, used, vals, per_level)
+                _keep(buffered, fr[f, LEVEL], hs[f], node, phase - 1, fr[f + 1, NODE], b,
+                      book, keys, used, vals, per_level)
                 if phase == 1 or kind == UNION:
                     _unite(acc[f], b)
                 elif kind == INTERSECTION:

@@ -12,7 +12,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .jit import copy_into, kernel
+from . import vm
+from .jit import copy_into, inline, kernel
 from .nodes import table_slot
 
 TABLE_SLOTS = 1 << 19      # instance boxes kept: ~30 MB at most, whatever the order
@@ -84,10 +85,20 @@ def new_book(deepest: int, most: int) -> np.ndarray:
     return book
 
 
+@inline
+def entry_key(h, node, k):
+    """The key of the instance h of an S-node `node` (k < 0), or of operand k of the
+    instance h of the operator `node`. Computed only for the levels kept: most of a deep
+    system's instances are not (two hashes each, a tenth of the terrain's walk at 12)."""
+    if k < 0:
+        return vm.mix(h, node)
+    return vm.operand_key(h, node, k)
+
+
 @kernel
-def record(level, key, owner, box, table, keys, used, vals, per_level):
-    """Count the instance at its level; keep its box under `key` (an S-node instance's
-    vm.mix(hash, node), an operand's vm.operand_key) if its level is within
+def record(level, h, node, k, owner, box, table, keys, used, vals, per_level):
+    """Count the instance at its level; keep its box under entry_key(h, node, k) if its
+    level is within
     table[0], the deepest level kept. When the table would pass table[1] entries, its
     deepest level is dropped (table[0] lowered): the levels kept in the end are the
     most that fit, all of them complete, as if they had been known in advance."""
@@ -102,6 +113,7 @@ def record(level, key, owner, box, table, keys, used, vals, per_level):
         table[0] -= 1
     if level > table[0]:
         return
+    key = entry_key(h, node, k)
     slot = table_slot(keys, used, key)
     if not used[slot]:
         table[2] += 1
@@ -139,7 +151,7 @@ def drop_level(level, keys, used, vals):
 
 
 @kernel
-def append(level, key, owner, box, book, keys, used, vals, per_level):
+def append(level, h, node, k, owner, box, book, keys, used, vals, per_level):
     """record's rule on a buffer (entries in order, not hashed): count the instance at its
     level and keep its entry while its level fits, dropping the deepest level when the
     buffer would pass book[1] entries."""
@@ -161,7 +173,7 @@ def append(level, key, owner, box, book, keys, used, vals, per_level):
     if level > book[0]:
         return
     i = book[2]
-    keys[i] = key
+    keys[i] = entry_key(h, node, k)
     used[i] = 1 + level
     copy_into(vals[i, :OWNER], box)
     vals[i, OWNER] = owner
