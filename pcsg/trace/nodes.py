@@ -35,6 +35,11 @@ I_WIDTH = 8
 # table entry for it was met and only maps that keep boxes exact (axis_aligned) lie
 # between: that S-node's own box would cull nothing more
 INSIDE, BOXED = 1, 2
+# Below a frame's first node, the walks test a node's box only where it could cull: not
+# after a C-, paint or material node, whose child's box holds its own, nor after a T-node
+# that only moves and scales (its child's box is its own, mapped); an S-node's own box or
+# table entry is tested as before, unless BOXED. Each walk keeps this as `within`: the
+# frame's window lies inside the current node's box.
 MANTISSA = np.uint64((1 << 52) - 1)     # a float64's fraction bits
 
 # event kinds, counted per node and reported once per render. An events array has

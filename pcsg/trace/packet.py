@@ -159,6 +159,7 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
         sp -= 1
         g = sp
         boxed = I[g, PHASE] == BOXED
+        within = I[g, PHASE] != 0
         while True:         # follow single-child nodes in place
             node = I[g, NODE]
             kind = flat.kind[node]
@@ -166,8 +167,12 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
             slot = -1
             if kind == SELECT and has_table and not boxed:
                 slot = instance_slot(flat, node, H[g], I, g)
-            test = I[g, PHASE] == 0 and not (boxed and kind == SELECT)
+            if kind == SELECT:
+                test = I[g, PHASE] == 0 and not boxed
+            else:
+                test = not within
             I[g, PHASE] = 0
+            within = True
             use, x0, y0, z0, x1, y1, z1 = packet_box(flat, node, slot, test)
             m = 0
             for j in range(cnt[g] if use >= 0 else 0):
@@ -209,6 +214,7 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                               max_depth, budget, S, ev, res):
                     break
                 boxed = False
+                within = False
                 continue
             if kind == UNION:
                 if sp + flat.child_count[node] > cap:
@@ -236,7 +242,8 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                         map_ray(L, R, blk + k, R, own + k)
                 P.block[g] = g + 1
                 map_matrix(L, F, g)
-                boxed = boxed and axis_aligned(L)
+                within = axis_aligned(L)
+                boxed = boxed and within
                 I[g, NODE] = flat.children[flat.child_start[node]]
                 continue
             if defer_step(flat, node, kind, I, g):

@@ -410,6 +410,7 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
         sp -= 1
         f = sp
         boxed = I[f, PHASE] == BOXED
+        within = I[f, PHASE] != 0
         while True:         # follow single-child nodes in place
             node = I[f, NODE]
             kind = flat.kind[node]
@@ -417,13 +418,14 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
             slot = -1
             if kind == SELECT and has_table and not boxed:
                 slot = instance_slot(flat, node, H[f], I, f)
-            if I[f, PHASE] != 0 or (boxed and kind == SELECT):
+            if I[f, PHASE] != 0 or (boxed if kind == SELECT else within):
                 I[f, PHASE] = 0
                 t0, t1 = entry_window(flat, slot, F, f, t0, t1)
             else:
                 b0, b1 = volume_window(flat, node, slot, F, f)
                 t0 = max(t0, b0)
                 t1 = min(t1, b1)
+            within = True
             if t0 > t1:
                 break
             F[f, T0] = t0
@@ -439,6 +441,7 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                 break
             if kind == SELECT:
                 boxed = False
+                within = False
                 ax, ay, az = 0.0, 0.0, 0.0
                 if flat.normal_decay > 0.0:
                     ax, ay, az = average_box_normal(flat, node, F, f, t0)
@@ -532,5 +535,6 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
             if not step_unary(flat, node, kind, F, I, H, f, params, 0, S, ev):
                 break
             if kind == TRANSFORM:
-                boxed = boxed and axis_aligned(S.m21)
+                within = axis_aligned(S.m21)
+                boxed = boxed and within
     return hit, best
