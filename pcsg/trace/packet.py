@@ -160,6 +160,10 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
         g = sp
         boxed = I[g, PHASE] == BOXED
         within = I[g, PHASE] != 0
+        # whether the rays' windows have been cut to their nearest hits since the frame was
+        # popped: no ray that stays in a frame finds a hit while it follows single-child
+        # nodes, so once is enough where there is no box to test
+        pruned = False
         while True:         # follow single-child nodes in place
             node = I[g, NODE]
             kind = flat.kind[node]
@@ -174,8 +178,10 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
             I[g, PHASE] = 0
             within = True
             use, x0, y0, z0, x1, y1, z1 = packet_box(flat, node, slot, test)
-            m = 0
-            for j in range(cnt[g] if use >= 0 else 0):
+            done = use == 2 and pruned        # no box, and the windows cut already
+            pruned = True
+            m = cnt[g] if done else 0
+            for j in range(0 if done or use < 0 else cnt[g]):
                 k = act[g, j]
                 t0 = win[g, j, 0]
                 t1 = min(win[g, j, 1], best[k])
