@@ -98,10 +98,9 @@ def entry_key(h, node, k):
 @kernel
 def record(level, h, node, k, owner, box, table, keys, used, vals, per_level):
     """Count the instance at its level; keep its box under entry_key(h, node, k) if its
-    level is within
-    table[0], the deepest level kept. When the table would pass table[1] entries, its
-    deepest level is dropped (table[0] lowered): the levels kept in the end are the
-    most that fit, all of them complete, as if they had been known in advance."""
+    level is within table[0], the deepest level kept. When the table would pass table[1]
+    entries, its deepest level is dropped (table[0] lowered): the levels kept in the end
+    are the most that fit, all of them complete, as if they had been known in advance."""
     if level < per_level.shape[0]:
         per_level[level] += 1
     if level > table[0]:

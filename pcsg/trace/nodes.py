@@ -40,7 +40,8 @@ INSIDE, BOXED = 1, 2
 # that only moves and scales (its child's box is its own, mapped); an S-node's own box or
 # table entry is tested as before, unless BOXED. Each walk keeps this as `within`: the
 # frame's window lies inside the current node's box.
-MANTISSA = np.uint64((1 << 52) - 1)     # a float64's fraction bits
+
+MANTISSA = np.uint64((1 << 52) - 1)     # a float64's fraction bits (exact_scaling)
 
 # event kinds, counted per node and reported once per render. An events array has
 # 2 * N_EVENTS rows per node: the counts, then the deepest level each kind was met at.
