@@ -16,6 +16,7 @@ from pathlib import Path
 IMPORTS_BEGAN = time.perf_counter()     # for --timings: the imports start here
 
 from .distributed.sweep import sweep_set  # noqa: E402
+from .interrupt import redeliver_in_finalizers  # noqa: E402
 from .language.errors import PcsgError  # noqa: E402
 from .limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES,  # noqa: E402
                      bounces_problem)
@@ -556,6 +557,7 @@ COMMANDS = {"check": cmd_check, "expand": cmd_expand, "stats": cmd_stats, "graph
 
 
 def main(argv: list[str] | None = None) -> int:
+    redeliver_in_finalizers()
     args = _parser().parse_args(argv)
     try:
         return COMMANDS[args.command](args)
@@ -611,6 +613,7 @@ def run() -> None:
     kernels: about a hundred thousand) go to gc's permanent generation: they live as long
     as the process, and every full collection during the compile and the bounding walk
     walked them all again (0.1 to 0.25 s of a terrain render)."""
+    redeliver_in_finalizers()
     import_kernels()
     note_startup(IMPORTS_BEGAN)
     code = main()

@@ -136,8 +136,10 @@ def _init_worker(threads: int):
     """A worker: its share of the cores for the tracer's threads; Ctrl-C (sent to the whole
     process group) stops the frame it renders, which then writes nothing, and the frames
     already queued for it; it never kills an idle worker mid-protocol."""
+    from ..interrupt import redeliver_in_finalizers
     from ..trace.jit import set_threads
     set_threads(threads)
+    redeliver_in_finalizers()
 
     def on_sigint(signum, frame):
         global _interrupted

@@ -1,0 +1,32 @@
+"""Ctrl-C that lands in a finalizer. Python cannot raise out of a `__del__` (llvmlite's
+and numba's objects have them, and run while kernels load): it prints "Exception ignored
+in ..." with a traceback and drops the KeyboardInterrupt, so the command would print a
+traceback and go on as if not interrupted. The hook delivers the interrupt again instead,
+where the command's own handling takes it. It does so from a thread of its own, once the
+hook has returned: raised in the hook, the interrupt would be dropped from the hook in
+turn."""
+from __future__ import annotations
+
+import _thread
+import signal
+import sys
+import threading
+
+
+def _hook(unraisable) -> None:
+    if unraisable.exc_type is not None and issubclass(unraisable.exc_type, KeyboardInterrupt):
+        returned = threading.Event()
+        threading.Thread(target=_later, args=(returned,), name="pcsg-interrupt",
+                         daemon=True).start()
+        returned.set()      # the thread needs the interpreter's lock, which this keeps
+        return              # until it has left the hook
+    sys.__unraisablehook__(unraisable)
+
+
+def _later(returned: threading.Event) -> None:
+    returned.wait()
+    _thread.interrupt_main(signal.SIGINT)
+
+
+def redeliver_in_finalizers() -> None:
+    sys.unraisablehook = _hook

@@ -1,0 +1,49 @@
+"""Ctrl-C that lands in a finalizer (pcsg/interrupt.py): Python would print a traceback
+and drop it; pcsg delivers it again, so the command stops and prints no traceback. The
+animation test that presses Ctrl-C while workers load kernels (test_animate.py) met
+llvmlite's ObjectRef.__del__ that way."""
+import subprocess
+import sys
+
+PROGRAM = """
+import sys, time
+{install}
+class Finalized:
+    def __del__(self):
+        raise KeyboardInterrupt       # as a signal handler would, inside the finalizer
+try:
+    Finalized()
+    start = time.monotonic()
+    while time.monotonic() - start < {seconds}:      # the main thread's next steps
+        pass
+    print("went on")
+except KeyboardInterrupt:
+    print("interrupted")
+"""
+
+
+def run(install: str, seconds: float = 20.0):
+    return subprocess.run([sys.executable, "-c", PROGRAM.format(install=install,
+                                                                 seconds=seconds)],
+                          capture_output=True, text=True, timeout=60)
+
+
+def test_an_interrupt_in_a_finalizer_stops_the_program_without_a_traceback():
+    p = run("from pcsg.interrupt import redeliver_in_finalizers; redeliver_in_finalizers()")
+    assert p.stdout.strip() == "interrupted" and "Traceback" not in p.stderr, p.stderr
+
+
+def test_without_it_python_prints_a_traceback_and_goes_on():
+    """What the hook is for (so the test above shows a difference)."""
+    p = run("", seconds=0.2)
+    assert p.stdout.strip() == "went on" and "Traceback" in p.stderr
+
+
+def test_other_exceptions_in_finalizers_are_still_reported():
+    p = run("from pcsg.interrupt import redeliver_in_finalizers\n"
+            "redeliver_in_finalizers()\n"
+            "class Other:\n"
+            "    def __del__(self):\n"
+            "        raise ValueError('from a finalizer')\n"
+            "Other()")
+    assert "ValueError: from a finalizer" in p.stderr and p.stdout.strip() == "interrupted"
