@@ -1,0 +1,72 @@
+"""Two versions of pcsg against each other: the render and bounds phases of fresh
+`pcsg render --timings` processes, alternating which goes first in every round (a fixed
+order biases in-process comparisons by several per cent, see the README), medians, and
+whether the PNGs are the same bytes.
+
+    git worktree add /tmp/before HEAD~1
+    (cd /tmp && PYTHONPATH=/tmp/before python -m pcsg.cli render ...)   # compile its kernels
+    python tools/ab.py /tmp/before . --rounds 8 carpenter_terrain:cnt=9 sierpinski:c=8
+
+Each version runs from its own source tree (PYTHONPATH, from /tmp so that neither tree's
+working directory shadows it), with its own kernel cache; compile both before timing.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import os
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def render(tree: Path, grammar: str, setting: str, png: Path) -> tuple[float, float, str]:
+    """(render s, bounds s, PNG digest) of one fresh process of the pcsg in `tree`."""
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    out = subprocess.run([sys.executable, "-m", "pcsg.cli", "render",
+                          str(ROOT / "grammars" / f"{grammar}.pcsg"), "--set", setting,
+                          "--size", "640x480", "--no-adaptive", "--shadow-samples", "1",
+                          "--timings", "-q", "-o", str(png)],
+                         cwd=tempfile.gettempdir(), env=env, capture_output=True, text=True)
+    if out.returncode != 0:
+        raise SystemExit(f"{tree}: {grammar} {setting}: exit {out.returncode}\n{out.stderr}")
+
+    def phase(name):
+        return float(re.search(rf"^\s+{name}\s+([\d.]+) s", out.stderr, re.M).group(1))
+    return phase("render"), phase("bounds"), hashlib.sha256(png.read_bytes()).hexdigest()
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("a", type=Path, help="the source tree of version A (before)")
+    ap.add_argument("b", type=Path, help="the source tree of version B (after)")
+    ap.add_argument("loads", nargs="+", metavar="GRAMMAR:NAME=VALUE")
+    ap.add_argument("--rounds", type=int, default=6)
+    args = ap.parse_args()
+    trees = (args.a.resolve(), args.b.resolve())
+    with tempfile.TemporaryDirectory() as tmp:
+        for load in args.loads:
+            grammar, setting = load.split(":")
+            times = {t: [] for t in trees}
+            bounds = {t: [] for t in trees}
+            digests = {}
+            for i in range(args.rounds):
+                for t in (trees if i % 2 == 0 else trees[::-1]):
+                    r, b, d = render(t, grammar, setting, Path(tmp) / f"{trees.index(t)}.png")
+                    times[t].append(r)
+                    bounds[t].append(b)
+                    digests.setdefault(t, set()).add(d)
+            a, b = (statistics.median(times[t]) for t in trees)
+            ba, bb = (statistics.median(bounds[t]) for t in trees)
+            same = len(digests[trees[0]] | digests[trees[1]]) == 1
+            print(f"{grammar} {setting}: render A {a:.4f} s, B {b:.4f} s (B/A {b / a:.3f}); "
+                  f"bounds A {ba:.3f} s, B {bb:.3f} s; same PNG bytes: {same}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
