@@ -570,8 +570,12 @@ def exact_scaling(L):
     powers of two, as the Sierpinski tetrahedron's and the terrain's do. Its inverse then
     scales by the exact reciprocals, and 1/(s d) is (1/d)/s bit for bit: map_ray_scaled
     maps a ray's 1/d by a product instead of three divisions."""
-    if not axis_aligned(L):
-        return False
+    return axis_aligned(L) and powers_of_two(L)
+
+
+@inline
+def powers_of_two(L):
+    """exact_scaling of an L that is axis_aligned already (the packet walk knows)."""
     for a in range(3):
         s = L[4 * a]
         # a power of two: no mantissa bits (a subnormal one has one); not infinite, as

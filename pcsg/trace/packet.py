@@ -32,8 +32,8 @@ from .deferred import defer_step
 from .nodes import (BOXED, CUT, DCALC, DPAINT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, LEVEL, M0, MAT, NAVG,
                     NODE, OX, PAINT, PHASE, RAY_WIDTH, SLOT, T0, T1, axis_aligned, child_hash,
-                    copy_frame, exact_scaling, instance_slot, map_matrix, map_ray,
-                    map_ray_scaled, note, operand_entry, operand_slot, packet_box, pick_rule,
+                    copy_frame, instance_slot, map_matrix, map_ray, map_ray_scaled, note,
+                    operand_entry, operand_slot, packet_box, pick_rule, powers_of_two,
                     set_inverse, slabs, state_slot, transform_map, volume_window, world_size)
 from .walk import finish, hit_primitive, hit_volume, step_unary, walk
 
@@ -238,7 +238,8 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                              m)
                     break
                 own = (g + 1) * PACKET
-                if exact_scaling(L):
+                within = axis_aligned(L)
+                if within and powers_of_two(L):
                     for j in range(m):
                         k = act[g, j]
                         map_ray_scaled(L, R, blk + k, R, own + k)
@@ -248,7 +249,6 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                         map_ray(L, R, blk + k, R, own + k)
                 P.block[g] = g + 1
                 map_matrix(L, F, g)
-                within = axis_aligned(L)
                 boxed = boxed and within
                 I[g, NODE] = flat.children[flat.child_start[node]]
                 continue
