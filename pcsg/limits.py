@@ -7,9 +7,10 @@ MAX_INSTANCES = 1 << 16         # S-node instances one ray may enter (--max-inst
                                 # system that neither ends nor contracts stops there, not
                                 # after 2^64 instances; the samples need at most a few
                                 # hundred per ray
-BOUNDS_BUDGET = 60_000_000      # node visits of the bounding walk (--bounds-budget), about
-                                # 1 s on two cores: past it the boxes stop at the deepest
-                                # derivation depth whose instances fit (trace/boxwalk.py)
+BOUNDS_BUDGET = 400_000_000     # node visits of the bounding walk (--bounds-budget), about
+                                # 5 s on two cores, enough for the terrain at 12 (313
+                                # million): past it the boxes stop at the deepest derivation
+                                # depth whose instances fit (trace/boxwalk.py)
 MAX_BOUNCES = 32                # --bounces at most: reflection and refraction depth
 MAX_STACK_DEPTH = 100_000       # --stack-depth at most: ~40 MB of frames per worker
 MAX_INTERVAL_ROWS = 1_000_000   # --interval-rows at most: 128 MB per worker

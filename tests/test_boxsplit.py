@@ -3,7 +3,7 @@ boxes, visits, counts and instance-table entries, whatever the number of workers
 import numpy as np
 import pytest
 
-from pcsg.compiler import compile_file
+from pcsg.compiler import compile_file, compile_text
 from pcsg.graph.flat import flatten_graph
 from pcsg.trace.boxsplit import _split_level, walk_split
 from pcsg.trace.instance_table import TABLE_SLOTS, empty_table, new_book
@@ -68,3 +68,36 @@ def test_split_walk_over_budget_fails_like_the_walk():
     for workers in (1, 2):
         assert split_walk(graph, 64, workers, budget=visits)[0] == visits
         assert split_walk(graph, 64, workers, budget=visits - 1)[0] == -1
+
+
+def test_a_table_of_fewer_levels_holds_the_same_entries():
+    """Below the deepest level it keeps, the walk leaves instance hashes alone (nothing
+    there reads one); the levels it keeps have the keys and boxes of a table with room
+    for every level, from one walk or split over threads (whose instances get their
+    hashes from the collecting walk)."""
+    graph = compile_file(GRAMMARS / "carpenter_terrain.pcsg", {"cnt": 6})
+    full = split_walk(graph, 64, 1)
+    for workers in (1, 2):
+        few = split_walk(graph, 64, workers, most=300, slots=1024)
+        assert 0 < few[4] < full[4]
+        kept = [e for e in full[5] if e[1] <= few[4] + 1]
+        assert few[5] == kept and np.array_equal(few[1], full[1])
+
+
+DRAWS = """{ n = 7 } A
+A if(n > 0, 2, 1)
+1: A → cube
+2: A → { n = n - 1; s = 0.5 + 0.4 * rand() } (scale(s, s, s) move(1, 0, 0) A ∪ move(0, 1.5 * rand(), 0) A)
+"""
+
+
+def test_a_system_that_draws_from_hashes_is_bounded_alike_whatever_its_table_keeps():
+    """rand() reads its instance's hash at every level, kept in the table or not: the
+    boxes of a walk that keeps few levels are those of one that keeps them all (a walk
+    that skipped the hashes below its kept levels would draw other numbers there)."""
+    graph = compile_text(DRAWS)
+    full = split_walk(graph, 64, 1)
+    for workers in (1, 2):
+        few = split_walk(graph, 64, workers, most=20, slots=64)
+        assert 0 <= few[4] < full[4]
+        assert np.array_equal(few[1], full[1]) and few[0] == full[0]

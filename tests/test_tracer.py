@@ -278,8 +278,9 @@ def test_a_system_that_ends_within_the_budget_is_not_cut(monkeypatch):
 def test_a_graftal_that_cannot_fit_is_left_unbounded_without_walking_to_the_bound(monkeypatch):
     """A graftal's boxes come from a walk to the depth bound or from none. When the walks
     to depths 4 and 5 show that the bound will not fit, no walk goes there: this one
-    doubles at every level and never contracts, and its walk to depth 24 spent the whole
-    budget (15 s) before giving up. With a bound that fits it is walked there and bounded."""
+    doubles at every level and never contracts, and a walk to depth 30 would spend the
+    whole budget before giving up (depth 24, with a smaller budget, once took 15 s). With
+    a bound that fits it is walked there and bounded."""
     g = compile_text("{ n = 1 } S\nS 1\n1: S → sphere ∪ move(3, 0, 0) S ∪ move(0, 3, 0) S")
     walked = []
     real = boxwalk._walk_to
@@ -289,8 +290,8 @@ def test_a_graftal_that_cannot_fit_is_left_unbounded_without_walking_to_the_boun
         return real(flat, empty, depth, max_depth, budget, instances)
 
     monkeypatch.setattr(boxwalk, "_walk_to", recording)
-    space, complete, _, depth = walk_boxes(g, max_depth=24)
-    assert walked == [4, 5] and not complete and depth == 24 and np.all(np.isinf(space))
+    space, complete, _, depth = walk_boxes(g, max_depth=30)
+    assert walked == [4, 5] and not complete and depth == 30 and np.all(np.isinf(space))
     walked.clear()
     boxes, complete, _, depth = walk_boxes(g, max_depth=8)
     assert walked == [4, 5, 8] and complete and depth == 8

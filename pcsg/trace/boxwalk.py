@@ -105,6 +105,15 @@ def _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack, args, m34)
 
 
 @inline
+def draws_hashes(flat):
+    """Whether a block, argument or selection draws rand() from its instance's hash."""
+    for r in range(flat.vm_code.shape[0]):
+        if flat.vm_code[r, 0] == vm.RAND:
+            return True
+    return False
+
+
+@inline
 def _keep(buffered, level, h, node, k, owner, box, book, keys, used, vals, per_level):
     if buffered:
         append(level, h, node, k, owner, box, book, keys, used, vals, per_level)
@@ -159,6 +168,7 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
     around were two thirds of this walk's time on two threads."""
     fr[0, :] = 0
     buffered = first >= 0
+    draws = draws_hashes(flat)
     if buffered:
         fr[0, NODE] = items[first, 0]
         fr[0, LEVEL] = items[first, 1]
@@ -268,7 +278,10 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
             fr[g, NODE] = flat.children[flat.child_start[node] + child]
             fr[g, PHASE] = 0
             hs[g] = hs[f]
-            if kind == SELECT or flat.child_count[node] > 1:
+            # below the table's deepest level only rand() reads a hash (draws); the
+            # collecting walk hands its instances' hashes to the walks that keep entries
+            if (kind == SELECT or flat.child_count[node] > 1) and (
+                    draws or split[0] == COLLECT or fr[f, LEVEL] <= book[0]):
                 hs[g] = vm.edge_hash(hs[f], node, child)
             if kind == CALC and flat.defer[node] == 0:
                 # a deferrable block only colours (graph/defer.py): no box depends on it
