@@ -59,12 +59,13 @@ class Traced:
     def __init__(self, graph: Graph, max_depth: int = MAX_DEPTH, stack_depth: int | None = None,
                  interval_rows: int = INTERVAL_ROWS, max_instances: int = MAX_INSTANCES,
                  bounds_budget: int = BOUNDS_BUDGET, average_normals: bool = True,
-                 regrouped: bool = True):
+                 regrouped: bool = True, bounds_poll=None):
         # the same object with fewer frames per ray (graph/regroup.py); False traces the
         # graph as written, for comparisons
         self.graph = graph = regroup(graph) if regrouped else graph
         self.asked_depth = int(max_depth)
-        volumes = bounding_volumes(graph, self.asked_depth, int(bounds_budget))
+        # bounds_poll(visits, expected): progress and a way to stop a long bounding walk
+        volumes = bounding_volumes(graph, self.asked_depth, int(bounds_budget), bounds_poll)
         # less than asked where the instances are too many to bound deeper
         self.max_depth = volumes.depth
         self.bounds_method = volumes.method

@@ -6,6 +6,7 @@ import pytest
 from pcsg.compiler import compile_file, compile_text
 from pcsg.graph.flat import flatten_graph
 from pcsg.trace.boxsplit import _split_level, walk_split
+from pcsg.trace.boxwalk import STOPPED, walk_boxes
 from pcsg.trace.instance_table import TABLE_SLOTS, empty_table, new_book
 
 from tests.conftest import GRAMMARS
@@ -41,7 +42,7 @@ def test_split_walk_is_the_walk_from_the_root(name, params, depth):
     one = split_walk(graph, depth, 1)
     assert one[0] > 0
     level, count, _ = _split_level(one[6], depth, 10**9, (depth + 2) * (len(graph.nodes) + 2)
-                                   + 16, 2)
+                                   + 16, 2, np.zeros(3, dtype=np.int64))
     assert count >= 2                   # the walk really is split
     for workers in (2, 5):
         got = split_walk(graph, depth, workers)
@@ -101,3 +102,42 @@ def test_a_system_that_draws_from_hashes_is_bounded_alike_whatever_its_table_kee
         few = split_walk(graph, 64, workers, most=20, slots=64)
         assert 0 <= few[4] < full[4]
         assert np.array_equal(few[1], full[1]) and few[0] == full[0]
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_walk_whose_watch_is_set_stops(workers):
+    """A set watch[0] stops the walk at its next report (every TELL_EVERY visits, and
+    between the subtrees of a split walk), on one thread or several; a clear one lets it
+    count its visits there (with those of the walks that find the split level)."""
+    graph = compile_file(GRAMMARS / "carpenter_terrain.pcsg", {"cnt": 8})
+    stop = np.zeros(1 + workers, dtype=np.int64)
+    stop[0] = 1
+    n = len(graph.nodes)
+    empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
+    flat = flatten_graph(graph, empty)
+
+    def run(watch):
+        return walk_split(flat, 64, 10**9, 66 * (n + 2) + 16, empty.copy(),
+                          new_book(65, TABLE_SLOTS // 2), empty_table(TABLE_SLOTS),
+                          np.zeros(66, dtype=np.int64), np.zeros(1, dtype=np.int64), workers,
+                          watch)
+    assert run(stop) == STOPPED
+    watch = np.zeros(1 + workers, dtype=np.int64)
+    visits = run(watch)
+    assert visits > 1_000_000 and watch[0] == 0 and visits <= watch[1:].sum() < 1.01 * visits
+
+
+def test_an_exception_from_the_poll_stops_the_walk_and_is_raised():
+    """What Ctrl-C and --timeout do to a long bounding walk: the exception reaches the
+    caller, and the next walk is unharmed."""
+    graph = compile_file(GRAMMARS / "carpenter_terrain.pcsg", {"cnt": 10})
+    calls = []
+
+    def poll(visits, expected):
+        calls.append((visits, expected))
+        raise KeyboardInterrupt
+    with pytest.raises(KeyboardInterrupt):
+        walk_boxes(graph, instances=True, poll=poll)
+    assert len(calls) == 1
+    small = compile_file(GRAMMARS / "carpenter_terrain.pcsg", {"cnt": 6})
+    assert np.array_equal(walk_boxes(small)[0], split_walk(small, 64, 1)[1])

@@ -213,14 +213,27 @@ def test_strict_fails_on_runtime_errors_and_keeps_the_old_image(capsys, tmp_path
 
 
 def test_timeout_stops_the_render_and_keeps_the_old_image(capsys, tmp_path):
-    out = tmp_path / "carpenter_terrain.png"
+    out = tmp_path / "sympodial_tree.png"
     out.write_bytes(b"earlier")
+    code = main(["render", str(GRAMMARS / "sympodial_tree.pcsg"), "-o", str(out),
+                 "--size", "64x48", "-q", "--timeout", "0.001", "--set", "cnt=9"])
+    err = capsys.readouterr().err
+    assert code == 1        # parsing alone takes longer: the render stops before its first row
+    assert "sympodial_tree.pcsg: stopped by --timeout 0.001 s; nothing written" in err
+    assert out.read_bytes() == b"earlier"
+
+
+def test_timeout_stops_a_long_bounding_walk(capsys, tmp_path):
+    """The terrain at 12 walks its 44 million instances for seconds before it renders:
+    --timeout stops the walk itself, not the render after it."""
+    out = tmp_path / "carpenter_terrain.png"
     code = main(["render", str(GRAMMARS / "carpenter_terrain.pcsg"), "-o", str(out),
-                 "--size", "64x48", "-q", "--timeout", "0.05", "--set", "cnt=9"])
+                 "--size", "32x24", "-q", "--timeout", "1", "--set", "cnt=12"])
     err = capsys.readouterr().err
     assert code == 1
-    assert "carpenter_terrain.pcsg: stopped by --timeout 0.05 s; nothing written" in err
-    assert out.read_bytes() == b"earlier"
+    assert ("carpenter_terrain.pcsg: stopped by --timeout 1 s in the bounding walk; nothing "
+            "written") in err
+    assert not out.exists()
 
 
 @pytest.mark.parametrize("text, options, message", [

@@ -143,22 +143,37 @@ def test_batch_with_a_broken_file(tmp_path, capsys):
     assert "rendered 1 of 2 files" in captured.out and "failed: " in captured.out
 
 
-def test_interrupted_render_keeps_the_earlier_png(tmp_path):
-    out = tmp_path / "tree.png"
+def interrupted_render(out, args, after: float):
+    """`pcsg render ... -o out` over an earlier PNG, sent Ctrl-C `after` seconds in:
+    its stderr, once it has checked that pcsg exited with 130 and kept that PNG."""
     out.write_bytes(b"an earlier good image")
-    # about 120 M camera rays: minutes of work, so the signal comes mid-render however
-    # fast the tracer gets (800x600 at 16 samples once finished within the 8 s)
     with sigint_reaches_children():
-        proc = subprocess.Popen([sys.executable, "-m", "pcsg", "render",
-                                 str(GRAMMARS / "sympodial_tree.pcsg"), "-o", str(out),
-                                 "--size", "1600x1200", "--samples", "64"],
+        proc = subprocess.Popen([sys.executable, "-m", "pcsg", "render", *args, "-o", str(out)],
                                 cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    time.sleep(8)
+    time.sleep(after)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, err
     assert out.read_bytes() == b"an earlier good image"
-    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".part")]
+    assert not [p for p in out.parent.iterdir() if p.name.endswith(".part")]
+    return err
+
+
+def test_interrupted_render_keeps_the_earlier_png(tmp_path):
+    # about 120 M camera rays: minutes of work, so the signal comes mid-render however
+    # fast the tracer gets (800x600 at 16 samples once finished within the 8 s)
+    interrupted_render(tmp_path / "tree.png", [str(GRAMMARS / "sympodial_tree.pcsg"),
+                                               "--size", "1600x1200", "--samples", "64"], 8)
+
+
+def test_ctrl_c_in_a_long_bounding_walk_ends_the_render_cleanly(tmp_path):
+    """The terrain at 12 walks its instances for seconds before it renders: Ctrl-C then
+    lands in the bounding walk, which stops (its threads read a flag), and pcsg exits as
+    from a render, with no traceback."""
+    err = interrupted_render(tmp_path / "terrain.png",
+                             [str(GRAMMARS / "carpenter_terrain.pcsg"), "--set", "cnt=12",
+                              "--size", "32x24"], 2)
+    assert b"interrupted" in err and b"Traceback" not in err
 
 
 def test_a_mirror_shows_what_is_in_front_of_it():

@@ -285,9 +285,9 @@ def test_a_graftal_that_cannot_fit_is_left_unbounded_without_walking_to_the_boun
     walked = []
     real = boxwalk._walk_to
 
-    def recording(flat, empty, depth, max_depth, budget, instances):
+    def recording(flat, empty, depth, max_depth, budget, instances, *watch):
         walked.append(depth)
-        return real(flat, empty, depth, max_depth, budget, instances)
+        return real(flat, empty, depth, max_depth, budget, instances, *watch)
 
     monkeypatch.setattr(boxwalk, "_walk_to", recording)
     space, complete, _, depth = walk_boxes(g, max_depth=30)
@@ -312,10 +312,10 @@ def test_a_deeper_walk_over_budget_falls_back_to_the_last_walks_table(monkeypatc
     g = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=6).graph
     real = boxwalk._walk_to
 
-    def over_budget_below_5(flat, empty, depth, max_depth, budget, instances):
+    def over_budget_below_5(flat, empty, depth, max_depth, budget, instances, *watch):
         if depth > 5:
             return empty.copy(), -1, 0, boxwalk.empty_table(boxwalk.TABLE_SLOTS)
-        return real(flat, empty, depth, max_depth, budget, instances)
+        return real(flat, empty, depth, max_depth, budget, instances, *watch)
 
     monkeypatch.setattr(boxwalk, "_walk_to", over_budget_below_5)
     boxes, complete, table, depth = walk_boxes(g, instances=True)

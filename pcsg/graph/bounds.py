@@ -313,7 +313,7 @@ def hyper_boxes(graph: Graph, max_depth: int = 64):
     return bound(graph, max_depth)[:4]
 
 
-def bound(graph: Graph, max_depth: int = 64, budget: int = BOUNDS_BUDGET):
+def bound(graph: Graph, max_depth: int = 64, budget: int = BOUNDS_BUDGET, poll=None):
     """hyper_boxes, the instance table (for the memoised method a StateTable or
     None: graph/states.py), for the memoised method the re-entered states'
     final bounds (see _memoised; empty otherwise), and the derivation depth the boxes
@@ -334,7 +334,8 @@ def bound(graph: Graph, max_depth: int = 64, budget: int = BOUNDS_BUDGET):
     if PIXELS in graph.params:      # the instance walk knows no pixel sizes: no boxes
         n = len(graph.nodes)
         return np.tile(-EMPTY, (n, 1)), "unbounded", problems, empty_table(), {}, max_depth
-    boxes, complete, table, depth = walk_boxes(graph, max_depth, budget, instances=True)
+    boxes, complete, table, depth = walk_boxes(graph, max_depth, budget, instances=True,
+                                               poll=poll)
     if depth < max_depth:
         problems.append(Diagnostic(
             "warning", f"the instances below derivation depth {depth} are too many to bound "

@@ -69,8 +69,9 @@ def graftal_nodes(graph: Graph) -> list[int]:
 
 
 def bounding_volumes(graph: Graph, max_depth: int = 64,
-                     budget: int = BOUNDS_BUDGET) -> Volumes:
-    boxes, method, problems, table, hulls, depth = bound(graph, max_depth, budget)
+                     budget: int = BOUNDS_BUDGET, poll=None) -> Volumes:
+    """poll: as trace/boxwalk.walk_boxes's, for a system bounded instance by instance."""
+    boxes, method, problems, table, hulls, depth = bound(graph, max_depth, budget, poll)
     out = Volumes(boxes, None, method, problems, table, [], depth)
     graftals = [s for s in graftal_nodes(graph)
                 if boxes[s, 0] <= boxes[s, 3] and np.all(np.isfinite(boxes[s]))]

@@ -39,25 +39,26 @@ class Frame:
 class Progress:
     """One line on stderr, redrawn; only on a terminal and only after a second."""
 
-    def __init__(self, label: str, total: int, enabled: bool):
-        self.label, self.total = label, total
+    def __init__(self, label: str, total: int, enabled: bool, unit: str = "rays"):
+        self.label, self.total, self.unit = label, total, unit
         self.enabled = enabled and sys.stderr.isatty()
         self.start = time.perf_counter()
-        self.shown = False
+        self.shown = 0          # the longest line written, for close to clear
 
     def update(self, done: int, rays: int):
         elapsed = time.perf_counter() - self.start
         if not self.enabled or elapsed < 1.0 or done == 0:
             return
         eta = elapsed * (self.total - done) / done
-        sys.stderr.write(f"\r{self.label}: {100 * done / self.total:3.0f}%  {elapsed:5.1f} s, "
-                         f"ETA {eta:5.1f} s, {rays / elapsed / 1e6:5.2f} M rays/s ")
+        line = (f"{self.label}: {100 * done / self.total:3.0f}%  {elapsed:5.1f} s, "
+                f"ETA {eta:5.1f} s, {rays / elapsed / 1e6:5.2f} M {self.unit}/s ")
+        sys.stderr.write("\r" + line)
         sys.stderr.flush()
-        self.shown = True
+        self.shown = max(self.shown, len(line))
 
     def close(self):
         if self.shown:
-            sys.stderr.write("\r" + " " * 78 + "\r")
+            sys.stderr.write("\r" + " " * self.shown + "\r")
             sys.stderr.flush()
 
 

@@ -102,9 +102,9 @@ def check_options(o: Options) -> str | None:
     return None
 
 
-def check_deadline(deadline: float | None, timeout: float | None):
+def check_deadline(deadline: float | None, timeout: float | None, during: str = ""):
     if deadline is not None and time.perf_counter() > deadline:
-        raise RenderFailed(f"stopped by --timeout {timeout:g} s; nothing written")
+        raise RenderFailed(f"stopped by --timeout {timeout:g} s{during}; nothing written")
 
 
 @dataclass
@@ -127,15 +127,29 @@ class Scene:
         return notes, errors
 
 
-def traced_for(graph: Graph, opts: Options) -> Traced:
-    """The graph bounded and flattened with the options' limits."""
+def traced_for(graph: Graph, opts: Options, poll=None) -> Traced:
+    """The graph bounded and flattened with the options' limits (poll: Traced's
+    bounds_poll)."""
     return Traced(graph, opts.max_depth, opts.stack_depth, opts.interval_rows,
-                  opts.max_instances, opts.bounds_budget)
+                  opts.max_instances, opts.bounds_budget, bounds_poll=poll)
 
 
-def prepare_scene(graph: Graph, opts: Options) -> Scene:
+def bounds_poll(label: str, opts: Options, deadline: float | None):
+    """A bounding walk's poll for render_file: its progress line on a terminal (the
+    terrain at 12 walks for 5 s), and --timeout, which may pass during the walk."""
+    progress = Progress(f"{label} bounds", 1, not opts.quiet, unit="node visits")
+
+    def poll(visits: int, expected: int | None):
+        check_deadline(deadline, opts.timeout, " in the bounding walk")
+        if expected:
+            progress.total = expected
+            progress.update(min(visits, expected - 1), visits)
+    return poll, progress
+
+
+def prepare_scene(graph: Graph, opts: Options, poll=None) -> Scene:
     notes = [w.format(show_source=False) for w in graph.warnings]
-    traced = traced_for(graph, opts)
+    traced = traced_for(graph, opts, poll)
     notes += [w.format(show_source=False) for w in traced.warnings
               if w not in graph.warnings]
     return Scene(graph, traced, notes)
@@ -192,8 +206,12 @@ def render_file(path: Path, out: Path, opts: Options,
         if loading is not None:
             with clock.phase("kernel", "the rest of the shading kernel's load"):
                 loading.join()
+    poll, progress = bounds_poll(Path(path).name, opts, deadline)
     with clock.phase("bounds", "hyper-bounding boxes, instance table"):
-        scene = prepare_scene(graph, opts)
+        try:
+            scene = prepare_scene(graph, opts, poll)
+        finally:
+            progress.close()
     with clock.phase("render"):
         frame, events = render_scene(scene, Path(path).name, opts, deadline)
     clock.annotate("render", f"{frame.rays / 1e6:.2f} M rays, "

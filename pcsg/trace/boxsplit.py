@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .boxwalk import COLLECT, CONSUME, walk, walk_in, walk_scratch
+from .boxwalk import COLLECT, CONSUME, STOPPED, walk, walk_in, walk_scratch
 from .instance_table import ENTRY, empty_table, merge
-from .jit import on_threads, share
+from .jit import share, watched
 
 MAX_ITEMS = 8192            # instances one split level may have
 ITEMS_PER_WORKER = 64       # enough that the threads' shares come out even
@@ -24,13 +24,19 @@ def items_for(flat, count: int):
 
 
 def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, table, per_level,
-               changed, workers: int) -> int:
+               changed, workers: int, watch=None, tick=None) -> int:
     """walk from the root into the given boxes, table and counts, the subtrees below the
-    split level on `workers` threads; returns the visits (-1: over budget or stack)."""
-    level, count, items = _split_level(flat, depth, budget, capacity, workers)
+    split level on `workers` threads; returns the visits (-1: over budget or stack,
+    STOPPED: watch[0] was set). The long walks run on helper threads (jit.watched): watch
+    (int64, 1 + workers) is their stop flag and their visits by worker, tick() is called
+    while they run."""
+    if watch is None:
+        watch = np.zeros(1 + workers, dtype=np.int64)
+    level, count, items = _split_level(flat, depth, budget, capacity, workers, watch)
     if count < 2:
-        return walk(flat, depth, budget, capacity, boxes, book, *table, per_level, changed,
-                    np.zeros(3, dtype=np.int64), *items_for(flat, 0), -1)
+        return watched([(walk, (flat, depth, budget, capacity, boxes, book, *table, per_level,
+                                changed, np.zeros(3, dtype=np.int64), *items_for(flat, 0), -1,
+                                watch, 1))], watch, tick)[0]
     # each thread's buffer may hold as many entries as the table: it may get them all
     room = int(book[1]) if book[0] >= 0 else 0
     bkeys = np.zeros((workers, room), dtype=np.uint64)
@@ -42,11 +48,14 @@ def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, table,
     wlevels = np.zeros((workers, per_level.shape[0]), dtype=np.int64)
     wchanged = np.zeros(workers, dtype=np.int64)
     wvisits = np.zeros(workers, dtype=np.int64)
-    on_threads(_walk_share, workers, flat, depth, budget, capacity, count, *items, wboxes,
-               bbook, bkeys, bused, bvals, wlevels, wchanged, wvisits)
+    watched([(_walk_share, (w, workers, flat, depth, budget, capacity, count, *items, wboxes,
+                            bbook, bkeys, bused, bvals, wlevels, wchanged, wvisits, watch))
+             for w in range(workers)], watch, tick)
     split = np.array([CONSUME, level, 0], dtype=np.int64)
     top = walk(flat, depth, budget, capacity, boxes, book, *table, per_level, changed, split,
-               *items, -1)
+               *items, -1, watch, 1)
+    if top == STOPPED or (wvisits == STOPPED).any():
+        return STOPPED
     if top < 0 or (wvisits < 0).any() or top + wvisits.sum() > budget:
         return -1
     np.minimum(boxes[:, :3], wboxes[:, :, :3].min(axis=0), out=boxes[:, :3])
@@ -58,7 +67,7 @@ def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, table,
     return int(top + wvisits.sum())
 
 
-def _split_level(flat, depth: int, budget: int, capacity: int, workers: int):
+def _split_level(flat, depth: int, budget: int, capacity: int, workers: int, watch):
     """The shallowest level with ITEMS_PER_WORKER instances per thread (or the deepest
     with at most MAX_ITEMS), its instance count and their items; count < 2 when the
     walk is better not split."""
@@ -74,7 +83,7 @@ def _split_level(flat, depth: int, budget: int, capacity: int, workers: int):
         """The instances of `level` into items: (walk's result, how many)."""
         split = np.array([COLLECT, level, 0], dtype=np.int64)
         got = walk(flat, depth, budget, capacity, boxes, book, *none, levels,
-                   np.zeros(1, dtype=np.int64), split, *items, -1)
+                   np.zeros(1, dtype=np.int64), split, *items, -1, watch, 1)
         return got, int(split[2])
 
     best = last = 0
@@ -95,17 +104,21 @@ def _split_level(flat, depth: int, budget: int, capacity: int, workers: int):
 @share
 def _walk_share(w, workers, flat, depth, budget, capacity, count, items, item_hash,
                 item_params, item_boxes, wboxes, bbook, bkeys, bused, bvals, wlevels,
-                wchanged, wvisits):
+                wchanged, wvisits, watch):
     """Worker w's subtrees: split instances w, w + workers, ..., with one scratch for all
-    of them; wvisits[w] -1 when one of them ran out of budget or stack."""
+    of them; wvisits[w] -1 when one of them ran out of budget or stack, STOPPED when
+    watch[0] stopped it."""
     split = np.zeros(3, dtype=np.int64)
     fr, hs, params, acc, tmp, stack, args, m34 = walk_scratch(flat, capacity)
     for i in range(w, count, workers):
+        if watch[0] != 0:       # between subtrees too: one may make fewer visits than a report
+            wvisits[w] = STOPPED
+            break
         got = walk_in(flat, depth, budget - wvisits[w], capacity, wboxes[w], bbook[w],
                       bkeys[w], bused[w], bvals[w], wlevels[w], wchanged[w:w + 1], split,
                       items, item_hash, item_params, item_boxes, i, fr, hs, params, acc, tmp,
-                      stack, args, m34)
+                      stack, args, m34, watch, 1 + w)
         if got < 0:
-            wvisits[w] = -1
+            wvisits[w] = got
             break
         wvisits[w] += got

@@ -23,6 +23,8 @@ from .primitives import BOXES, FRACTAL_MIN
 
 NODE, SLOT, LEVEL, PHASE, CUT = range(5)
 COLLECT, CONSUME = 1, 2    # split modes of walk
+STOPPED = -3               # a walk's result when watch[0] asked it to stop
+TELL_EVERY = 1 << 16       # visits between a walk's reports to its watch (a few ms)
 
 
 @inline
@@ -131,20 +133,20 @@ def walk_scratch(flat, capacity):
             np.empty(6), np.empty(flat.max_stack), np.empty(12), np.empty((3, 4)))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def walk(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, per_level, changed,
-         split, items, item_hash, item_params, item_boxes, first):
+         split, items, item_hash, item_params, item_boxes, first, watch, tell):
     """walk_in with scratch of its own."""
     fr, hs, params, acc, tmp, stack, args, m34 = walk_scratch(flat, capacity)
     return walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals,
                    per_level, changed, split, items, item_hash, item_params, item_boxes, first,
-                   fr, hs, params, acc, tmp, stack, args, m34)
+                   fr, hs, params, acc, tmp, stack, args, m34, watch, tell)
 
 
 @kernel
 def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, per_level,
             changed, split, items, item_hash, item_params, item_boxes, first, fr, hs, params,
-            acc, tmp, stack, args, m34):
+            acc, tmp, stack, args, m34, watch, tell):
     """Fill boxes[n] (pre-set to empty) with the union of node n's instance boxes, and the
     table (keys, used, vals) with the box of every S-node instance and operator operand
     of the top derivation levels that fit (see instance_table.record; `book` is its
@@ -160,6 +162,10 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
     instances that reach `level` in the items arrays instead of entering them (returns -2
     when they are more than the arrays hold), CONSUME takes their boxes from item_boxes,
     in the same order (trace/boxsplit.py).
+
+    Every TELL_EVERY visits it adds the visits since its last report to watch[tell], and
+    returns STOPPED if watch[0] is set: the thread that waits for the walk reads the one
+    for progress and sets the other on Ctrl-C or a timeout (jit.watched).
 
     The scratch arrays come from walk_scratch, and may hold an earlier walk's values:
     every frame's row is written as the frame is pushed, and every parameter row before
@@ -181,6 +187,7 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
         params[0, :] = np.nan
     sp = 1
     visits = 0
+    told = 0
     while sp > 0:
         f = sp - 1
         node = fr[f, NODE]
@@ -190,6 +197,11 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
             visits += 1
             if visits > budget:
                 return -1
+            if visits - told >= TELL_EVERY:
+                watch[tell] += visits - told
+                told = visits
+                if watch[0] != 0:
+                    return STOPPED
             acc[f, :3] = np.inf
             acc[f, 3:] = -np.inf
             if flat.chain[node] != 0:
@@ -293,13 +305,15 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
         sp -= 1
     if buffered:
         copy_into(item_boxes[first], acc[0])
+    watch[tell] += visits - told
     return visits
 
 
 FIRST_DEPTH = 4        # the first walk, which measures how fast the instances grow
 
 
-def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances: bool = False):
+def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances: bool = False,
+               poll=None):
     """(n, 6) hyper boxes of every node by visiting every instance, whether they are
     complete, the table of per-instance boxes of the top derivation levels (with
     `instances`: as many levels as fit half of TABLE_SLOTS, as (keys, used, vals) for the
@@ -314,7 +328,11 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
     A graftal is bounded at max_depth or not at all (no shallower depth bounds its deeper
     instances), so when the growth predicts that max_depth will not fit it is left
     unbounded without the walk that would find out: for a graftal that neither ends nor
-    contracts that walk spent the whole budget, 15 s of every `pcsg stats` and render."""
+    contracts that walk spent the whole budget, 15 s of every `pcsg stats` and render.
+
+    poll(visits, expected), if given, is called every 50 ms while a walk runs, with the
+    visits it has made and those predicted for it (None for the first two walks); an
+    exception it raises, or Ctrl-C, stops the walk within milliseconds and is raised."""
     from ..graph.flat import flatten_graph
     budget = BOUNDS_BUDGET if budget is None else budget
     n = len(graph.nodes)
@@ -323,9 +341,10 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
     graftal = (flat.term_rule[flat.kind == SELECT] < 0).any()
     depth = min(max_depth, FIRST_DEPTH)
     best = last = None
+    expected = None
     while True:
         boxes, visits, changed, table = _walk_to(flat, empty, depth, max_depth, budget,
-                                                 instances)
+                                                 instances, poll, expected)
         if visits < 0:
             table = None            # over budget: best's table is built again below
             break
@@ -344,6 +363,7 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
                 break                               # max_depth would not fit
             if deeper == depth:
                 return boxes, True, table, depth    # the next depth would not fit
+            expected = int(cost)
         if not graftal:
             # kept compact, so that its slots are free while the next walk fills its own
             best = boxes, compact(table), depth
@@ -356,7 +376,8 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
     return best[0], True, expand(best[1]), best[2]
 
 
-def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bool):
+def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bool,
+             poll=None, expected: int | None = None):
     """One walk to `depth`, on every core: boxes, visits (-1: over budget), how many
     instances the depth bound changed, table."""
     from .boxsplit import walk_split
@@ -367,8 +388,11 @@ def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bo
     table = empty_table(TABLE_SLOTS if instances else 2)
     book = new_book(depth + 1 if instances else -1, TABLE_SLOTS // 2)
     changed = np.zeros(1, dtype=np.int64)
+    workers = threads()
+    watch = np.zeros(1 + workers, dtype=np.int64)
+    tick = None if poll is None else lambda: poll(int(watch[1:].sum()), expected)
     visits = walk_split(flat, depth, budget, capacity, boxes, book, table, per_level, changed,
-                        threads())
+                        workers, watch, tick)
     if instances and book[0] < 0:
         table = empty_table()           # not even the root's level fits
     return boxes, visits, int(changed[0]), table

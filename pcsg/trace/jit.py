@@ -84,3 +84,21 @@ def on_threads(fn, workers: int, *args) -> None:
         wait(jobs)      # the others' shares write into the caller's arrays
     for job in jobs:
         job.result()
+
+
+def watched(calls, watch, tick=None, every: float = 0.05) -> list:
+    """Each call (fn, args) on a helper thread while this thread waits, calling tick()
+    every `every` seconds (progress, a deadline); returns their results. Ctrl-C, or an
+    exception from tick, sets watch[0], which the walks read every few milliseconds
+    (boxwalk.walk_in), and is raised once they have stopped: a walk of several seconds
+    on this thread would hold the signal until it ended."""
+    jobs = [_helpers(len(calls)).submit(fn, *args) for fn, args in calls]
+    try:
+        while wait(jobs, timeout=every).not_done:
+            if tick is not None:
+                tick()
+    except BaseException:
+        watch[0] = 1
+        wait(jobs)
+        raise
+    return [job.result() for job in jobs]
