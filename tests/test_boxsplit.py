@@ -12,7 +12,8 @@ from pcsg.trace.instance_table import TABLE_SLOTS, empty_table, new_book
 from tests.conftest import GRAMMARS
 
 
-def split_walk(graph, depth, workers, budget=10**9, most=TABLE_SLOTS // 2, slots=TABLE_SLOTS):
+def split_walk(graph, depth, workers, budget=10**9, most=TABLE_SLOTS // 2, slots=TABLE_SLOTS,
+               watch=None):
     n = len(graph.nodes)
     empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
     flat = flatten_graph(graph, empty)
@@ -23,7 +24,7 @@ def split_walk(graph, depth, workers, budget=10**9, most=TABLE_SLOTS // 2, slots
     changed = np.zeros(1, dtype=np.int64)
     capacity = (depth + 2) * (n + 2) + 16
     visits = walk_split(flat, depth, budget, capacity, boxes, book, table, per_level, changed,
-                        workers)
+                        workers, watch)
     keys, used, vals = table
     kept = used > 0
     entries = sorted(zip(keys[kept].tolist(), used[kept].tolist(), map(tuple, vals[kept])))
@@ -112,18 +113,9 @@ def test_a_walk_whose_watch_is_set_stops(workers):
     graph = compile_file(GRAMMARS / "carpenter_terrain.pcsg", {"cnt": 8})
     stop = np.zeros(1 + workers, dtype=np.int64)
     stop[0] = 1
-    n = len(graph.nodes)
-    empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
-    flat = flatten_graph(graph, empty)
-
-    def run(watch):
-        return walk_split(flat, 64, 10**9, 66 * (n + 2) + 16, empty.copy(),
-                          new_book(65, TABLE_SLOTS // 2), empty_table(TABLE_SLOTS),
-                          np.zeros(66, dtype=np.int64), np.zeros(1, dtype=np.int64), workers,
-                          watch)
-    assert run(stop) == STOPPED
+    assert split_walk(graph, 64, workers, watch=stop)[0] == STOPPED
     watch = np.zeros(1 + workers, dtype=np.int64)
-    visits = run(watch)
+    visits = split_walk(graph, 64, workers, watch=watch)[0]
     assert visits > 1_000_000 and watch[0] == 0 and visits <= watch[1:].sum() < 1.01 * visits
 
 
