@@ -61,6 +61,18 @@ def test_packets_find_what_single_rays_find(name, overrides, lod):
     assert np.array_equal(obj.trace(p, to, tmax=1.0, any_hit=True, lod=lod).hit, blocked)
 
 
+def test_rays_that_part_at_their_pixel_find_what_single_rays_find():
+    # at this footprint the tetrahedra of level 1 are below the pixel of some of a
+    # frame's rays and not of others (frames part three times, and seven go below
+    # whole, counted with packet.pixel_split wrapped under NUMBA_DISABLE_JIT): those
+    # rays wait in the frame below while the others' frame above it is walked
+    obj = pcsg.load(GRAMMARS / "sierpinski.pcsg", c=6)
+    o, d = view_rays(obj, 16)
+    alone = obj.trace(o, d, lod=0.57, packets=False)
+    assert alone.hit.sum() > 100
+    assert_same(obj.trace(o, d, lod=0.57), alone)
+
+
 def test_a_packet_deeper_than_its_stack_goes_on_ray_by_ray():
     # a tower of spheres rising towards the eye: every union's far child (its sphere)
     # waits on the stack while the nearer rest of the tower is walked first

@@ -42,6 +42,10 @@ from .walk import finish, hit_primitive, hit_volume, step_unary, walk
 # pixels) it was: renders 8 to 16 % faster, 32 slower, 512 and 1024 no faster (README)
 PACKET = 256
 FRAMES = 128            # packet frames; a deeper stack sends its rays on alone
+# a frame's PHASE at or above ALONE: its rays go on alone when it is popped, their
+# windows inside its box already, and BOXED as well where PHASE - ALONE says so
+ALONE = 4
+WAIT = -1               # pixel_split: frame g waits, marked ALONE
 
 Packet = namedtuple("Packet", [
     "F", "I", "H",      # the frames' shared columns (nodes.py layout; the ray columns unused)
@@ -75,11 +79,14 @@ def make_packet(flat):
         np.empty((PACKET, 3)), np.empty((PACKET, 3)), np.zeros(PACKET))
 
 
-@kernel
+@inline
 def alone(flat, P, g, j, phase, tmin, tmax, any_hit, lod, max_depth, S, ev, res):
-    """Ray number j of frame g finishes the frame's subtree on its own walk (compiled
-    once and called from every place that sends rays on alone). The frame's window is
-    inside its node's box already; `phase` says whether also BOXED."""
+    """Ray number j of frame g finishes the frame's subtree on its own walk. The frame's
+    window is inside its node's box already; `phase` says whether also BOXED.
+
+    Inlined at one place in `trace`, where frames marked ALONE are popped: called, it
+    took the Flat, Packet and Scratch tuples by value, 5 kB pushed on the stack per call,
+    a tenth of the terrain's trace time (tools/profile_trace.py)."""
     k = P.act[g, j]
     row = P.block[g] * PACKET + k
     F, I, H = S.F, S.I, S.H
@@ -100,12 +107,6 @@ def alone(flat, P, g, j, phase, tmin, tmax, any_hit, lod, max_depth, S, ev, res)
     if found:
         P.hit[k] = True
         P.best[k] = -np.inf if any_hit else t
-
-
-@inline
-def all_alone(flat, P, g, phase, tmin, tmax, any_hit, lod, max_depth, S, ev, res):
-    for j in range(P.n[g]):
-        alone(flat, P, g, j, phase, tmin, tmax, any_hit, lod, max_depth, S, ev, res)
 
 
 @inline
@@ -158,6 +159,11 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
     while sp > 0:
         sp -= 1
         g = sp
+        if I[g, PHASE] >= ALONE:
+            for j in range(cnt[g]):
+                alone(flat, P, g, j, I[g, PHASE] - ALONE, tmin, tmax, any_hit, lod,
+                      max_depth, S, ev, res)
+            continue
         boxed = I[g, PHASE] == BOXED
         within = I[g, PHASE] != 0
         # whether the rays' windows have been cut to their nearest hits since the frame was
@@ -192,18 +198,16 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                         b0, b1 = volume_window(flat, node, slot, R, blk + k)
                     t0 = max(t0, b0)
                     t1 = min(t1, b1)
-                if t0 <= t1:
-                    act[g, m] = k
-                    win[g, m, 0] = t0
-                    win[g, m, 1] = t1
-                    m += 1
+                keep_ray(act, win, g, m, k, t0, t1)
+                m += t0 <= t1
             cnt[g] = m
             if m == 0:
                 break
             phase = BOXED if boxed else INSIDE
             if (not together or m == 1 or kind == INTERSECTION or kind == DIFFERENCE
                     or (kind == SELECT and flat.pixels_slot >= 0)):
-                all_alone(flat, P, g, phase, tmin, tmax, any_hit, lod, max_depth, S, ev, res)
+                I[g, PHASE] = ALONE + phase
+                sp += 1
                 break
             if kind == PRIMITIVE:
                 for j in range(m):
@@ -216,16 +220,22 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                         best[k] = -np.inf if any_hit else t
                 break
             if kind == SELECT:
-                if not select(flat, node, P, g, blk, phase, tmin, tmax, any_hit, lod,
-                              max_depth, budget, S, ev, res):
+                on, below_all = pixel_split(flat, node, P, g, phase, cap, lod, max_depth)
+                if on == WAIT:
+                    sp += 1
+                    break
+                g = on
+                sp = on         # frames 0..g-1 wait: the rays split off at g - 1 too
+                if not select(flat, node, P, g, blk, below_all, tmin, any_hit, budget,
+                              max_depth, S, ev, res):
                     break
                 boxed = False
                 within = False
                 continue
             if kind == UNION:
                 if sp + flat.child_count[node] > cap:
-                    all_alone(flat, P, g, phase, tmin, tmax, any_hit, lod, max_depth, S, ev,
-                              res)
+                    I[g, PHASE] = ALONE + phase
+                    sp += 1
                     break
                 sp += split(flat, node, P, g, blk, has_table)
                 break
@@ -261,37 +271,55 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
 
 
 @inline
-def select(flat, node, P, g, blk, phase, tmin, tmax, any_hit, lod, max_depth, budget, S, ev,
-           res):
+def pixel_split(flat, node, P, g, phase, cap, lod, max_depth):
+    """At an S-node the rays for which the instance is below their pixel stop refining.
+    If only some are, frame g keeps those, marked ALONE, and a copy of it at g + 1 takes
+    the others: returns (the frame that goes on: g, g + 1, or WAIT where there is no
+    room above g and frame g, all its rays marked ALONE, is to be pushed again; whether
+    all its rays are below their pixel)."""
+    F, I, H, act, win = P.F, P.I, P.H, P.act, P.win
+    m = P.n[g]
+    if I[g, CUT] != 0 or I[g, LEVEL] + 1 > max_depth or lod <= 0.0:
+        return g, False
+    size = world_size(flat.box, node, F, g)
+    below = 0
+    for j in range(m):
+        if size < lod * P.dnorm[act[g, j]] * max(win[g, j, 0], 0.0):
+            below += 1
+    if below == 0 or below == m:
+        return g, below == m
+    d = g + 1
+    if d < cap:
+        copy_frame(F, I, H, g, d)
+        P.block[d] = P.block[g]
+    I[g, PHASE] = ALONE + phase
+    if d >= cap:
+        return WAIT, False
+    b = 0
+    q = 0
+    for j in range(m):
+        k = act[g, j]
+        if size < lod * P.dnorm[k] * max(win[g, j, 0], 0.0):
+            f, i = g, b
+            b += 1
+        else:
+            f, i = d, q
+            q += 1
+        act[f, i] = k
+        win[f, i, 0] = win[g, j, 0]
+        win[f, i, 1] = win[g, j, 1]
+    P.n[g] = b
+    P.n[d] = q
+    return d, False
+
+
+@inline
+def select(flat, node, P, g, blk, below_all, tmin, any_hit, budget, max_depth, S, ev, res):
     """choose_rule for the packet at an S-node, its rays' windows narrowed to its boxes
-    already, or to its operand's where `phase` is BOXED (which passes on to the rays sent
-    on alone): False if the frame ends here."""
+    already (and pixel_split past): False if the frame ends here."""
     F, I, H, R, act, win = P.F, P.I, P.H, P.R, P.act, P.win
     m = P.n[g]
     level = I[g, LEVEL] + 1
-    below_all = False
-    if I[g, CUT] == 0 and level <= max_depth and lod > 0.0:
-        # the rays for which this instance is below their pixel stop refining: if only
-        # some, those go on alone
-        size = world_size(flat.box, node, F, g)
-        below = 0
-        for j in range(m):
-            if size < lod * P.dnorm[act[g, j]] * max(win[g, j, 0], 0.0):
-                below += 1
-        below_all = below == m
-        if below > 0 and not below_all:
-            q = 0
-            for j in range(m):
-                k = act[g, j]
-                if size < lod * P.dnorm[k] * max(win[g, j, 0], 0.0):
-                    alone(flat, P, g, j, phase, tmin, tmax, any_hit, lod, max_depth, S, ev,
-                          res)
-                else:
-                    act[g, q] = k
-                    win[g, q, 0] = win[g, j, 0]
-                    win[g, q, 1] = win[g, j, 1]
-                    q += 1
-            m = q
     q = 0
     for j in range(m):
         k = act[g, j]
@@ -344,6 +372,16 @@ def select(flat, node, P, g, blk, phase, tmin, tmax, any_hit, lod, max_depth, bu
 
 
 @inline
+def keep_ray(act, win, f, q, k, t0, t1):
+    """Ray k with window [t0, t1] as frame f's ray number q, written whether or not the
+    window is empty: the caller counts it only if not (q += t0 <= t1). A third to two
+    thirds of the rays leave at each box test, which no branch predicts."""
+    act[f, q] = k
+    win[f, q, 0] = t0
+    win[f, q, 1] = t1
+
+
+@inline
 def narrow(flat, P, g, slot, blk):
     """Keeps frame g's rays that meet the table's box `slot`, their windows narrowed to
     it: returns how many."""
@@ -355,11 +393,8 @@ def narrow(flat, P, g, slot, blk):
         b0, b1 = slabs(x0, y0, z0, x1, y1, z1, R, blk + k)
         t0 = max(win[g, j, 0], b0)
         t1 = min(win[g, j, 1], b1)
-        if t0 <= t1:
-            act[g, q] = k
-            win[g, q, 0] = t0
-            win[g, q, 1] = t1
-            q += 1
+        keep_ray(act, win, g, q, k, t0, t1)
+        q += t0 <= t1
     P.n[g] = q
     return q
 
@@ -390,13 +425,9 @@ def split(flat, node, P, g, blk, has_table):
                 e0, e1 = volume_window(flat, c, slot, R, blk + ray)
             e0 = max(e0, win[g, j, 0])
             e1 = min(e1, win[g, j, 1])
-            if e0 > e1:
-                continue
-            tact[used, q] = ray
-            twin[used, q, 0] = e0
-            twin[used, q, 1] = e1
-            q += 1
-            near = min(near, e0)
+            keep_ray(tact, twin, used, q, ray, e0, e1)
+            near = min(near, e0 if e0 <= e1 else np.inf)
+            q += e0 <= e1
         if q == 0:
             continue
         tn[used] = q
