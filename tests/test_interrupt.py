@@ -6,7 +6,10 @@ import subprocess
 import sys
 
 PROGRAM = """
-import sys, time
+import signal, sys, time
+# Python leaves SIGINT alone where it starts with it ignored (a job started with `&` in
+# a script, nohup), and the redelivered interrupt would then be dropped
+signal.signal(signal.SIGINT, signal.default_int_handler)
 {install}
 class Finalized:
     def __del__(self):
