@@ -20,7 +20,6 @@ from .interrupt import redeliver_in_finalizers  # noqa: E402
 from .language.errors import PcsgError  # noqa: E402
 from .limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES,  # noqa: E402
                      bounces_problem)
-from .memory import return_freed_memory  # noqa: E402
 from .timings import Timings, note_startup  # noqa: E402
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
@@ -559,7 +558,6 @@ COMMANDS = {"check": cmd_check, "expand": cmd_expand, "stats": cmd_stats, "graph
 
 def main(argv: list[str] | None = None) -> int:
     redeliver_in_finalizers()
-    return_freed_memory()
     args = _parser().parse_args(argv)
     try:
         return COMMANDS[args.command](args)

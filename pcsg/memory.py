@@ -1,27 +1,51 @@
-"""Large blocks that pcsg frees go back to the system.
+"""The bounding walk's large blocks go back to the system when it frees them.
 
-glibc serves an allocation of 128 KiB or more with its own mapping, which a free
+glibc serves an allocation of 128 KiB or more with a mapping of its own, which a free
 returns, but after each such free it raises that threshold to the block's size (up to
 32 MiB): once the bounding walk had freed its first instance table (35 MB) and its
-threads' table buffers, the next walks' tables and the render's arrays came from the
-heap instead, which keeps what is freed. The `pcsg` command fixes the threshold, which
-turns that adjustment off: the terrain's peak memory is 15 MB lower at orders 9 and 12
-(288 against 273 MB at 12, /usr/bin/time). A library does not change its host's
-allocator, so `pcsg.load` leaves it alone."""
+threads' table buffers, the next walks' tables came from the heap instead, which keeps
+what is freed, and the render's arrays were added on top. `freeing_blocks` holds the
+threshold at 128 KiB while the walk runs (the terrain's peak memory: 272 MB against
+286 MB at orders 9 and 12) and sets it to 32 MiB after, the heap keeping up to twice
+that when freed, as glibc's own adjustment would have it by then: each batch of the
+render allocates its workers' scratch anew, and mapped afresh every time it cost a
+fifth of Sierpinski 6's render in page faults. A library does not change its host's
+allocator, so `pcsg.load` leaves it alone; `pcsg render` does."""
 from __future__ import annotations
 
 import ctypes
+from contextlib import contextmanager
 
-M_MMAP_THRESHOLD = -3           # mallopt's parameter number (malloc.h)
-THRESHOLD = 128 * 1024          # glibc's own default, held there
+M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3     # mallopt's parameter numbers (malloc.h)
+RETURNED = 128 * 1024           # glibc's initial threshold
+KEPT = 32 * 1024 * 1024         # the most its own adjustment raises it to
 
 
-def return_freed_memory() -> bool:
-    """Whether the threshold was fixed: False where the C library has no mallopt
-    (macOS, musl), which changes nothing else."""
+def _mallopt():
     try:
         mallopt = ctypes.CDLL(None).mallopt
     except (OSError, AttributeError):
-        return False
+        return None             # no mallopt (macOS, musl): nothing changes
     mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
-    return bool(mallopt(M_MMAP_THRESHOLD, THRESHOLD))
+    return mallopt
+
+
+def set_threshold(size: int) -> bool:
+    """Whether the threshold is now fixed at `size` bytes, and the free memory the heap
+    keeps at twice that."""
+    mallopt = _mallopt()
+    return (mallopt is not None and bool(mallopt(M_MMAP_THRESHOLD, size))
+            and bool(mallopt(M_TRIM_THRESHOLD, 2 * size)))
+
+
+@contextmanager
+def freeing_blocks(enabled: bool = True):
+    """Blocks of 128 KiB or more freed inside go back to the system; after it, the heap
+    serves and keeps blocks up to 32 MiB."""
+    if enabled:
+        set_threshold(RETURNED)
+    try:
+        yield
+    finally:
+        if enabled:
+            set_threshold(KEPT)

@@ -16,6 +16,7 @@ from ..trace.nodes import (EV_INTERVALS, EV_NONFINITE, EV_SELECTION, EV_SINGULAR
 from ..scene import MAX_AO_SAMPLES
 from ..limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES,
                       MAX_INTERVAL_ROWS, MAX_STACK_DEPTH, bounces_problem)
+from ..memory import freeing_blocks
 from ..timings import Timings
 from ..tracer import Hits, Traced
 from . import preload
@@ -207,7 +208,7 @@ def render_file(path: Path, out: Path, opts: Options,
             with clock.phase("kernel", "the rest of the shading kernel's load"):
                 loading.join()
     poll, progress = bounds_poll(Path(path).name, opts, deadline)
-    with clock.phase("bounds", "hyper-bounding boxes, instance table"):
+    with clock.phase("bounds", "hyper-bounding boxes, instance table"), freeing_blocks():
         try:
             scene = prepare_scene(graph, opts, poll)
         finally:
