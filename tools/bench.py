@@ -13,6 +13,7 @@ their expansion.
 from __future__ import annotations
 
 import argparse
+import importlib.metadata
 import json
 import os
 import platform
@@ -184,6 +185,11 @@ def main():
                    f"{os.sysconf('SC_PHYS_PAGES') * os.sysconf('SC_PAGE_SIZE') / 2**30:.0f} GiB, "
                    f"{platform.platform()}",
         "python": platform.python_version(), "povray": pov_version,
+        # the same code measured 15 % more memory on a later day's .venv: which versions ran
+        "packages": {name: importlib.metadata.version(name)
+                     for name in ("numpy", "numba", "llvmlite", "lark", "Pillow")},
+        "commit": subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT,
+                                 capture_output=True, text=True).stdout.strip(),
         "repeat": args.repeat, "size": f"{SIZE[0]}x{SIZE[1]}", "timeout_s": args.timeout,
         "kernel_cache_before_first_start": state,
         "first_start_wall_s": first["wall"],
