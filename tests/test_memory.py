@@ -36,11 +36,12 @@ def still_resident(inside: bool) -> tuple[int, int]:
 
 @pytest.mark.skipif(platform.libc_ver()[0] != "glibc", reason="glibc's mallopt")
 def test_freed_blocks_go_back_to_the_system_inside_and_are_kept_after():
+    # the same allocations, inside and after: returned inside, kept after. Without it,
+    # glibc's own adjustment keeps them as it does after (30 MiB run by run alone; once,
+    # in a run of the whole suite beside the bounds-checked pass, 0: so not asserted)
     inside, after = still_resident(True)
     assert inside < 5
     assert after >= 25
-    # without it the heap keeps them inside too: what the walk's tables did
-    assert still_resident(False)[0] >= 25
 
 
 def test_disabled_it_changes_nothing():
