@@ -39,13 +39,11 @@ def set_threshold(size: int) -> bool:
 
 
 @contextmanager
-def freeing_blocks(enabled: bool = True):
+def freeing_blocks():
     """Blocks of 128 KiB or more freed inside go back to the system; after it, the heap
     serves and keeps blocks up to 32 MiB."""
-    if enabled:
-        set_threshold(RETURNED)
+    set_threshold(RETURNED)
     try:
         yield
     finally:
-        if enabled:
-            set_threshold(KEPT)
+        set_threshold(KEPT)

@@ -205,7 +205,8 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                 break
             phase = BOXED if boxed else INSIDE
             if (not together or m == 1 or kind == INTERSECTION or kind == DIFFERENCE
-                    or (kind == SELECT and flat.pixels_slot >= 0)):
+                    or (kind == SELECT and flat.pixels_slot >= 0)
+                    or (kind == UNION and sp + flat.child_count[node] > cap)):
                 I[g, PHASE] = ALONE + phase
                 sp += 1
                 break
@@ -233,10 +234,6 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                 within = False
                 continue
             if kind == UNION:
-                if sp + flat.child_count[node] > cap:
-                    I[g, PHASE] = ALONE + phase
-                    sp += 1
-                    break
                 sp += split(flat, node, P, g, blk, has_table)
                 break
             if kind == TRANSFORM:
@@ -284,8 +281,7 @@ def pixel_split(flat, node, P, g, phase, cap, lod, max_depth):
     size = world_size(flat.box, node, F, g)
     below = 0
     for j in range(m):
-        if size < lod * P.dnorm[act[g, j]] * max(win[g, j, 0], 0.0):
-            below += 1
+        below += below_pixel(size, lod, P, g, j)
     if below == 0 or below == m:
         return g, below == m
     d = g + 1
@@ -299,7 +295,7 @@ def pixel_split(flat, node, P, g, phase, cap, lod, max_depth):
     q = 0
     for j in range(m):
         k = act[g, j]
-        if size < lod * P.dnorm[k] * max(win[g, j, 0], 0.0):
+        if below_pixel(size, lod, P, g, j):
             f, i = g, b
             b += 1
         else:
@@ -311,6 +307,13 @@ def pixel_split(flat, node, P, g, phase, cap, lod, max_depth):
     P.n[g] = b
     P.n[d] = q
     return d, False
+
+
+@inline
+def below_pixel(size, lod, P, g, j):
+    """Whether an instance of world size `size` is below the pixel of frame g's ray j
+    where it enters the instance."""
+    return size < lod * P.dnorm[P.act[g, j]] * max(P.win[g, j, 0], 0.0)
 
 
 @inline
