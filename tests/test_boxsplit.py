@@ -16,7 +16,7 @@ def split_walk(graph, depth, workers, budget=10**9, most=TABLE_SLOTS // 2, slots
                watch=None):
     n = len(graph.nodes)
     empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
-    flat = flatten_graph(graph, empty)
+    flat = flatten_graph(graph, empty, runs=False)     # as walk_boxes: runs map by map
     boxes = empty.copy()
     table = empty_table(slots)
     book = new_book(depth + 1, most)

@@ -33,6 +33,8 @@ Flat = namedtuple("Flat", [
     "fixed",         # int8[n]      T- and paint nodes whose arguments are constants: 1, with
     "fixed_map",     # float64[n,24]  [L (9) | t (3) | L^-1 (9) | unused (3)], row-major;
                      #                paint: [r, g, b | unused]
+    "then",          # int32[n]     T-nodes: the T-node below whose map they compose with
+                     #              their own at run time (_compose_chains), -1: none
     "box",           # float64[n,6] hyper-bounding box in the node's input frame
     "sphere",        # float64[n,4] (centre, radius) bounding a graftal S-node instead of its
                      #              box where that is smaller (radius < 0: the box); [0,4]
@@ -79,13 +81,15 @@ Flat = namedtuple("Flat", [
 
 def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
                   normal_decay: float = NORMAL_DECAY, spheres=None, states=None,
-                  native_args: bool = False) -> Flat:
+                  native_args: bool = False, runs: bool = True) -> Flat:
     """`table`: (keys, used, boxes) of the instance table; keyed by state where
     `states` gives each node's key slots (graph/states.py; None: not keyed). With
     `native_args`, the arguments of T- and paint nodes and the selections of S-nodes are
     compiled too (Flat.arg_fn): for the systems bounded instance by instance, whose walks
     visit millions of instances; a system bounded by its states would pay their load
-    (4 ms for the tree's arguments) for nothing."""
+    (4 ms for the tree's arguments) for nothing. With `runs`, a run of T-nodes is
+    entered as one (_compose_chains), as the tracer does; the bounding walk does without
+    (trace/boxwalk.py)."""
     nodes = graph.nodes
     n = len(nodes)
     kind = np.array([x.kind for x in nodes], dtype=np.int8)
@@ -142,7 +146,10 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
             state_count[i] = len(slots)
     starts = _starts(counts)
     _compose_fixed_chains(kind, fixed, fixed_map, starts, children)
+    # before the runs are composed: the T-nodes a run skips read parameters too
     defer = deferrable(graph, vm, fixed, starts, children)
+    then = (_compose_chains(kind, starts, children) if runs
+            else np.full(n, -1, dtype=np.int32))
     chain = _chains(kind, starts, children)
     return Flat(
         kind=kind, code=code,
@@ -150,7 +157,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
         children=children,
         expr_start=_starts(ecounts), expr_count=ecounts,
         expr_ids=np.array([e for x in nodes for e in x.exprs], dtype=np.int32),
-        term_rule=term, fixed=fixed, fixed_map=fixed_map,
+        term_rule=term, fixed=fixed, fixed_map=fixed_map, then=then,
         box=np.ascontiguousarray(boxes, dtype=np.float64), fractal=fractal,
         sphere=np.ascontiguousarray(np.zeros((0, 4)) if spheres is None else spheres,
                                     dtype=np.float64),
@@ -274,6 +281,33 @@ def _compose_fixed_chains(kind, fixed, maps, starts, children):
             maps[i, 12:21] = np.linalg.inv(m[:3, :3]).ravel()
             children[starts[i]] = children[starts[c]]
             changed = True
+
+
+def _compose_chains(kind, starts, children):
+    """A T-node whose child is a T-node (one of them computed from parameters; fixed
+    pairs are composed above) composes the child's map with its own when it is entered
+    (nodes.composed_affine) and points past it: the terrain's final `move(0,0,z1)
+    zshear(...)` is one frame and one ray transform per ray instead of two. The skipped
+    node stays in place for any other parent, and itself composes what is below it.
+    Returns `then`."""
+    below = np.full(len(kind), -1, dtype=np.int32)
+    for i in np.flatnonzero(kind == TRANSFORM):
+        c = children[starts[i]]
+        if kind[c] == TRANSFORM:
+            below[i] = c
+    then = np.full(len(kind), -1, dtype=np.int32)
+    past = {}
+    for i in np.flatnonzero(below >= 0):
+        seen, c = {int(i)}, int(below[i])
+        while below[c] >= 0 and c not in seen:
+            seen.add(c)
+            c = int(below[c])
+        if below[c] < 0:        # else a cycle of T-nodes alone, which no rule makes
+            then[i] = below[i]
+            past[int(i)] = children[starts[c]]
+    for i, c in past.items():
+        children[starts[i]] = c
+    return then
 
 
 def _chains(kind, starts, children):

@@ -337,7 +337,8 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
     budget = BOUNDS_BUDGET if budget is None else budget
     n = len(graph.nodes)
     empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
-    flat = flatten_graph(graph, empty, native_args=True)
+    # runs of T-nodes entered one by one: composed (nodes.composed_affine), it was slower
+    flat = flatten_graph(graph, empty, native_args=True, runs=False)
     graftal = (flat.term_rule[flat.kind == SELECT] < 0).any()
     depth = min(max_depth, FIRST_DEPTH)
     best = last = None

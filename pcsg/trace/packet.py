@@ -32,7 +32,7 @@ from .deferred import defer_step
 from .nodes import (BOXED, CUT, DCALC, DPAINT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, LEVEL, M0, MAT, NAVG,
                     NODE, OX, PAINT, PHASE, RAY_WIDTH, SLOT, T0, T1, axis_aligned, child_hash,
-                    copy_frame, instance_slot, map_matrix, map_ray, map_ray_scaled, note,
+                    copy_frame, culprit, instance_slot, map_matrix, map_ray, map_ray_scaled, note,
                     operand_entry, operand_slot, packet_box, pick_rule, powers_of_two,
                     set_inverse, slabs, state_slot, transform_map, volume_window, world_size)
 from .walk import finish, hit_primitive, hit_volume, step_unary, walk
@@ -241,8 +241,9 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                                     S.m34, S.m21)
                 L = S.m21
                 if bad != 0:
-                    note_all(ev, EV_NONFINITE if bad == 1 else EV_SINGULAR, node, I[g, LEVEL],
-                             m)
+                    note_all(ev, EV_NONFINITE if bad == 1 else EV_SINGULAR,
+                             culprit(flat, node, P.params, I[g, SLOT], H[g], S.stack, S.args,
+                                     S.m34, bad), I[g, LEVEL], m)
                     break
                 own = (g + 1) * PACKET
                 within = axis_aligned(L)

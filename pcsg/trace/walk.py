@@ -16,10 +16,10 @@ from .jit import copy_into, inline, kernel
 from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE,
                     EV_SELECTION, EV_SINGULAR, EV_STACK, EV_VISITS, INSIDE,
                     DPAINT, LEVEL, MAT, NODE, OX, PAINT, PHASE, SLOT, T0, T1, axis_aligned,
-                    child_hash, copy_frame, enter_paint, entry_window, instance_slot, operand_entry,
-                    node_window, enter_transform, instance_window, note, operand_slot, pick_rule,
-                    cached_calc, state_window, volume_window, world_diameter, world_normal,
-                    world_size, average_box_normal, volume_normal)
+                    child_hash, copy_frame, culprit, enter_paint, entry_window, instance_slot,
+                    operand_entry, node_window, enter_transform, instance_window, note,
+                    operand_slot, pick_rule, cached_calc, state_window, volume_window,
+                    world_diameter, world_normal, world_size, average_box_normal, volume_normal)
 from .deferred import defer_step, deferred_paint
 from .fractals import march
 from .primitives import FRACTAL_MIN, JULIA, intersect
@@ -93,7 +93,9 @@ def step_unary(flat, node, kind, F, I, H, f, params, slot_base, S, ev):
         bad = enter_transform(flat, node, F, f, params, I[f, SLOT], H[f], stack, args, m34,
                               S.m21)
         if bad != 0:
-            note(ev, EV_NONFINITE if bad == 1 else EV_SINGULAR, node, I[f, LEVEL])
+            note(ev, EV_NONFINITE if bad == 1 else EV_SINGULAR,
+                 culprit(flat, node, params, I[f, SLOT], H[f], stack, args, m34, bad),
+                 I[f, LEVEL])
             return False
     elif kind == CALC:
         cached_calc(flat, node, params, I[f, SLOT], slot_base + f, H[f], stack, S.ckeys,
