@@ -15,7 +15,7 @@ from .conftest import GRAMMARS
 from .oracle import assert_agrees, camera_rays
 
 # runs of every sort: fixed then computed (move rotz ...), computed then fixed
-# (move(0, 0, -0.4 * n) uscale), four long, one under two parents (the named `twig`)
+# (move(0, 0, -0.4 * n) uscale), five long, one under two parents (the named `twig`)
 RUNS = """
 twig = move(0, 0, 0.3 * n) zshear(0.2 * n, -0.1) scale(0.5, 0.4 + 0.05 * n, 0.6) cube
 { n = 3; a = 25 } S
