@@ -11,6 +11,7 @@ Compilation runs in three steps on a small tuple form:
 """
 from __future__ import annotations
 
+import copy
 import functools
 import math
 import struct
@@ -81,7 +82,11 @@ class ExprTable:
     # ---- public ------------------------------------------------------------
 
     def add(self, node) -> int:
-        form = self._fold(self._resolve(node))
+        return self.add_form(self._resolve(node))
+
+    def add_form(self, form) -> int:
+        """An expression given in the resolved tuple form (as form() returns them)."""
+        form = self._fold(form)
         start = len(self._code)
         depth = _emit(form, self._code, self._const, self.params.__getitem__)
         self._exprs.append((form, start, len(self._code), depth))
@@ -89,6 +94,20 @@ class ExprTable:
                               default=-1))
         self._arrays = None
         return len(self._exprs) - 1
+
+    def form(self, idx):
+        """Expression idx in the folded tuple form (see the module's docstring)."""
+        return self._exprs[idx][0]
+
+    def copy(self) -> "ExprTable":
+        """A table with the same expressions, to which expressions can be added without
+        changing this one's code (and so the kernels compiled from it)."""
+        other = copy.copy(self)
+        other._code, other._consts = list(self._code), list(self._consts)
+        other._const_index = dict(self._const_index)
+        other._exprs, other._need = list(self._exprs), list(self._need)
+        other._arrays = None
+        return other
 
     def __len__(self):
         return len(self._exprs)
