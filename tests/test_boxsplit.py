@@ -5,7 +5,6 @@ import pytest
 
 from pcsg.compiler import compile_file, compile_text
 from pcsg.graph.flat import flatten_graph
-from pcsg.graph.fuse import fuse_runs
 from pcsg.trace.boxsplit import _split_level, walk_split
 from pcsg.trace.boxwalk import STOPPED, walk_boxes
 from pcsg.trace.instance_table import TABLE_SLOTS, empty_table, new_book
@@ -17,8 +16,7 @@ def split_walk(graph, depth, workers, budget=10**9, most=TABLE_SLOTS // 2, slots
                watch=None):
     n = len(graph.nodes)
     empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
-    # as walk_boxes: each run of maps one matrix node, written out beforehand
-    flat = flatten_graph(fuse_runs(graph), empty, runs=False)
+    flat = flatten_graph(graph, empty, runs=False)     # as walk_boxes: runs map by map
     boxes = empty.copy()
     table = empty_table(slots)
     book = new_book(depth + 1, most)

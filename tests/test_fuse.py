@@ -1,7 +1,7 @@
-"""Runs of T-nodes written out as one `matrix` node for the bounding walk
+"""Runs of T-nodes written out as one `matrix` node in the tracer's graph
 (graph/fuse.py): the node's map is the product of the run's maps, a bad argument still
-empties the instance, and the walked boxes bound what the tracer draws, ray by ray
-against the brute-force reference."""
+empties the instance, and the tracer, with the boxes of the walk over every instance,
+agrees ray by ray with the brute-force reference of the graph as written."""
 import math
 
 import numpy as np
@@ -27,8 +27,9 @@ MAPS = ["move(p, 0.5 * q, -r)", "scale(p, q, 1.5)", "uscale(q)", "rotx(40 * p)",
         "move(1, 2, 3)", "rotz(30)"]
 
 
-def fused_heads(graph, fused):
-    return [i for i, x in enumerate(fused.nodes) if x is not graph.nodes[i]]
+def fused_heads(fused):
+    """The heads of the runs that `matrix` nodes stand for."""
+    return sorted(fused.origins.values())
 
 
 def run_maps(graph, head, params):
@@ -49,14 +50,20 @@ def test_the_fused_map_is_the_product_of_the_run(seed):
         run = " ".join(rng.choice(MAPS, size=int(rng.integers(2, 6))))   # some constant
         graph = compile_text(f"{{ p = 0.7; q = 1.3; r = -0.4 }} {run} cube", "t.pcsg")
         fused = fuse_runs(graph)
-        heads = fused_heads(graph, fused)
-        for head in heads:
+        # each matrix node in its run's place under every parent that is not a T-node
+        # (a T-node above heads a longer run)
+        instead = {head: m for m, head in fused.origins.items()}
+        for i, x in enumerate(graph.nodes):
+            want = x.children if x.kind == TRANSFORM else [instead.get(c, c) for c in x.children]
+            assert fused.nodes[i].children == want
+        assert fused.root == instead.get(graph.root, graph.root)
+        for m, head in fused.origins.items():
             params = np.zeros(len(graph.params))
             for name, value in zip("pqr", rng.uniform(-2, 2, 3)):
                 params[graph.params[name]] = value
             maps, below = run_maps(graph, head, params)
             want = np.linalg.multi_dot(maps) if len(maps) > 1 else maps[0]
-            node = fused.nodes[head]
+            node = fused.nodes[m]
             assert node.name == "matrix" and node.children == [below]
             got = np.array([fused.exprs.evaluate(e, params) for e in node.exprs]).reshape(3, 4)
             assert np.allclose(got, want[:3], rtol=1e-12, atol=1e-12), run
@@ -64,7 +71,7 @@ def test_the_fused_map_is_the_product_of_the_run(seed):
                     and graph.nodes[graph.nodes[i].children[0]].kind == TRANSFORM
                     and not all(graph.exprs.constant(e) is not None
                                 for e in _run_exprs(graph, i))]
-        assert heads == computed, run
+        assert fused_heads(fused) == computed, run
 
 
 def _run_exprs(graph, head):
@@ -80,7 +87,7 @@ def test_a_nonfinite_argument_still_empties_the_instance():
                          "1: S → move(0, 0, x) zshear(ln(x), 2) scale(1, 1, x) cube\n"
                          "2: S → {n = n - 1; x = x - 0.5} S\n", "t.pcsg")
     fused = fuse_runs(graph)
-    head = fused.nodes[fused_heads(graph, fused)[0]]
+    head = fused.nodes[next(iter(fused.origins))]
     params = np.zeros(len(graph.params))
     for x, finite in ((1.0, True), (0.0, False), (-1.0, False), (math.inf, False)):
         params[graph.params["x"]] = x
@@ -122,29 +129,30 @@ S if(n > 0, 2, 1)
 
 def test_walked_boxes_of_fused_runs_trace_as_written(monkeypatch):
     graph, traced = walked(monkeypatch, RUNS)
-    assert len(fused_heads(graph, fuse_runs(graph))) >= 4
+    assert len(traced.graph.origins) >= 4
     for direction in ([1.0, -1.3, 0.8], [-0.4, 0.2, -1.0], [0.3, 1.0, 0.1]):
         o, d = camera_rays(finite_bounds(traced), 48, np.array(direction))
-        assert_agrees(traced, o, d, min_hits=60)
+        assert_agrees(traced, o, d, min_hits=60, reference_graph=graph)
 
 
-def test_the_terrain_walks_to_the_same_boxes_and_table(monkeypatch):
-    """Against the walk of the graph as written: the same boxes for every node the fused
-    walk reaches (it does not reach the runs' inner nodes, which the tracer never
-    enters), and the same table entries to rounding (a box mapped by the product
-    instead of map by map)."""
+def test_the_terrain_walks_to_the_same_boxes_and_table():
+    """Against the walk of the graph as written: the same boxes for every node, a run's
+    `matrix` node the box of the run's head (the walk no longer reaches the run, which
+    the tracer never enters), and the same table entries to rounding (a box mapped by
+    the product instead of map by map)."""
     graph = compile_file(GRAMMARS / "carpenter_terrain.pcsg", {"cnt": 4})
     fused = fuse_runs(graph)
-    heads = fused_heads(graph, fused)
+    heads = fused_heads(fused)
     assert [graph.nodes[i].name for i in heads] == ["move", "move"]
-    boxes, complete, table, depth = walk_boxes(graph, instances=True)
-    monkeypatch.setattr("pcsg.graph.fuse.fuse_runs", lambda g: g)
+    boxes, complete, table, depth = walk_boxes(fused, instances=True)
     plain, complete0, table0, depth0 = walk_boxes(graph, instances=True)
     assert complete and complete0 and depth == depth0
-    reached = boxes[:, 0] <= boxes[:, 3]
-    inner = [graph.nodes[i].children[0] for i in heads]
-    assert np.flatnonzero(~reached & (plain[:, 0] <= plain[:, 3])).tolist() == sorted(inner)
-    assert np.array_equal(boxes[reached], plain[reached])
+    n = len(graph.nodes)
+    run = heads + [graph.nodes[i].children[0] for i in heads]
+    assert np.all(boxes[run, 0] > boxes[run, 3])                    # not reached
+    others = np.setdiff1d(np.arange(n), run)
+    assert np.array_equal(boxes[others], plain[others])
+    assert np.array_equal(boxes[list(fused.origins)], plain[list(fused.origins.values())])
     keys, used, vals = table
     keys0, used0, vals0 = table0
     assert np.array_equal(np.sort(keys[used > 0]), np.sort(keys0[used0 > 0]))
@@ -159,4 +167,5 @@ def test_the_walked_terrain_traces_as_written(monkeypatch):
     graph, traced = walked(monkeypatch, compile_file(GRAMMARS / "carpenter_terrain.pcsg",
                                                      {"cnt": 3}))
     o, d = camera_rays(finite_bounds(traced), 40, np.array([1.0, 1.2, 0.6]))
-    assert_agrees(traced, o, d, min_hits=600)
+    assert traced.graph.origins
+    assert_agrees(traced, o, d, min_hits=600, reference_graph=graph)

@@ -35,6 +35,8 @@ Flat = namedtuple("Flat", [
                      #                paint: [r, g, b | unused]
     "then",          # int32[n]     T-nodes: the T-node below whose map they compose with
                      #              their own at run time (_compose_chains), -1: none
+    "origin",        # int32[n]     a `matrix` node written for a run (graph/fuse.py): the
+                     #              run's head, whose maps name a bad one; -1: none
     "box",           # float64[n,6] hyper-bounding box in the node's input frame
     "sphere",        # float64[n,4] (centre, radius) bounding a graftal S-node instead of its
                      #              box where that is smaller (radius < 0: the box); [0,4]
@@ -151,13 +153,16 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
     then = (_compose_chains(kind, starts, children) if runs
             else np.full(n, -1, dtype=np.int32))
     chain = _chains(kind, starts, children)
+    origin = np.full(n, -1, dtype=np.int32)
+    for m, head in graph.origins.items():
+        origin[m] = head
     return Flat(
         kind=kind, code=code,
         child_start=starts, child_count=counts,
         children=children,
         expr_start=_starts(ecounts), expr_count=ecounts,
         expr_ids=np.array([e for x in nodes for e in x.exprs], dtype=np.int32),
-        term_rule=term, fixed=fixed, fixed_map=fixed_map, then=then,
+        term_rule=term, fixed=fixed, fixed_map=fixed_map, then=then, origin=origin,
         box=np.ascontiguousarray(boxes, dtype=np.float64), fractal=fractal,
         sphere=np.ascontiguousarray(np.zeros((0, 4)) if spheres is None else spheres,
                                     dtype=np.float64),

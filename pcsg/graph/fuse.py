@@ -1,23 +1,24 @@
-"""Runs of T-nodes as one `matrix` T-node, for the bounding walk (trace/boxwalk.py).
+"""Runs of T-nodes written out as one `matrix` T-node, for the tracer's graph.
 
-The tracer enters a run of T-nodes of which some are computed (the terrain's final
-`move(0,0,z1) zshear(z2-z1,z3-z1)`) as one map that it multiplies out at run time
-(graph/flat.py `_compose_chains`). The bounding walk visits every instance of a system
-bounded one by one, 33 million of the terrain's final triangles at order 12, and doing
-that product in its hot loop made it slower. So here the product is taken once, on the
-expressions: the run's head becomes a `matrix(...)` node whose twelve arguments are the
-entries of the product, written in the arguments of the run (the terrain's: z2-z1,
-z3-z1 and z1, the other nine constants), and it points past the run as the tracer's
-head does, so the walk reaches the nodes the tracer enters and no others: the tracer
-never tests the box of a node inside a run.
+A run of T-nodes of which some are computed (the terrain's final `move(0,0,z1)
+zshear(z2-z1,z3-z1)`) is one map. The tracer could multiply it out at run time
+(graph/flat.py `_compose_chains`, nodes.composed_affine), but the bounding walk visits
+every instance of a system bounded one by one, 33 million final triangles of the terrain
+at order 12, and that product in its hot loop made it slower. So it is taken once, on
+the expressions: a new `matrix(...)` node, whose twelve arguments are the entries of the
+product written in the arguments of the run (the terrain's: z2-z1, z3-z1 and z1, the
+other nine constants), takes the run's place under every parent that is not a T-node
+(a T-node above is itself the head of a longer run). Both walks then evaluate one node's
+arguments instead of each map's, and the bounding walk maps a box once.
 
-The head keeps its node number and the run its instance hashes (T-nodes add nothing
-to a hash), so boxes and table entries are those of the graph as the tracer walks it.
-A run's box is the product's image of its primitive's box, no larger than the box
-mapped by each map in turn. A non-finite argument still empties the instance: the
-entry (0, 0) adds `a - a` of each argument, which is 0 for a finite one and nan
-otherwise. Runs whose arguments draw rand() (which numbers its draws by the argument)
-and runs through `rot` or `mirror` (whose axis is normalised first) stay as written."""
+The run stays in the graph as written, out of the walks' way: a bad map is reported at
+the node of the run that has it (Graph.origins, nodes.culprit). T-nodes add nothing to
+an instance's hash, so rand() and the instance table see the same instances. The box of
+the new node is the product's image of its child's box, no larger than the box mapped
+by each map in turn. A non-finite argument still empties the instance: the entry (0, 0)
+adds `a - a` of each argument, which is 0 for a finite one and nan otherwise. Runs whose
+arguments draw rand() (which numbers its draws by the argument) and runs through `rot`
+or `mirror` (whose axis is normalised first) stay as written; the tracer composes them."""
 from __future__ import annotations
 
 import dataclasses
@@ -31,13 +32,16 @@ ROTATIONS = {"rotx": (1.0, 0.0, 0.0), "roty": (0.0, 1.0, 0.0), "rotz": (0.0, 0.0
 
 
 def fuse_runs(graph: Graph) -> Graph:
-    """The graph with each T-node whose child is a T-node replaced by one `matrix` node
-    for the whole run below it, where every map of the run can be written so and one
-    of them is computed; the graph itself if there is none."""
+    """The graph with a `matrix` node for each run of two or more T-nodes that can be
+    written so and has a computed map, in its place under its parents; the graph itself
+    if there is none (or it has been through here)."""
     nodes = graph.nodes
+    if graph.origins:
+        return graph
     table = None
     fused = list(nodes)
-    for i, node in enumerate(nodes):
+    origins, matrix_of = {}, {}
+    for i in range(len(nodes)):
         run = _run(nodes, i)
         if run is None:
             continue
@@ -53,12 +57,19 @@ def fuse_runs(graph: Graph) -> Graph:
         product[0] = _add(product[0], _finite_check(graph.exprs, args))
         if table is None:
             table = graph.exprs.copy()
-        fused[i] = Node(TRANSFORM, "matrix", children=list(nodes[run[-1]].children),
-                        exprs=[table.add_form(f) for f in product], span=node.span,
-                        edge_spans=list(nodes[run[-1]].edge_spans))
+        matrix_of[i] = len(fused)
+        origins[len(fused)] = i
+        fused.append(Node(TRANSFORM, "matrix", children=list(nodes[run[-1]].children),
+                          exprs=[table.add_form(f) for f in product], span=nodes[i].span,
+                          edge_spans=list(nodes[run[-1]].edge_spans)))
     if table is None:
         return graph
-    return dataclasses.replace(graph, nodes=fused, exprs=table,
+    for p, node in enumerate(nodes):
+        if node.kind != TRANSFORM and any(c in matrix_of for c in node.children):
+            fused[p] = dataclasses.replace(
+                node, children=[matrix_of.get(c, c) for c in node.children])
+    return dataclasses.replace(graph, nodes=fused, exprs=table, origins=origins,
+                               root=matrix_of.get(graph.root, graph.root),
                                expr_ast=graph.expr_ast + [None] * (len(table) - len(graph.exprs)))
 
 

@@ -51,6 +51,8 @@ class Graph:
     material_names: list[str]         # material index -> name
     warnings: list[Diagnostic] = field(default_factory=list)
     axiom_span: tuple[int, int] | None = None
+    # `matrix` nodes that graph/fuse.py wrote for runs of T-nodes -> the run's head
+    origins: dict[int, int] = field(default_factory=dict)
 
     def constant_args(self, i: int) -> tuple:
         """The arguments of node i, which the builder checked to be constants (fractals)."""

@@ -334,13 +334,13 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
     visits it has made and those predicted for it (None for the first two walks); an
     exception it raises, or Ctrl-C, stops the walk within milliseconds and is raised."""
     from ..graph.flat import flatten_graph
-    from ..graph.fuse import fuse_runs
     budget = BOUNDS_BUDGET if budget is None else budget
     n = len(graph.nodes)
     empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
-    # a run of T-nodes as one map written out beforehand (graph/fuse.py): the product
-    # taken in the walk, as the tracer does (nodes.composed_affine), made it slower
-    flat = flatten_graph(fuse_runs(graph), empty, native_args=True, runs=False)
+    # runs of T-nodes map by map: the tracer's graph has them written out as one matrix
+    # node where it can (graph/fuse.py); composed in the walk (nodes.composed_affine),
+    # they made it slower
+    flat = flatten_graph(graph, empty, native_args=True, runs=False)
     graftal = (flat.term_rule[flat.kind == SELECT] < 0).any()
     depth = min(max_depth, FIRST_DEPTH)
     best = last = None

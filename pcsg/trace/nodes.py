@@ -519,10 +519,11 @@ def node_affine(flat, node, params, slot, h, stack, args, m34):
 @inline
 def composed_affine(flat, node, params, slot, h, stack, args, m34):
     """The T-node's 3x4 map into m34, composed with the maps of the T-nodes below it that
-    it stands for (Flat.then). False for bad arguments. The bounding walk keeps to
-    node_affine, on a graph whose runs are written out as one `matrix` node each
-    (graph/fuse.py): with this loop in node_affine, its walk of the terrain at order 10
-    on one thread took 1.0 to 1.1 s inlined and 1.7 s called, against 0.83 s."""
+    it stands for (Flat.then). False for bad arguments. The tracer's graph has each run
+    written out as one `matrix` node where it can be (graph/fuse.py); this composes the
+    others. The bounding walk keeps to node_affine: with this loop in node_affine, its
+    walk of the terrain at order 10 on one thread took 1.0 to 1.1 s inlined and 1.7 s
+    called, against 0.83 s."""
     ok = node_affine(flat, node, params, slot, h, stack, args, m34)
     below = flat.then[node]
     while below >= 0:
@@ -547,7 +548,10 @@ def composed_affine(flat, node, params, slot, h, stack, args, m34):
 def culprit(flat, node, params, slot, h, stack, args, m34, bad):
     """Which of the T-nodes that `node` composes made transform_map fail with `bad`
     (1: a non-finite argument, 2: a singular map), for the warning's location: the
-    first whose own map fails so; `node` if only their product is singular."""
+    first whose own map fails so; `node` if only their product is singular. A `matrix`
+    node written for a run (Flat.origin) stands for the run as written."""
+    if flat.origin[node] >= 0:
+        node = flat.origin[node]
     at = node
     while at >= 0:
         finite = node_affine(flat, at, params, slot, h, stack, args, m34)
