@@ -9,7 +9,6 @@ import numpy as np
 
 from .compiler import compile_file, compile_text
 from .graph.flat import NORMAL_DECAY, flatten_graph
-from .graph.fuse import fuse_runs
 from .graph.regroup import regroup
 from .graph.states import StateTable
 from .graph.volumes import bounding_volumes
@@ -61,13 +60,15 @@ class Traced:
                  interval_rows: int = INTERVAL_ROWS, max_instances: int = MAX_INSTANCES,
                  bounds_budget: int = BOUNDS_BUDGET, average_normals: bool = True,
                  regrouped: bool = True, bounds_poll=None):
-        # the same object with fewer frames per ray (graph/regroup.py) and runs of maps
-        # written out as one (graph/fuse.py); False traces the graph as written, for
-        # comparisons
-        self.graph = graph = fuse_runs(regroup(graph)) if regrouped else graph
+        # the same object with fewer frames per ray (graph/regroup.py), and where it is
+        # bounded instance by instance its runs of maps written out as one (graph/fuse.py);
+        # False traces the graph as written, for comparisons
+        graph = regroup(graph) if regrouped else graph
         self.asked_depth = int(max_depth)
         # bounds_poll(visits, expected): progress and a way to stop a long bounding walk
-        volumes = bounding_volumes(graph, self.asked_depth, int(bounds_budget), bounds_poll)
+        volumes = bounding_volumes(graph, self.asked_depth, int(bounds_budget), bounds_poll,
+                                   fuse=regrouped)
+        self.graph = graph = volumes.graph
         # less than asked where the instances are too many to bound deeper
         self.max_depth = volumes.depth
         self.bounds_method = volumes.method

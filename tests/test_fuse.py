@@ -1,7 +1,9 @@
-"""Runs of T-nodes written out as one `matrix` node in the tracer's graph
-(graph/fuse.py): the node's map is the product of the run's maps, a bad argument still
-empties the instance, and the tracer, with the boxes of the walk over every instance,
-agrees ray by ray with the brute-force reference of the graph as written."""
+"""Runs of T-nodes written out as one `matrix` node for systems bounded instance by
+instance (graph/fuse.py): the node's map is the product of the run's maps, a bad
+argument still empties the instance, and the tracer, with the boxes of the walk over
+every instance, agrees ray by ray with the brute-force reference of the graph as
+written. Systems bounded by their states keep their runs."""
+
 import math
 
 import numpy as np
@@ -10,7 +12,7 @@ import pytest
 import pcsg
 from pcsg.compiler import compile_file, compile_text
 from pcsg.graph import bounds
-from pcsg.graph.fuse import fuse_runs
+from pcsg.graph.fuse import MOST_TERMS, _size, fuse_runs
 from pcsg.graph.model import TRANSFORM
 from pcsg.render.camera import finite_bounds
 from pcsg.trace import boxwalk
@@ -125,6 +127,27 @@ S if(n > 0, 2, 1)
        move(1.2, 0, 0) rotx(a) uscale(0.5) S ∪
        move(0, 0, -0.4 * n) yshear(0.1 * a, 0) flipxz uscale(0.5) S)
 """
+
+
+def test_a_system_bounded_by_its_states_keeps_its_runs():
+    """Its arguments run on the expression machine: the twelve entries would cost more."""
+    traced = pcsg.Traced(compile_text(RUNS, "t.pcsg"))
+    assert traced.bounds_method == "memoised"
+    assert not traced.graph.origins and fuse_runs(traced.graph).origins
+
+
+def test_a_run_too_long_to_write_out_is_composed_at_run_time():
+    """The entries of a product of general maps grow about threefold with each map."""
+    maps = " ".join(["rotx(a) roty(a + 1) zshear(a, -a) rotz(2 * a)"] * 6)
+    graph = compile_text(f"{{ n = 1; a = 10 }} S\nS if(n > 0, 2, 1)\n1: S → {maps} cube\n"
+                         "2: S → {n = n - 1; a = a * 2} S\n", "t.pcsg")
+    fused = fuse_runs(graph)
+    longest = max(len(_run_exprs(graph, h)) for h in fused_heads(fused))
+    whole = max(len(_run_exprs(graph, i)) for i, x in enumerate(graph.nodes)
+                if x.kind == TRANSFORM)
+    assert 2 <= longest < whole // 2        # only the short ends of the run
+    for m in fused.origins:
+        assert sum(_size(fused.exprs.form(e)) for e in fused.nodes[m].exprs) <= MOST_TERMS
 
 
 def test_walked_boxes_of_fused_runs_trace_as_written(monkeypatch):

@@ -21,6 +21,7 @@ from ..recursion import recursion_limit
 from ..trace.primitives import object_box
 from .dependence import StateKey
 from .derive import Deriver, State
+from .fuse import fuse_runs
 from .model import CALC, DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, UNION, Graph
 from .states import StateTable, state_table
 from .stats import MAX_LEVELS
@@ -313,17 +314,20 @@ def hyper_boxes(graph: Graph, max_depth: int = 64):
     return bound(graph, max_depth)[:4]
 
 
-def bound(graph: Graph, max_depth: int = 64, budget: int = BOUNDS_BUDGET, poll=None):
+def bound(graph: Graph, max_depth: int = 64, budget: int = BOUNDS_BUDGET, poll=None,
+          fuse: bool = False):
     """hyper_boxes, the instance table (for the memoised method a StateTable or
     None: graph/states.py), for the memoised method the re-entered states'
-    final bounds (see _memoised; empty otherwise), and the derivation depth the boxes
+    final bounds (see _memoised; empty otherwise), the derivation depth the boxes
     hold: max_depth, or less where the instances are more than `budget` node visits
-    can visit (the tracer must then stop refining there; a warning says so)."""
+    can visit (the tracer must then stop refining there; a warning says so), and the
+    graph they are for. With `fuse`, a system bounded instance by instance has its runs
+    of maps written out as one first (graph/fuse.py): that graph is the one bounded."""
     problems = []
     try:
         with recursion_limit(20 * MAX_LEVELS):
             boxes, hulls, states = _memoised(graph)
-        return boxes, "memoised", problems, states, hulls, max_depth
+        return boxes, "memoised", problems, states, hulls, max_depth, graph
     except TooManyStates:
         pass
     except PcsgError as e:
@@ -333,7 +337,10 @@ def bound(graph: Graph, max_depth: int = 64, budget: int = BOUNDS_BUDGET, poll=N
     from ..trace.instance_table import empty_table
     if PIXELS in graph.params:      # the instance walk knows no pixel sizes: no boxes
         n = len(graph.nodes)
-        return np.tile(-EMPTY, (n, 1)), "unbounded", problems, empty_table(), {}, max_depth
+        return (np.tile(-EMPTY, (n, 1)), "unbounded", problems, empty_table(), {}, max_depth,
+                graph)
+    if fuse:
+        graph = fuse_runs(graph)
     boxes, complete, table, depth = walk_boxes(graph, max_depth, budget, instances=True,
                                                poll=poll)
     if depth < max_depth:
@@ -343,4 +350,5 @@ def bound(graph: Graph, max_depth: int = 64, budget: int = BOUNDS_BUDGET, poll=N
             f"instances are finished with their terminating rule (--bounds-budget "
             f"{budget:,} node visits; a larger budget bounds deeper, and takes longer)", None,
             graph.source, code="depth-bounded"))
-    return boxes, "every instance" if complete else "unbounded", problems, table, {}, depth
+    return (boxes, "every instance" if complete else "unbounded", problems, table, {}, depth,
+            graph)

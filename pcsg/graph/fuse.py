@@ -1,15 +1,20 @@
-"""Runs of T-nodes written out as one `matrix` T-node, for the tracer's graph.
+"""Runs of T-nodes written out as one `matrix` T-node, for systems bounded instance by
+instance.
 
 A run of T-nodes of which some are computed (the terrain's final `move(0,0,z1)
-zshear(z2-z1,z3-z1)`) is one map. The tracer could multiply it out at run time
-(graph/flat.py `_compose_chains`, nodes.composed_affine), but the bounding walk visits
-every instance of a system bounded one by one, 33 million final triangles of the terrain
-at order 12, and that product in its hot loop made it slower. So it is taken once, on
-the expressions: a new `matrix(...)` node, whose twelve arguments are the entries of the
-product written in the arguments of the run (the terrain's: z2-z1, z3-z1 and z1, the
-other nine constants), takes the run's place under every parent that is not a T-node
-(a T-node above is itself the head of a longer run). Both walks then evaluate one node's
-arguments instead of each map's, and the bounding walk maps a box once.
+zshear(z2-z1,z3-z1)`) is one map. The tracer multiplies it out at run time (graph/flat.py
+`_compose_chains`, nodes.composed_affine), but the bounding walk visits every instance of
+a system bounded one by one, 33 million final triangles of the terrain at order 12, and
+that product in its hot loop made it slower. So it is taken once, on the expressions: a
+new `matrix(...)` node, whose twelve arguments are the entries of the product written in
+the arguments of the run (the terrain's: z2-z1, z3-z1 and z1, the other nine constants),
+takes the run's place under every parent that is not a T-node (a T-node above is itself
+the head of a longer run). Both walks then evaluate one node's arguments, compiled to
+machine code for such systems (trace/native.py), instead of each map's, and the bounding
+walk maps a box once. Systems bounded by their states keep their runs (bounds.bound's
+`fuse`): their arguments run on the expression machine, where twelve entries, and a
+rotation's cosine once per entry, would cost more than the maps' few arguments and the
+product in the kernel; their bounds do not visit instances one by one.
 
 The run stays in the graph as written, out of the walks' way: a bad map is reported at
 the node of the run that has it (Graph.origins, nodes.culprit). T-nodes add nothing to
@@ -28,6 +33,10 @@ from ..trace import vm
 from .model import TRANSFORM, Graph, Node
 
 ZERO, ONE = ('const', 0.0), ('const', 1.0)
+# the most operations and operands a run's twelve entries may take, together: the product of
+# k general maps grows about threefold with each, and past this the run is composed at run
+# time (the terrain's run takes 36)
+MOST_TERMS = 400
 ROTATIONS = {"rotx": (1.0, 0.0, 0.0), "roty": (0.0, 1.0, 0.0), "rotz": (0.0, 0.0, 1.0)}
 
 
@@ -53,8 +62,14 @@ def fuse_runs(graph: Graph) -> Graph:
             continue        # constant runs: flat.py composes them into one fixed map
         product = maps[0]
         for m in maps[1:]:
+            # measured at each step: the forms share their parts, and counting a long
+            # run's entries in full would take as long as they grow
+            if sum(_size(f) for f in product) > MOST_TERMS:
+                break
             product = _product(product, m)
         product[0] = _add(product[0], _finite_check(graph.exprs, args))
+        if sum(_size(f) for f in product) > MOST_TERMS:
+            continue
         if table is None:
             table = graph.exprs.copy()
         matrix_of[i] = len(fused)
@@ -158,6 +173,15 @@ def _finite_check(exprs, args):
             f = exprs.form(e)
             check = _add(check, _op(vm.SUB, f, f))
     return check
+
+
+def _size(f) -> int:
+    """The operations and operands of a form."""
+    if f[0] == 'op':
+        return 1 + sum(_size(a) for a in f[2])
+    if f[0] in ('if', 'and', 'or'):
+        return 1 + sum(_size(a) for a in f[1:])
+    return 1
 
 
 def _op(code, *args):

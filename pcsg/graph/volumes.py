@@ -56,6 +56,7 @@ class Volumes:
     table: tuple | StateTable | None  # per-instance boxes (bounds.bound)
     choices: list[Choice]           # one per graftal node, in node order
     depth: int                      # the derivation depth the boxes hold (bounds.bound)
+    graph: Graph                    # the graph they are for (bounds.bound's `fuse`)
 
 
 def box_area(box: np.ndarray) -> float:
@@ -69,10 +70,12 @@ def graftal_nodes(graph: Graph) -> list[int]:
 
 
 def bounding_volumes(graph: Graph, max_depth: int = 64,
-                     budget: int = BOUNDS_BUDGET, poll=None) -> Volumes:
-    """poll: as trace/boxwalk.walk_boxes's, for a system bounded instance by instance."""
-    boxes, method, problems, table, hulls, depth = bound(graph, max_depth, budget, poll)
-    out = Volumes(boxes, None, method, problems, table, [], depth)
+                     budget: int = BOUNDS_BUDGET, poll=None, fuse: bool = False) -> Volumes:
+    """poll: as trace/boxwalk.walk_boxes's, for a system bounded instance by instance;
+    fuse: as bounds.bound's (Volumes.graph is then the graph to trace)."""
+    boxes, method, problems, table, hulls, depth, graph = bound(graph, max_depth, budget,
+                                                                poll, fuse)
+    out = Volumes(boxes, None, method, problems, table, [], depth, graph)
     graftals = [s for s in graftal_nodes(graph)
                 if boxes[s, 0] <= boxes[s, 3] and np.all(np.isfinite(boxes[s]))]
     if method != "memoised" or not hulls or not graftals:

@@ -519,11 +519,11 @@ def node_affine(flat, node, params, slot, h, stack, args, m34):
 @inline
 def composed_affine(flat, node, params, slot, h, stack, args, m34):
     """The T-node's 3x4 map into m34, composed with the maps of the T-nodes below it that
-    it stands for (Flat.then). False for bad arguments. The tracer's graph has each run
-    written out as one `matrix` node where it can be (graph/fuse.py); this composes the
-    others. The bounding walk keeps to node_affine: with this loop in node_affine, its
-    walk of the terrain at order 10 on one thread took 1.0 to 1.1 s inlined and 1.7 s
-    called, against 0.83 s."""
+    it stands for (Flat.then). False for bad arguments. A system bounded instance by
+    instance has its runs written out as one `matrix` node where they can be
+    (graph/fuse.py); this composes the others. The bounding walk keeps to node_affine:
+    with this loop in node_affine, its walk of the terrain at order 10 on one thread took
+    1.0 to 1.1 s inlined and 1.7 s called, against 0.83 s."""
     ok = node_affine(flat, node, params, slot, h, stack, args, m34)
     below = flat.then[node]
     while below >= 0:
