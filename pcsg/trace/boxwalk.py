@@ -337,9 +337,9 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
     budget = BOUNDS_BUDGET if budget is None else budget
     n = len(graph.nodes)
     empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
-    # runs of T-nodes map by map: the tracer's graph has them written out as one matrix
-    # node where it can (graph/fuse.py); composed in the walk (nodes.composed_affine),
-    # they made it slower
+    # runs of T-nodes map by map: bounds.bound writes them out as one matrix node first
+    # where it can (graph/fuse.py); composed in the walk (nodes.composed_affine), they
+    # made it slower
     flat = flatten_graph(graph, empty, native_args=True, runs=False)
     graftal = (flat.term_rule[flat.kind == SELECT] < 0).any()
     depth = min(max_depth, FIRST_DEPTH)
