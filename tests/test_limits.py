@@ -103,6 +103,21 @@ def test_a_ray_stops_after_its_budget_of_instances():
     assert line.endswith("raise --max-instances to go on")
 
 
+def test_rays_walked_together_stop_after_the_same_budget_as_alone():
+    # sixteen neighbouring rays run out in one packet frame (packet.select drops them
+    # there), two of them after a hit
+    obj = pcsg.loads(ENDLESS, "endless.pcsg", max_instances=500)
+    u = np.linspace(0.0, 0.05, 4)
+    o = np.array([[-5.0 + a, -5.0 + b, 5.0] for a in u for b in u])
+    d = np.tile([0.3, 0.3, 1.0], (16, 1))
+    o[:2] = [[-5.0, 0, 0], [-5.0, 0.01, 0]]
+    d[:2] = [1.0, 0, 0]
+    together, alone = obj.trace(o, d), obj.trace(o, d, packets=False)
+    assert together.events[EV_VISITS].sum() == alone.events[EV_VISITS].sum() == 16
+    assert list(together.hit) == list(alone.hit) == [True] * 2 + [False] * 14
+    assert np.array_equal(together.t, alone.t)
+
+
 def test_an_empty_box_culls_every_ray(monkeypatch):
     """The compiled box walk leaves a graftal empty (only the memoised walk bounds its
     attractor). An empty box must cull every ray: a slab test alone makes it all of

@@ -18,6 +18,7 @@ from .peephole import fuse_operands
 from .terminating import terminating_rules
 
 NORMAL_DECAY = 0.85     # a graftal hit's normal: each coarser box weighs 0.85 of the next
+HOLD_SLACK = 256        # a rule's box within 1/256 of its S-node's on every side is not tested
 CACHED_CALC_ROWS = 24   # blocks at least this long are worth a cache lookup (nodes.cached_calc)
 
 Flat = namedtuple("Flat", [
@@ -69,6 +70,8 @@ Flat = namedtuple("Flat", [
                      #              (graph/defer.py)
     "chain",         # int8[n]      1: the node heads a run of single-child steps (C-, T-,
                      #              paint, material nodes) that ends in a primitive
+    "holds",         # int8[m]      per entry of `children`: 1 where it is a rule of an
+                     #              S-node and its box holds the S-node's (_holds)
     "root",          # int64
     "n_params",      # int64        the system's parameters, then arg_base's columns
     "arg_base",      # int64        the first column of compiled arguments (scratch)
@@ -172,7 +175,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
         state_slots=np.concatenate([np.zeros(0, dtype=np.int32), *keyed]),
         vm_code=vm_code, calc_start=calc_start, calc_end=calc_end, calc_cache=calc_cache,
         calc_fn=calc_fn, arg_fn=arg_fn, arg_base=np.int64(arg_base),
-        defer=defer, chain=chain,
+        defer=defer, chain=chain, holds=_holds(kind, starts, counts, children, boxes, spheres),
         vm_consts=np.asarray(vm["consts"], dtype=np.float64),
         vm_start=vm_start, vm_end=vm_end,
         root=np.int64(graph.root),
@@ -334,6 +337,33 @@ def _affine4(row):
     m[:3, :3] = row[:9].reshape(3, 3)
     m[:3, 3] = row[9:12]
     return m
+
+
+def _holds(kind, starts, counts, children, boxes, spheres) -> np.ndarray:
+    """Which rules' boxes hold their S-node's box, but for slivers: each of its sides
+    is the S-node's or lies at most 1/HOLD_SLACK of the S-node's extent inside. A ray's
+    window at such a rule is inside the S-node's box, so inside the rule's or nearly, and
+    the walks do not test the rule's box: it would cull a sliver at most, and skipping a
+    box only ever costs work, since it bounds what lies below. A union that subdivides
+    has the box of its S-node (the terrain's T1), or all but a hair of it (T2: its union's
+    top is 1e-4 under the highest final triangle's). Not where either is bounded by a
+    sphere, which a window inside the box may leave."""
+    holds = np.zeros(len(children), dtype=np.int8)
+    boxes = np.asarray(boxes, dtype=np.float64)
+    round_ = np.zeros(len(kind), dtype=bool)
+    if spheres is not None and len(spheres):
+        round_ = np.asarray(spheres)[:, 3] >= 0.0
+    for s in np.flatnonzero(kind == SELECT):
+        lo, hi = boxes[s, :3], boxes[s, 3:]
+        if np.any(lo > hi) or round_[s]:
+            continue
+        extent = hi - lo
+        slack = np.where(np.isfinite(extent), extent / HOLD_SLACK, 0.0)
+        for e in range(starts[s], starts[s] + counts[s]):
+            c = children[e]
+            holds[e] = (not round_[c] and bool(np.all(boxes[c, :3] <= lo + slack))
+                        and bool(np.all(boxes[c, 3:] >= hi - slack)))
+    return holds
 
 
 def _starts(counts: np.ndarray) -> np.ndarray:

@@ -54,8 +54,10 @@ Packet = namedtuple("Packet", [
     "R",                # ray blocks: row block * PACKET + k is ray k in that block's frame
                         # (nodes.py's ray columns only: OX, DX, INV)
     "act", "win", "n",  # per frame: its rays, their windows [t0, t1], how many
-    "tact", "twin", "tn", "tkey", "tk", "th", "tphase", "order",  # a union's children
-                        # being sorted: rays, windows, count, key, number, hash, PHASE
+    "tact", "twin", "tn", "tkey", "tfar", "tk", "th", "tphase", "order",  # a union's
+                        # children being sorted: rays, windows, count, key (the nearest
+                        # window start), the farthest window start, number, hash, PHASE
+    "stamp",            # per frame: `epoch` when split pushed it (trace)
     "best", "hit", "visits", "dnorm",   # per ray
     "O", "D", "cone",   # the packet's rays: world origin, direction, footprint at 0
 ])
@@ -72,8 +74,9 @@ def make_packet(flat):
         np.zeros((FRAMES, PACKET), dtype=np.int64), np.empty((FRAMES, PACKET, 2)),
         np.zeros(FRAMES, dtype=np.int64),
         np.zeros((c, PACKET), dtype=np.int64), np.empty((c, PACKET, 2)),
-        np.zeros(c, dtype=np.int64), np.empty(c), np.zeros(c, dtype=np.int64),
+        np.zeros(c, dtype=np.int64), np.empty(c), np.empty(c), np.zeros(c, dtype=np.int64),
         np.zeros(c, dtype=np.uint64), np.zeros(c, dtype=np.int64), np.zeros(c, dtype=np.int64),
+        np.full(FRAMES, -1, dtype=np.int64),
         np.empty(PACKET), np.zeros(PACKET, dtype=np.bool_), np.zeros(PACKET, dtype=np.int64),
         np.empty(PACKET),
         np.empty((PACKET, 3)), np.empty((PACKET, 3)), np.zeros(PACKET))
@@ -127,6 +130,7 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
     for c in range(3):
         F[0, PAINT + c] = np.nan
         F[0, NAVG + c] = 0.0
+    F[0, T0] = tmax
     I[0, NODE] = flat.root
     I[0, SLOT] = 0
     I[0, LEVEL] = 0
@@ -152,9 +156,16 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
         P.visits[k] = 0
         P.dnorm[k] = math.sqrt(P.D[k, 0] ** 2 + P.D[k, 1] ** 2 + P.D[k, 2] ** 2)
     cnt[0] = n
+    dmax = 0.0
+    for k in range(n):
+        dmax = max(dmax, P.dnorm[k])
     budget = S.visits[1]
     # --stack-depth bounds the packet's pending frames too, and then each ray's own walk
     cap = min(FRAMES, S.F.shape[0])
+    # counts the places where some ray's nearest hit may have come nearer: a frame that
+    # split pushed at the same epoch has its windows cut to its rays' hits already
+    epoch = 0
+    P.stamp[0] = -1
     sp = 1
     while sp > 0:
         sp -= 1
@@ -163,13 +174,16 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
             for j in range(cnt[g]):
                 alone(flat, P, g, j, I[g, PHASE] - ALONE, tmin, tmax, any_hit, lod,
                       max_depth, S, ev, res)
+            epoch += 1
             continue
         boxed = I[g, PHASE] == BOXED
         within = I[g, PHASE] != 0
         # whether the rays' windows have been cut to their nearest hits since the frame was
         # popped: no ray that stays in a frame finds a hit while it follows single-child
-        # nodes, so once is enough where there is no box to test
-        pruned = False
+        # nodes, so once is enough where there is no box to test. A frame popped at the
+        # epoch it was pushed in needs no cut: the nearest child of a union, which is
+        # popped at once, and the others where their elder siblings hit nothing
+        pruned = P.stamp[g] == epoch
         while True:         # follow single-child nodes in place
             node = I[g, NODE]
             kind = flat.kind[node]
@@ -187,6 +201,7 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
             done = use == 2 and pruned        # no box, and the windows cut already
             pruned = True
             m = cnt[g] if done else 0
+            far = -np.inf
             for j in range(0 if done or use < 0 else cnt[g]):
                 k = act[g, j]
                 t0 = win[g, j, 0]
@@ -198,9 +213,12 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                         b0, b1 = volume_window(flat, node, slot, R, blk + k)
                     t0 = max(t0, b0)
                     t1 = min(t1, b1)
+                    far = max(far, t0 if t0 <= t1 else -np.inf)
                 keep_ray(act, win, g, m, k, t0, t1)
                 m += t0 <= t1
             cnt[g] = m
+            if use != 2 and m > 0:
+                F[g, T0] = far
             if m == 0:
                 break
             phase = BOXED if boxed else INSIDE
@@ -219,22 +237,29 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                     if t < best[k]:
                         P.hit[k] = True
                         best[k] = -np.inf if any_hit else t
+                epoch += 1
                 break
             if kind == SELECT:
-                on, below_all = pixel_split(flat, node, P, g, phase, cap, lod, max_depth)
+                on, below_all = pixel_split(flat, node, P, g, phase, cap, lod, lod * dmax,
+                                            max_depth)
                 if on == WAIT:
                     sp += 1
                     break
                 g = on
                 sp = on         # frames 0..g-1 wait: the rays split off at g - 1 too
-                if not select(flat, node, P, g, blk, below_all, tmin, any_hit, budget,
-                              max_depth, S, ev, res):
+                e = select(flat, node, P, g, blk, below_all, tmin, any_hit, budget,
+                           max_depth, S, ev, res)
+                if e < 0:
+                    epoch += 1      # it may have hit boxes
                     break
                 boxed = False
-                within = False
+                within = flat.holds[e] != 0
                 continue
             if kind == UNION:
-                sp += split(flat, node, P, g, blk, has_table)
+                used = split(flat, node, P, g, blk, has_table)
+                for d in range(g, g + used):
+                    P.stamp[d] = epoch
+                sp += used
                 break
             if kind == TRANSFORM:
                 bad = transform_map(flat, node, P.params, I[g, SLOT], H[g], S.stack, S.args,
@@ -269,17 +294,24 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
 
 
 @inline
-def pixel_split(flat, node, P, g, phase, cap, lod, max_depth):
+def pixel_split(flat, node, P, g, phase, cap, lod, reach, max_depth):
     """At an S-node the rays for which the instance is below their pixel stop refining.
     If only some are, frame g keeps those, marked ALONE, and a copy of it at g + 1 takes
     the others: returns (the frame that goes on: g, g + 1, or WAIT where there is no
     room above g and frame g, all its rays marked ALONE, is to be pushed again; whether
-    all its rays are below their pixel)."""
+    all its rays are below their pixel). `reach` is lod times the packet's largest
+    direction length."""
     F, I, H, act, win = P.F, P.I, P.H, P.act, P.win
     m = P.n[g]
     if I[g, CUT] != 0 or I[g, LEVEL] + 1 > max_depth or lod <= 0.0:
         return g, False
     size = world_size(flat.box, node, F, g)
+    # F[g, T0] bounds the window starts of the frame's rays, so no ray's footprint where
+    # it enters can pass this one (products of non-negative factors round monotonically):
+    # most instances are far above every pixel (a terrain patch's box spans all its
+    # heights), and the loop below would go over every ray of the frame
+    if size >= reach * max(F[g, T0], 0.0):
+        return g, False
     below = 0
     for j in range(m):
         below += below_pixel(size, lod, P, g, j)
@@ -320,27 +352,33 @@ def below_pixel(size, lod, P, g, j):
 @inline
 def select(flat, node, P, g, blk, below_all, tmin, any_hit, budget, max_depth, S, ev, res):
     """choose_rule for the packet at an S-node, its rays' windows narrowed to its boxes
-    already (and pixel_split past): False if the frame ends here."""
+    already (and pixel_split past): the chosen rule's entry in flat.children, -1 if the
+    frame ends here."""
     F, I, H, R, act, win = P.F, P.I, P.H, P.R, P.act, P.win
     m = P.n[g]
     level = I[g, LEVEL] + 1
-    q = 0
+    over = False
     for j in range(m):
         k = act[g, j]
         P.visits[k] += 1
-        if P.visits[k] > budget:
-            if P.visits[k] == budget + 1:
-                note(ev, EV_VISITS, node, level)
-            continue
-        act[g, q] = k
-        win[g, q, 0] = win[g, j, 0]
-        win[g, q, 1] = win[g, j, 1]
-        q += 1
-    m = q
-    P.n[g] = m
+        over |= P.visits[k] > budget
+    if over:        # rarely: the frame keeps every ray, and its list is not rewritten
+        q = 0
+        for j in range(m):
+            k = act[g, j]
+            if P.visits[k] > budget:
+                if P.visits[k] == budget + 1:
+                    note(ev, EV_VISITS, node, level)
+                continue
+            act[g, q] = k
+            win[g, q, 0] = win[g, j, 0]
+            win[g, q, 1] = win[g, j, 1]
+            q += 1
+        m = q
+        P.n[g] = m
     I[g, LEVEL] = level
     if m == 0:
-        return False
+        return -1
     if I[g, CUT] == 0 and level > max_depth:
         I[g, CUT] = 1
         note_all(ev, EV_DEPTH, node, level, m)
@@ -357,22 +395,23 @@ def select(flat, node, P, g, blk, below_all, tmin, any_hit, budget, max_depth, S
                     hit_volume(flat, node, R, blk + k, F, I, g, t0, 0.0, 0.0, 0.0, res, k)
                     P.hit[k] = True
                     P.best[k] = -np.inf if any_hit else t0
-            return False
+            return -1
         if level > 4 * max_depth + 64:
-            return False
+            return -1
     else:
         r = pick_rule(flat, node, P.params, I[g, SLOT], H[g], S.stack)
         if r < 0:
             note_all(ev, EV_SELECTION, node, level, m)
-            return False
+            return -1
         if flat.by_state != 0:
             slot = state_slot(flat, node, P.params, I[g, SLOT])
             if slot >= 0 and narrow(flat, P, g, slot, blk) == 0:
-                return False
+                return -1
     if flat.hashed:
         H[g] = vm.edge_hash(H[g], node, r)
-    I[g, NODE] = flat.children[flat.child_start[node] + r]
-    return True
+    e = flat.child_start[node] + r
+    I[g, NODE] = flat.children[e]
+    return e
 
 
 @inline
@@ -392,14 +431,17 @@ def narrow(flat, P, g, slot, blk):
     act, win, R = P.act, P.win, P.R
     use, x0, y0, z0, x1, y1, z1 = packet_box(flat, 0, slot, False)
     q = 0
+    far = -np.inf
     for j in range(P.n[g] if use == 1 else 0):
         k = act[g, j]
         b0, b1 = slabs(x0, y0, z0, x1, y1, z1, R, blk + k)
         t0 = max(win[g, j, 0], b0)
         t1 = min(win[g, j, 1], b1)
         keep_ray(act, win, g, q, k, t0, t1)
+        far = max(far, t0 if t0 <= t1 else -np.inf)
         q += t0 <= t1
     P.n[g] = q
+    P.F[g, T0] = far
     return q
 
 
@@ -421,6 +463,7 @@ def split(flat, node, P, g, blk, has_table):
         use, x0, y0, z0, x1, y1, z1 = packet_box(flat, c, slot, True)
         q = 0
         near = np.inf
+        far = -np.inf
         for j in range(m if use >= 0 else 0):
             ray = act[g, j]
             if use == 1:
@@ -431,10 +474,12 @@ def split(flat, node, P, g, blk, has_table):
             e1 = min(e1, win[g, j, 1])
             keep_ray(tact, twin, used, q, ray, e0, e1)
             near = min(near, e0 if e0 <= e1 else np.inf)
+            far = max(far, e0 if e0 <= e1 else -np.inf)
             q += e0 <= e1
         if q == 0:
             continue
         tn[used] = q
+        P.tfar[used] = far
         tk[used] = k
         th[used] = child_hash(flat, H[g], node, k)
         P.tphase[used] = BOXED if has_table and slot >= 0 else INSIDE
@@ -452,6 +497,7 @@ def split(flat, node, P, g, blk, has_table):
         copy_frame(F, I, H, g, d)
         I[d, NODE] = flat.children[flat.child_start[node] + tk[u]]
         I[d, PHASE] = P.tphase[u]
+        F[d, T0] = P.tfar[u]
         H[d] = th[u]
         P.block[d] = P.block[g]
         P.n[d] = tn[u]

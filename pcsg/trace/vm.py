@@ -127,15 +127,18 @@ _NAN = math.nan
 _jit = njit(cache=True, error_model='numpy', nogil=True)
 
 
-def _jit_sig(signature):
+def _jit_sig(signature, inline="never"):
     # Fixed signatures for the small helpers: Python callers may pass plain ints
     # of any size (a lazily typed int64 version would overflow on h >= 2**63).
-    return njit(signature, cache=True, error_model='numpy', nogil=True)
+    # The hashes the walks take at every node are inlined by numba ("always"): left to
+    # LLVM, whether they were depended on the size of the walk that called them, and
+    # the packet walk called them once it had grown a little (tools/profile_trace.py)
+    return njit(signature, cache=True, error_model='numpy', nogil=True, inline=inline)
 
 
 # ---- hashing ---------------------------------------------------------------
 
-@_jit_sig('uint64(uint64)')
+@_jit_sig('uint64(uint64)', "always")
 def splitmix64(x):
     z = np.uint64(x) + _GOLDEN
     z = (z ^ (z >> _S30)) * _M1
@@ -160,17 +163,17 @@ def hash_to_unit(h):
     return np.float64(np.uint64(h) >> _S11) * _INV_2_53
 
 
-@_jit_sig('uint64(uint64, uint64)')
+@_jit_sig('uint64(uint64, uint64)', "always")
 def mix(h, v):
     return splitmix64(np.uint64(h) ^ splitmix64(np.uint64(v)))
 
 
-@_jit_sig('uint64(uint64, uint64, uint64)')
+@_jit_sig('uint64(uint64, uint64, uint64)', "always")
 def edge_hash(h, node, child):
     return mix(mix(h, node), child)
 
 
-@_jit_sig('uint64(uint64, uint64, uint64)')
+@_jit_sig('uint64(uint64, uint64, uint64)', "always")
 def operand_key(h, node, k):
     """The instance table's key of operand k of the instance h of operator `node`: the
     keys of one instance's operands are consecutive, so their entries lie in

@@ -466,7 +466,9 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                 F[f, T1] = t1
                 if flat.hashed:
                     H[f] = vm.edge_hash(H[f], node, r)
-                I[f, NODE] = flat.children[flat.child_start[node] + r]
+                e = flat.child_start[node] + r
+                I[f, NODE] = flat.children[e]
+                within = flat.holds[e] != 0
                 continue
             if kind == UNION:
                 n = flat.child_count[node]
