@@ -345,9 +345,9 @@ def _holds(kind, starts, counts, children, boxes, spheres) -> np.ndarray:
     window at such a rule is inside the S-node's box, so inside the rule's or nearly, and
     the walks do not test the rule's box: it would cull a sliver at most, and skipping a
     box only ever costs work, since it bounds what lies below. A union that subdivides
-    has the box of its S-node (the terrain's T1), or all but a hair of it (T2: its union's
-    top is 1e-4 under the highest final triangle's). Not where either is bounded by a
-    sphere, which a window inside the box may leave."""
+    has the box of its S-node (the terrain's T1), or all but a hair of it (T2 at order 9:
+    its union's top is 1e-4 under the highest final triangle's). Not where either is
+    bounded by a sphere, which a window inside the box may leave."""
     holds = np.zeros(len(children), dtype=np.int8)
     boxes = np.asarray(boxes, dtype=np.float64)
     round_ = np.zeros(len(kind), dtype=bool)
