@@ -1,4 +1,5 @@
 import contextlib
+import os
 import signal
 from pathlib import Path
 
@@ -6,6 +7,11 @@ import pytest
 
 from pcsg.compiler import compile_text
 from pcsg.language.errors import PcsgError
+
+# every render walks its bounds, as the tests of that walk (its progress, Ctrl-C,
+# --timeout, budgets) need, and no test reads what another kept; tests/test_boxcache.py
+# turns the cache on, in a folder of its own
+os.environ["PCSG_BOUNDS_CACHE"] = "0"
 
 ROOT = Path(__file__).resolve().parent.parent
 GRAMMARS = ROOT / "grammars"

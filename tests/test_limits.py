@@ -9,6 +9,7 @@ import pcsg
 from pcsg.cli import main
 from pcsg.graph import bounds
 from pcsg.trace.nodes import EV_INTERVALS, EV_STACK, EV_VISITS
+from tests.conftest import SIERPINSKI
 
 ROW = """// a row of spheres along x, built by recursion
 { n = 40 } ROW
@@ -116,6 +117,33 @@ def test_rays_walked_together_stop_after_the_same_budget_as_alone():
     assert together.events[EV_VISITS].sum() == alone.events[EV_VISITS].sum() == 16
     assert list(together.hit) == list(alone.hit) == [True] * 2 + [False] * 14
     assert np.array_equal(together.t, alone.t)
+
+
+def test_a_packet_whose_rays_together_pass_the_budget_finds_what_they_find_alone():
+    """packet.trace counts the packet's selections, not each ray's entries, and starts
+    again counting each ray's where those pass --max-instances. A packet of 256 rays
+    spread over the Sierpinski tetrahedron at 4 selects in most of its 341 instances, far
+    more than one of its rays enters: with a budget a little above what one ray needs, it
+    starts again, and must then find every hit and report no ray stopped, as it does when
+    the budget is never near; a budget below, the rays that run out are the same as alone."""
+    text = SIERPINSKI.replace("c = 6", "c = 4")
+    u = np.linspace(-0.9, 0.9, 16)
+    o = np.array([[a, b, 3.0] for a in u for b in u])
+    d = np.tile([0.05, 0.02, -1.0], (len(o), 1))
+    free = pcsg.loads(text, max_instances=1 << 30).trace(o, d)
+    assert free.hit.sum() > 100 and free.events[EV_VISITS].sum() == 0
+    need = next(b for b in range(1, 341)
+                if pcsg.loads(text, max_instances=b).trace(o, d, packets=False)
+                .events[EV_VISITS].sum() == 0)
+    assert need < 60        # so the packet's 341-odd selections pass 2 * need
+    tight = pcsg.loads(text, max_instances=2 * need).trace(o, d)
+    assert tight.events.sum() == free.events.sum() == 0
+    assert np.array_equal(tight.hit, free.hit) and np.array_equal(tight.t, free.t)
+    assert np.array_equal(tight.normal, free.normal)
+    short = pcsg.loads(text, max_instances=need // 2)
+    together, alone = short.trace(o, d), short.trace(o, d, packets=False)
+    assert alone.events[EV_VISITS].sum() > 0
+    assert np.array_equal(together.hit, alone.hit) and np.array_equal(together.t, alone.t)
 
 
 def test_an_empty_box_culls_every_ray(monkeypatch):

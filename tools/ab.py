@@ -27,7 +27,8 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def render(tree: Path, grammar: str, setting: str, png: Path) -> tuple[float, float, str]:
     """(render s, bounds s, PNG digest) of one fresh process of the pcsg in `tree`."""
-    env = dict(os.environ, PYTHONPATH=str(tree))
+    # the bounds walked in every process: kept ones would time a file read (trace/boxcache.py)
+    env = dict(os.environ, PYTHONPATH=str(tree), PCSG_BOUNDS_CACHE="0")
     out = subprocess.run([sys.executable, "-m", "pcsg.cli", "render",
                           str(ROOT / "grammars" / f"{grammar}.pcsg"), "--set", setting,
                           "--size", "640x480", "--no-adaptive", "--shadow-samples", "1",

@@ -342,7 +342,7 @@ def bound(graph: Graph, max_depth: int = 64, budget: int = BOUNDS_BUDGET, poll=N
     if fuse:
         graph = fuse_runs(graph)
     boxes, complete, table, depth = walk_boxes(graph, max_depth, budget, instances=True,
-                                               poll=poll)
+                                               poll=poll, cache=True)
     if depth < max_depth:
         problems.append(Diagnostic(
             "warning", f"the instances below derivation depth {depth} are too many to bound "

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..compiler import compile_file
 from ..graph.model import Graph
+from ..graph import boxcache
 from ..trace.nodes import (EV_INTERVALS, EV_NONFINITE, EV_SELECTION, EV_SINGULAR, EV_STACK,
                            EV_VISITS, no_events)
 from ..scene import MAX_AO_SAMPLES
@@ -208,11 +209,15 @@ def render_file(path: Path, out: Path, opts: Options,
             with clock.phase("kernel", "the rest of the shading kernel's load"):
                 loading.join()
     poll, progress = bounds_poll(Path(path).name, opts, deadline)
+    kept = boxcache.hits
     with clock.phase("bounds", "hyper-bounding boxes, instance table"), freeing_blocks():
         try:
             scene = prepare_scene(graph, opts, poll)
         finally:
             progress.close()
+    if boxcache.hits > kept:
+        clock.annotate("bounds", f"read from {boxcache.folder()}, kept by an earlier "
+                                 f"render (PCSG_BOUNDS_CACHE=0: walk again)")
     with clock.phase("render"):
         frame, events = render_scene(scene, Path(path).name, opts, deadline)
     clock.annotate("render", f"{frame.rays / 1e6:.2f} M rays, "

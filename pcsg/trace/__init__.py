@@ -6,6 +6,7 @@ old copy of walk.py after an upgrade. The guard below drops the cached kernels
 whenever any source they are built from changes."""
 from __future__ import annotations
 
+import functools
 import hashlib
 from pathlib import Path
 
@@ -24,11 +25,18 @@ def _cache_dirs(here: Path) -> list[Path]:
     return dirs
 
 
-def _refresh_kernel_cache() -> None:
+@functools.cache
+def kernel_digest() -> str:
+    """A hash of every source the kernels are built from."""
     here = Path(__file__).resolve().parent
     sources = sorted(here.glob("*.py")) + [here.parent / "graph" / "model.py",
                                            here.parent / "language" / "names.py"]
-    digest = hashlib.sha256(b"".join(p.read_bytes() for p in sources)).hexdigest()
+    return hashlib.sha256(b"".join(p.read_bytes() for p in sources)).hexdigest()
+
+
+def _refresh_kernel_cache() -> None:
+    here = Path(__file__).resolve().parent
+    digest = kernel_digest()
     for cache in _cache_dirs(here):
         stamp = cache / "pcsg-kernels.sha256"
         try:

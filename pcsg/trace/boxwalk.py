@@ -13,6 +13,7 @@ from numba import njit
 from ..limits import BOUNDS_BUDGET
 from ..graph.model import (CALC, INTERSECTION, MATERIAL, PAINT, PRIMITIVE, SELECT,
                            TRANSFORM, UNION)
+from ..graph import boxcache
 from . import vm
 from .jit import copy_into, inline, kernel, threads
 from .instance_table import (TABLE_SLOTS, append, compact, empty_table, expand, new_book,
@@ -313,7 +314,7 @@ FIRST_DEPTH = 4        # the first walk, which measures how fast the instances g
 
 
 def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances: bool = False,
-               poll=None):
+               poll=None, cache: bool = False):
     """(n, 6) hyper boxes of every node by visiting every instance, whether they are
     complete, the table of per-instance boxes of the top derivation levels (with
     `instances`: as many levels as fit half of TABLE_SLOTS, as (keys, used, vals) for the
@@ -332,7 +333,10 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
 
     poll(visits, expected), if given, is called every 50 ms while a walk runs, with the
     visits it has made and those predicted for it (None for the first two walks); an
-    exception it raises, or Ctrl-C, stops the walk within milliseconds and is raised."""
+    exception it raises, or Ctrl-C, stops the walk within milliseconds and is raised.
+
+    With `cache`, the result of a long walk is kept on disk and read instead of walking
+    again (trace/boxcache.py)."""
     from ..graph.flat import flatten_graph
     budget = BOUNDS_BUDGET if budget is None else budget
     n = len(graph.nodes)
@@ -341,6 +345,22 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
     # where it can (graph/fuse.py); composed in the walk (nodes.composed_affine), they
     # made it slower
     flat = flatten_graph(graph, empty, native_args=True, runs=False)
+    k = None
+    if cache and boxcache.enabled():
+        k = boxcache.key(flat, max_depth, budget, instances, FIRST_DEPTH, TABLE_SLOTS)
+        kept = boxcache.load(k)
+        if kept is not None:
+            return kept
+    result, visits = _walk_depths(flat, empty, max_depth, budget, instances, poll)
+    if k is not None and visits >= boxcache.MIN_VISITS:
+        boxcache.store(k, result)
+    return result
+
+
+def _walk_depths(flat, empty, max_depth: int, budget: int, instances: bool, poll):
+    """walk_boxes's result from the walks deeper and deeper, and the visits they made."""
+    n = empty.shape[0]
+    spent = 0
     graftal = (flat.term_rule[flat.kind == SELECT] < 0).any()
     depth = min(max_depth, FIRST_DEPTH)
     best = last = None
@@ -350,10 +370,12 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
                                                  instances, poll, expected)
         if visits < 0:
             table = None            # over budget: best's table is built again below
+            spent += budget
             break
+        spent += visits
         if depth == max_depth or changed == 0:
             # the bound changed nothing: these are the boxes of every depth
-            return boxes, True, table, max_depth
+            return (boxes, True, table, max_depth), spent
         if last is None:
             deeper = depth + 1          # a second walk, to see how the visits grow
         else:
@@ -365,7 +387,7 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
             if graftal and deeper < max_depth:
                 break                               # max_depth would not fit
             if deeper == depth:
-                return boxes, True, table, depth    # the next depth would not fit
+                return (boxes, True, table, depth), spent   # the next depth would not fit
             expected = int(cost)
         if not graftal:
             # kept compact, so that its slots are free while the next walk fills its own
@@ -375,8 +397,8 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
         depth = deeper
     if best is None:
         boxes = np.tile([-np.inf, -np.inf, -np.inf, np.inf, np.inf, np.inf], (n, 1))
-        return boxes, False, empty_table(), max_depth
-    return best[0], True, expand(best[1]), best[2]
+        return (boxes, False, empty_table(), max_depth), spent
+    return (best[0], True, expand(best[1]), best[2]), spent
 
 
 def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bool,

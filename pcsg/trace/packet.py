@@ -30,8 +30,8 @@ from . import vm
 from .jit import copy_into, inline, kernel
 from .deferred import defer_step
 from .nodes import (BOXED, CUT, DCALC, DPAINT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
-                    EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, LEVEL, M0, MAT, NAVG,
-                    NODE, OX, PAINT, PHASE, RAY_WIDTH, SLOT, T0, T1, axis_aligned, child_hash,
+                    EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, LEVEL, M0, MAT, N_EVENTS,
+                    NAVG, NODE, OX, PAINT, PHASE, RAY_WIDTH, SLOT, T0, T1, axis_aligned, child_hash,
                     copy_frame, culprit, instance_slot, map_matrix, map_ray, map_ray_scaled, note,
                     operand_entry, operand_slot, packet_box, pick_rule, powers_of_two,
                     set_inverse, slabs, state_slot, transform_map, volume_window, world_size)
@@ -46,6 +46,7 @@ FRAMES = 128            # packet frames; a deeper stack sends its rays on alone
 # windows inside its box already, and BOXED as well where PHASE - ALONE says so
 ALONE = 4
 WAIT = -1               # pixel_split: frame g waits, marked ALONE
+OVER = -2               # select: a ray may have passed its budget, uncounted (trace)
 
 Packet = namedtuple("Packet", [
     "F", "I", "H",      # the frames' shared columns (nodes.py layout; the ray columns unused)
@@ -58,7 +59,9 @@ Packet = namedtuple("Packet", [
                         # children being sorted: rays, windows, count, key (the nearest
                         # window start), the farthest window start, number, hash, PHASE
     "stamp",            # per frame: `epoch` when split pushed it (trace)
-    "best", "hit", "visits", "dnorm",   # per ray
+    "best", "hit", "visits", "dnorm",   # per ray (visits: see trace)
+    "count",            # [selections the packet made, the most visits of one ray alone]
+    "saved",            # the events as they were before the packet (trace)
     "O", "D", "cone",   # the packet's rays: world origin, direction, footprint at 0
 ])
 
@@ -78,14 +81,17 @@ def make_packet(flat):
         np.zeros(c, dtype=np.uint64), np.zeros(c, dtype=np.int64), np.zeros(c, dtype=np.int64),
         np.full(FRAMES, -1, dtype=np.int64),
         np.empty(PACKET), np.zeros(PACKET, dtype=np.bool_), np.zeros(PACKET, dtype=np.int64),
-        np.empty(PACKET),
+        np.empty(PACKET), np.zeros(2, dtype=np.int64),
+        np.zeros((2 * N_EVENTS, flat.kind.shape[0]), dtype=np.int64),
         np.empty((PACKET, 3)), np.empty((PACKET, 3)), np.zeros(PACKET))
 
 
 @inline
-def alone(flat, P, g, j, phase, tmin, tmax, any_hit, lod, max_depth, S, ev, res):
+def alone(flat, P, g, j, phase, tmin, tmax, any_hit, lod, max_depth, S, ev, res, exact):
     """Ray number j of frame g finishes the frame's subtree on its own walk. The frame's
-    window is inside its node's box already; `phase` says whether also BOXED.
+    window is inside its node's box already; `phase` says whether also BOXED. Returns
+    False where the walk of a packet that does not count exactly (trace) ran out of
+    visits: it may have stopped where the ray's own count would not have.
 
     Inlined at one place in `trace`, where frames marked ALONE are popped: called, it
     took the Flat, Packet and Scratch tuples by value, 5 kB pushed on the stack per call,
@@ -103,13 +109,17 @@ def alone(flat, P, g, j, phase, tmin, tmax, any_hit, lod, max_depth, S, ev, res)
     src = P.I[g, SLOT]
     copy_into(S.params[0], P.params[src])
     H[0] = P.H[g]
-    S.visits[0] = P.visits[k]
+    # not counting exactly, the walk starts from a bound on the ray's count (trace)
+    base = 0 if exact else P.count[0]
+    S.visits[0] = base + P.visits[k]
     found, t = walk(flat, 1, P.best[k], tmin, tmax, any_hit, lod, P.cone[k], P.dnorm[k],
                     P.D[k, 0], P.D[k, 1], P.D[k, 2], max_depth, S, ev, res, k)
-    P.visits[k] = S.visits[0]
+    P.visits[k] = S.visits[0] - base
+    P.count[1] = max(P.count[1], P.visits[k])
     if found:
         P.hit[k] = True
         P.best[k] = -np.inf if any_hit else t
+    return exact or S.visits[0] <= S.visits[1]
 
 
 @inline
@@ -121,174 +131,203 @@ def note_all(ev, kind, node, level, count):
 @kernel
 def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res):
     """The nearest hits of the packet's rays P.O[k], P.D[k] with footprints P.cone[k]
-    (k < n) into res[k]. Without `together` every ray walks alone from the root."""
-    F, I, H, R = P.F, P.I, P.H, P.R
-    act, win, cnt, best = P.act, P.win, P.n, P.best
-    has_table = flat.inst_used.shape[0] > 2 and flat.by_state == 0   # keyed by path
-    for c in range(9):
-        F[0, M0 + c] = 1.0 if c % 4 == 0 else 0.0
-    for c in range(3):
-        F[0, PAINT + c] = np.nan
-        F[0, NAVG + c] = 0.0
-    F[0, T0] = tmax
-    I[0, NODE] = flat.root
-    I[0, SLOT] = 0
-    I[0, LEVEL] = 0
-    I[0, MAT] = -1
-    I[0, CUT] = 0
-    I[0, DCALC] = -1
-    I[0, DPAINT] = -1
-    I[0, PHASE] = 0
-    H[0] = vm.ROOT_HASH
-    P.block[0] = 0
-    for p in range(P.params.shape[1]):
-        P.params[0, p] = np.nan
-    for k in range(n):
+    (k < n) into res[k]. Without `together` every ray walks alone from the root.
+
+    A ray may enter S.visits[1] S-node instances (--max-instances). Counting each ray's
+    entries is a loop over the frame's rays at every selection; yet no ray can pass the
+    budget while the packet's selections and the most entries of one ray on its own walks
+    (P.count) do not. So the packet first counts only those (`exact` False), and where they
+    pass the budget it walks again from the start, its events as they were, counting every
+    ray's entries (P.visits): the same hits and events either way. One loop around one
+    body, not a walk called twice: as a function of its own, called or inlined, the walk
+    took the kernels' compile from 7 to 13 minutes and more."""
+    for r in range(ev.shape[0]):
+        copy_into(P.saved[r], ev[r])
+    exact = False
+    while True:
+        F, I, H, R = P.F, P.I, P.H, P.R
+        act, win, cnt, best = P.act, P.win, P.n, P.best
+        has_table = flat.inst_used.shape[0] > 2 and flat.by_state == 0   # keyed by path
+        for c in range(9):
+            F[0, M0 + c] = 1.0 if c % 4 == 0 else 0.0
         for c in range(3):
-            R[k, OX + c] = P.O[k, c]
-            R[k, DX + c] = P.D[k, c]
-        set_inverse(R, k)
-        act[0, k] = k
-        win[0, k, 0] = tmin
-        win[0, k, 1] = tmax
-        best[k] = tmax
-        P.hit[k] = False
-        P.visits[k] = 0
-        P.dnorm[k] = math.sqrt(P.D[k, 0] ** 2 + P.D[k, 1] ** 2 + P.D[k, 2] ** 2)
-    cnt[0] = n
-    dmax = 0.0
-    for k in range(n):
-        dmax = max(dmax, P.dnorm[k])
-    budget = S.visits[1]
-    # --stack-depth bounds the packet's pending frames too, and then each ray's own walk
-    cap = min(FRAMES, S.F.shape[0])
-    # counts the places where some ray's nearest hit may have come nearer: a frame that
-    # split pushed at the same epoch has its windows cut to its rays' hits already
-    epoch = 0
-    P.stamp[0] = -1
-    sp = 1
-    while sp > 0:
-        sp -= 1
-        g = sp
-        if I[g, PHASE] >= ALONE:
-            for j in range(cnt[g]):
-                alone(flat, P, g, j, I[g, PHASE] - ALONE, tmin, tmax, any_hit, lod,
-                      max_depth, S, ev, res)
-            epoch += 1
-            continue
-        boxed = I[g, PHASE] == BOXED
-        within = I[g, PHASE] != 0
-        # whether the rays' windows have been cut to their nearest hits since the frame was
-        # popped: no ray that stays in a frame finds a hit while it follows single-child
-        # nodes, so once is enough where there is no box to test. A frame popped at the
-        # epoch it was pushed in needs no cut: the nearest child of a union, which is
-        # popped at once, and the others where their elder siblings hit nothing
-        pruned = P.stamp[g] == epoch
-        while True:         # follow single-child nodes in place
-            node = I[g, NODE]
-            kind = flat.kind[node]
-            blk = P.block[g] * PACKET
-            slot = -1
-            if kind == SELECT and has_table and not boxed:
-                slot = instance_slot(flat, node, H[g], I, g)
-            if kind == SELECT:
-                test = I[g, PHASE] == 0 and not boxed
-            else:
-                test = not within
-            I[g, PHASE] = 0
-            within = True
-            use, x0, y0, z0, x1, y1, z1 = packet_box(flat, node, slot, test)
-            done = use == 2 and pruned        # no box, and the windows cut already
-            pruned = True
-            m = cnt[g] if done else 0
-            far = -np.inf
-            for j in range(0 if done or use < 0 else cnt[g]):
-                k = act[g, j]
-                t0 = win[g, j, 0]
-                t1 = min(win[g, j, 1], best[k])
-                if use != 2:
-                    if use == 1:
-                        b0, b1 = slabs(x0, y0, z0, x1, y1, z1, R, blk + k)
-                    else:
-                        b0, b1 = volume_window(flat, node, slot, R, blk + k)
-                    t0 = max(t0, b0)
-                    t1 = min(t1, b1)
-                    far = max(far, t0 if t0 <= t1 else -np.inf)
-                keep_ray(act, win, g, m, k, t0, t1)
-                m += t0 <= t1
-            cnt[g] = m
-            if use != 2 and m > 0:
-                F[g, T0] = far
-            if m == 0:
-                break
-            phase = BOXED if boxed else INSIDE
-            if (not together or m == 1 or kind == INTERSECTION or kind == DIFFERENCE
-                    or (kind == SELECT and flat.pixels_slot >= 0)
-                    or (kind == UNION and sp + flat.child_count[node] > cap)):
-                I[g, PHASE] = ALONE + phase
-                sp += 1
-                break
-            if kind == PRIMITIVE:
-                for j in range(m):
-                    k = act[g, j]
-                    t = hit_primitive(flat, node, R, blk + k, F, I, H, g, P.params, tmin,
-                                      win[g, j, 1], best[k], lod, P.cone[k], P.dnorm[k],
-                                      P.D[k, 0], P.D[k, 1], P.D[k, 2], S, ev, res, k)
-                    if t < best[k]:
-                        P.hit[k] = True
-                        best[k] = -np.inf if any_hit else t
+            F[0, PAINT + c] = np.nan
+            F[0, NAVG + c] = 0.0
+        F[0, T0] = tmax
+        I[0, NODE] = flat.root
+        I[0, SLOT] = 0
+        I[0, LEVEL] = 0
+        I[0, MAT] = -1
+        I[0, CUT] = 0
+        I[0, DCALC] = -1
+        I[0, DPAINT] = -1
+        I[0, PHASE] = 0
+        H[0] = vm.ROOT_HASH
+        P.block[0] = 0
+        for p in range(P.params.shape[1]):
+            P.params[0, p] = np.nan
+        for k in range(n):
+            for c in range(3):
+                R[k, OX + c] = P.O[k, c]
+                R[k, DX + c] = P.D[k, c]
+            set_inverse(R, k)
+            act[0, k] = k
+            win[0, k, 0] = tmin
+            win[0, k, 1] = tmax
+            best[k] = tmax
+            P.hit[k] = False
+            P.visits[k] = 0
+            P.dnorm[k] = math.sqrt(P.D[k, 0] ** 2 + P.D[k, 1] ** 2 + P.D[k, 2] ** 2)
+        cnt[0] = n
+        P.count[0] = 0
+        P.count[1] = 0
+        dmax = 0.0
+        for k in range(n):
+            dmax = max(dmax, P.dnorm[k])
+        budget = S.visits[1]
+        # --stack-depth bounds the packet's pending frames too, and then each ray's own walk
+        cap = min(FRAMES, S.F.shape[0])
+        # counts the places where some ray's nearest hit may have come nearer: a frame that
+        # split pushed at the same epoch has its windows cut to its rays' hits already
+        epoch = 0
+        P.stamp[0] = -1
+        sp = 1
+        aborted = False
+        while sp > 0:
+            sp -= 1
+            g = sp
+            if I[g, PHASE] >= ALONE:
+                for j in range(cnt[g]):
+                    if not alone(flat, P, g, j, I[g, PHASE] - ALONE, tmin, tmax, any_hit, lod,
+                                 max_depth, S, ev, res, exact):
+                        aborted = True
+                        break
+                if aborted:
+                    break
                 epoch += 1
-                break
-            if kind == SELECT:
-                on, below_all = pixel_split(flat, node, P, g, phase, cap, lod, lod * dmax,
-                                            max_depth)
-                if on == WAIT:
+                continue
+            boxed = I[g, PHASE] == BOXED
+            within = I[g, PHASE] != 0
+            # whether the rays' windows have been cut to their nearest hits since the frame was
+            # popped: no ray that stays in a frame finds a hit while it follows single-child
+            # nodes, so once is enough where there is no box to test. A frame popped at the
+            # epoch it was pushed in needs no cut: the nearest child of a union, which is
+            # popped at once, and the others where their elder siblings hit nothing
+            pruned = P.stamp[g] == epoch
+            while True:         # follow single-child nodes in place
+                node = I[g, NODE]
+                kind = flat.kind[node]
+                blk = P.block[g] * PACKET
+                slot = -1
+                if kind == SELECT and has_table and not boxed:
+                    slot = instance_slot(flat, node, H[g], I, g)
+                if kind == SELECT:
+                    test = I[g, PHASE] == 0 and not boxed
+                else:
+                    test = not within
+                I[g, PHASE] = 0
+                within = True
+                use, x0, y0, z0, x1, y1, z1 = packet_box(flat, node, slot, test)
+                done = use == 2 and pruned        # no box, and the windows cut already
+                pruned = True
+                m = cnt[g] if done else 0
+                far = -np.inf
+                for j in range(0 if done or use < 0 else cnt[g]):
+                    k = act[g, j]
+                    t0 = win[g, j, 0]
+                    t1 = min(win[g, j, 1], best[k])
+                    if use != 2:
+                        if use == 1:
+                            b0, b1 = slabs(x0, y0, z0, x1, y1, z1, R, blk + k)
+                        else:
+                            b0, b1 = volume_window(flat, node, slot, R, blk + k)
+                        t0 = max(t0, b0)
+                        t1 = min(t1, b1)
+                        far = max(far, t0 if t0 <= t1 else -np.inf)
+                    keep_ray(act, win, g, m, k, t0, t1)
+                    m += t0 <= t1
+                cnt[g] = m
+                if use != 2 and m > 0:
+                    F[g, T0] = far
+                if m == 0:
+                    break
+                phase = BOXED if boxed else INSIDE
+                if (not together or m == 1 or kind == INTERSECTION or kind == DIFFERENCE
+                        or (kind == SELECT and flat.pixels_slot >= 0)
+                        or (kind == UNION and sp + flat.child_count[node] > cap)):
+                    I[g, PHASE] = ALONE + phase
                     sp += 1
                     break
-                g = on
-                sp = on         # frames 0..g-1 wait: the rays split off at g - 1 too
-                e = select(flat, node, P, g, blk, below_all, tmin, any_hit, budget,
-                           max_depth, S, ev, res)
-                if e < 0:
-                    epoch += 1      # it may have hit boxes
-                    break
-                boxed = False
-                within = flat.holds[e] != 0
-                continue
-            if kind == UNION:
-                used = split(flat, node, P, g, blk, has_table)
-                for d in range(g, g + used):
-                    P.stamp[d] = epoch
-                sp += used
-                break
-            if kind == TRANSFORM:
-                bad = transform_map(flat, node, P.params, I[g, SLOT], H[g], S.stack, S.args,
-                                    S.m34, S.m21)
-                L = S.m21
-                if bad != 0:
-                    note_all(ev, EV_NONFINITE if bad == 1 else EV_SINGULAR,
-                             culprit(flat, node, P.params, I[g, SLOT], H[g], S.stack, S.args,
-                                     S.m34, bad), I[g, LEVEL], m)
-                    break
-                own = (g + 1) * PACKET
-                within = axis_aligned(L)
-                if within and powers_of_two(L):
+                if kind == PRIMITIVE:
                     for j in range(m):
                         k = act[g, j]
-                        map_ray_scaled(L, R, blk + k, R, own + k)
-                else:
-                    for j in range(m):
-                        k = act[g, j]
-                        map_ray(L, R, blk + k, R, own + k)
-                P.block[g] = g + 1
-                map_matrix(L, F, g)
-                boxed = boxed and within
-                I[g, NODE] = flat.children[flat.child_start[node]]
-                continue
-            if defer_step(flat, node, kind, I, g):
-                continue
-            if not step_unary(flat, node, kind, F, I, H, g, P.params, 0, S, ev):
-                break
+                        t = hit_primitive(flat, node, R, blk + k, F, I, H, g, P.params, tmin,
+                                          win[g, j, 1], best[k], lod, P.cone[k], P.dnorm[k],
+                                          P.D[k, 0], P.D[k, 1], P.D[k, 2], S, ev, res, k)
+                        if t < best[k]:
+                            P.hit[k] = True
+                            best[k] = -np.inf if any_hit else t
+                    epoch += 1
+                    break
+                if kind == SELECT:
+                    on, below_all = pixel_split(flat, node, P, g, phase, cap, lod, lod * dmax,
+                                                max_depth)
+                    if on == WAIT:
+                        sp += 1
+                        break
+                    g = on
+                    sp = on         # frames 0..g-1 wait: the rays split off at g - 1 too
+                    e = select(flat, node, P, g, blk, below_all, tmin, any_hit, budget,
+                               max_depth, S, ev, res, exact)
+                    if e == OVER:
+                        aborted = True
+                        sp = 0
+                        break
+                    if e < 0:
+                        epoch += 1      # it may have hit boxes
+                        break
+                    boxed = False
+                    within = flat.holds[e] != 0
+                    continue
+                if kind == UNION:
+                    used = split(flat, node, P, g, blk, has_table)
+                    for d in range(g, g + used):
+                        P.stamp[d] = epoch
+                    sp += used
+                    break
+                if kind == TRANSFORM:
+                    bad = transform_map(flat, node, P.params, I[g, SLOT], H[g], S.stack, S.args,
+                                        S.m34, S.m21)
+                    L = S.m21
+                    if bad != 0:
+                        note_all(ev, EV_NONFINITE if bad == 1 else EV_SINGULAR,
+                                 culprit(flat, node, P.params, I[g, SLOT], H[g], S.stack, S.args,
+                                         S.m34, bad), I[g, LEVEL], m)
+                        break
+                    own = (g + 1) * PACKET
+                    within = axis_aligned(L)
+                    if within and powers_of_two(L):
+                        for j in range(m):
+                            k = act[g, j]
+                            map_ray_scaled(L, R, blk + k, R, own + k)
+                    else:
+                        for j in range(m):
+                            k = act[g, j]
+                            map_ray(L, R, blk + k, R, own + k)
+                    P.block[g] = g + 1
+                    map_matrix(L, F, g)
+                    boxed = boxed and within
+                    I[g, NODE] = flat.children[flat.child_start[node]]
+                    continue
+                if defer_step(flat, node, kind, I, g):
+                    continue
+                if not step_unary(flat, node, kind, F, I, H, g, P.params, 0, S, ev):
+                    break
+        if not aborted or exact:
+            break
+        for r in range(ev.shape[0]):
+            copy_into(ev[r], P.saved[r])
+        exact = True
     for k in range(n):
         finish(res, k, P.hit[k])
 
@@ -350,18 +389,25 @@ def below_pixel(size, lod, P, g, j):
 
 
 @inline
-def select(flat, node, P, g, blk, below_all, tmin, any_hit, budget, max_depth, S, ev, res):
+def select(flat, node, P, g, blk, below_all, tmin, any_hit, budget, max_depth, S, ev, res,
+           exact):
     """choose_rule for the packet at an S-node, its rays' windows narrowed to its boxes
     already (and pixel_split past): the chosen rule's entry in flat.children, -1 if the
-    frame ends here."""
+    frame ends here, OVER if some ray may have passed its budget of entries and the packet
+    does not count them exactly (trace)."""
     F, I, H, R, act, win = P.F, P.I, P.H, P.R, P.act, P.win
     m = P.n[g]
     level = I[g, LEVEL] + 1
     over = False
-    for j in range(m):
-        k = act[g, j]
-        P.visits[k] += 1
-        over |= P.visits[k] > budget
+    if exact:
+        for j in range(m):
+            k = act[g, j]
+            P.visits[k] += 1
+            over |= P.visits[k] > budget
+    else:
+        P.count[0] += 1
+        if P.count[0] + P.count[1] > budget:
+            return OVER
     if over:        # rarely: the frame keeps every ray, and its list is not rewritten
         q = 0
         for j in range(m):
