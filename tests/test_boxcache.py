@@ -102,3 +102,15 @@ def test_off_walks_every_time(cache, monkeypatch):
     monkeypatch.setenv("PCSG_BOUNDS_CACHE", "0")
     walk_boxes(compile_file(TERRAIN, {"cnt": 4}), instances=True, cache=True)
     assert not cache.exists()
+
+
+def test_a_write_that_fails_leaves_nothing_behind(cache, monkeypatch):
+    def full_disk(f, **arrays):
+        f.write(b"PK" + bytes(4096))
+        raise OSError(28, "No space left on device")
+    graph = compile_file(TERRAIN, {"cnt": 4})
+    monkeypatch.setattr(boxcache.np, "savez", full_disk)
+    walked = walk_boxes(graph, instances=True, cache=True)
+    assert cache.is_dir() and not list(cache.iterdir())     # no entry, no temporary file
+    monkeypatch.undo()
+    same(walked, walk_boxes(graph, instances=True))

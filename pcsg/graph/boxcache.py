@@ -76,6 +76,7 @@ def store(k: str, result) -> None:
     boxes, complete, table, depth = result
     keys, used, vals, slots = compact(table)
     where = folder()
+    tmp = None
     try:
         where.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=where, suffix=".tmp")
@@ -84,8 +85,9 @@ def store(k: str, result) -> None:
                      vals=vals, slots=slots)
         os.replace(tmp, where / f"{k}.npz")
         _trim(where)
-    except OSError:
-        pass
+    except Exception:       # noqa: BLE001 -- a full disk, a read-only folder: keep nothing
+        if tmp is not None:
+            Path(tmp).unlink(missing_ok=True)
 
 
 def _trim(where: Path) -> None:
