@@ -22,6 +22,7 @@ from ..trace.primitives import object_box
 from .dependence import StateKey
 from .derive import Deriver, State
 from .fuse import fuse_runs
+from .passthrough import fill_boxes, without_passable
 from .model import CALC, DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, UNION, Graph
 from .states import StateTable, state_table
 from .stats import MAX_LEVELS
@@ -341,8 +342,10 @@ def bound(graph: Graph, max_depth: int = 64, budget: int = BOUNDS_BUDGET, poll=N
                 graph)
     if fuse:
         graph = fuse_runs(graph)
-    boxes, complete, table, depth = walk_boxes(graph, max_depth, budget, instances=True,
+    walked, skipped = without_passable(graph)
+    boxes, complete, table, depth = walk_boxes(walked, max_depth, budget, instances=True,
                                                poll=poll, cache=True)
+    fill_boxes(boxes, skipped)
     if depth < max_depth:
         problems.append(Diagnostic(
             "warning", f"the instances below derivation depth {depth} are too many to bound "
