@@ -194,6 +194,7 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
         node = fr[f, NODE]
         kind = flat.kind[node]
         phase = fr[f, PHASE]
+        chained = False
         if phase == 0:
             visits += 1
             if visits > budget:
@@ -211,10 +212,11 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
                 visits += steps
                 if steps < 0 or visits > budget:
                     return -1
-                sp -= 1
-                continue
+                chained = True
         child = -1
-        if kind == PRIMITIVE:
+        if chained:
+            pass                # closed by _walk_chain, with every frame of its chain
+        elif kind == PRIMITIVE:
             _primitive_box(flat, node, acc[f])
         elif kind == SELECT:
             if phase == 0:
@@ -256,18 +258,8 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
                 _keep(buffered, fr[f, LEVEL], hs[f], node, -1, node, acc[f], book, keys, used,
                       vals, per_level)
         elif kind == TRANSFORM or kind == CALC or kind == PAINT or kind == MATERIAL:
-            if phase == 0:
-                child = 0
-                fr[f, PHASE] = 1
-            elif kind == TRANSFORM:
-                if node_affine(flat, node, params, fr[f, SLOT], hs[f], stack, args, m34):
-                    _transform_box(m34, acc[f + 1], tmp)
-                    copy_into(acc[f], tmp)
-                else:               # non-finite arguments: the tracer empties the instance
-                    acc[f, :3] = np.inf
-                    acc[f, 3:] = -np.inf
-            else:
-                copy_into(acc[f], acc[f + 1])
+            child = 0           # met at phase 0 only: the loop after the pop finishes them
+            fr[f, PHASE] = 1
         else:   # UNION, INTERSECTION, DIFFERENCE: children one by one
             if phase > 0:
                 b = acc[f + 1]
@@ -302,8 +294,29 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
                 fr[g, SLOT] = g
             sp += 1
             continue
-        _close(boxes, node, acc[f])
+        if not chained:
+            _close(boxes, node, acc[f])
         sp -= 1
+        # the single-child nodes above it finish here, each at once, rather than on a turn
+        # of the loop of its own with the dispatch on its kind and phase (the T- and C-node
+        # above each operand of the terrain's unions: the walk of the terrain at 12 took 7 %
+        # less time)
+        while sp > 0:
+            p = sp - 1
+            up = fr[p, NODE]
+            if flat.kind[up] == TRANSFORM:
+                if node_affine(flat, up, params, fr[p, SLOT], hs[p], stack, args, m34):
+                    _transform_box(m34, acc[p + 1], tmp)
+                    copy_into(acc[p], tmp)
+                else:               # non-finite arguments: the tracer empties the instance
+                    acc[p, :3] = np.inf
+                    acc[p, 3:] = -np.inf
+            elif flat.kind[up] == CALC or flat.kind[up] == PAINT or flat.kind[up] == MATERIAL:
+                copy_into(acc[p], acc[p + 1])
+            else:
+                break
+            _close(boxes, up, acc[p])
+            sp -= 1
     if buffered:
         copy_into(item_boxes[first], acc[0])
     watch[tell] += visits - told
