@@ -1,4 +1,4 @@
-"""The bounding walk's results kept on disk (trace/boxcache.py): read back to the bit,
+"""The bounding walk's results kept on disk (graph/boxcache.py): read back to the bit,
 keyed by everything the walk reads, and never trusted when unreadable."""
 import numpy as np
 import pytest

@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def render(tree: Path, grammar: str, setting: str, png: Path) -> tuple[float, float, str]:
     """(render s, bounds s, PNG digest) of one fresh process of the pcsg in `tree`."""
-    # the bounds walked in every process: kept ones would time a file read (trace/boxcache.py)
+    # the bounds walked in every process: kept ones would time a file read (graph/boxcache.py)
     env = dict(os.environ, PYTHONPATH=str(tree), PCSG_BOUNDS_CACHE="0")
     out = subprocess.run([sys.executable, "-m", "pcsg.cli", "render",
                           str(ROOT / "grammars" / f"{grammar}.pcsg"), "--set", setting,

@@ -11,7 +11,7 @@ machine it came from. The deepest orders run with pcsg alone: POV-Ray cannot hol
 their expansion.
 
 pcsg walks its bounds in every run of the table (PCSG_BOUNDS_CACHE=0). The workloads in
-KEPT are also run with the bounds an earlier render kept on disk (trace/boxcache.py), as a
+KEPT are also run with the bounds an earlier render kept on disk (graph/boxcache.py), as a
 user's second render of the same system finds them: a row of their own, "bounds kept",
 after one run that fills the cache and is not counted.
 """

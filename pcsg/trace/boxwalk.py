@@ -349,7 +349,7 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
     exception it raises, or Ctrl-C, stops the walk within milliseconds and is raised.
 
     With `cache`, the result of a long walk is kept on disk and read instead of walking
-    again (trace/boxcache.py)."""
+    again (graph/boxcache.py)."""
     from ..graph.flat import flatten_graph
     budget = BOUNDS_BUDGET if budget is None else budget
     n = len(graph.nodes)
