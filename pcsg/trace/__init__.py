@@ -10,7 +10,7 @@ import functools
 import hashlib
 from pathlib import Path
 
-from . import cacheload
+from . import cacheload, compilestack
 
 
 def _cache_dirs(here: Path) -> list[Path]:
@@ -55,3 +55,4 @@ def _refresh_kernel_cache() -> None:
 
 _refresh_kernel_cache()
 cacheload.install()
+compilestack.install()

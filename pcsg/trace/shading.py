@@ -232,7 +232,9 @@ def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S,
     rays traced."""
     radius = lights[li, L_RADIUS]
     samples = shadow_samples if radius > 0 else 1
-    facing = 0
+    # an int64 from the start: numba types the trace call below while it still takes
+    # facing for the constant 0, and compiled the whole packet trace once more for that
+    facing = np.int64(0)
     for j in range(hits):
         sh[j, SH_SEEN] = 0.0
         # a surface turned away from the light gets nothing from it, shadowed or not
