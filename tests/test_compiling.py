@@ -71,3 +71,57 @@ def test_a_shaded_render_compiles_the_packet_trace_without_literal_arguments():
     assert signatures
     literal = [sig for sig in signatures if any(isinstance(t, types.Literal) for t in sig)]
     assert literal == []
+
+
+def _two_branches(x):
+    s = 0
+    for i in range(x):
+        if i % 2:
+            s += i
+        else:
+            s -= 1
+    return s
+
+
+def test_blocks_copied_at_one_call_site_share_one_copy_of_the_scope():
+    from numba.core.compiler import run_frontend
+    from pcsg.trace import inlinecopy
+    blocks = list(run_frontend(_two_branches).blocks.values())
+    assert len(blocks) > 3
+    inlinecopy._memos.stack = [{}]
+    try:
+        first = [inlinecopy._Copy.deepcopy(b) for b in blocks]
+        again = [inlinecopy._Copy.deepcopy(b) for b in blocks]
+    finally:
+        inlinecopy._memos.stack = []
+    assert len({id(b.scope) for b in first}) == 1
+    assert first[0].scope is not blocks[0].scope
+    assert first[0].scope.localvars._con.keys() == blocks[0].scope.localvars._con.keys()
+    # a second copy of the same blocks shares nothing with the first
+    assert len({id(b.scope) for b in again}) == 1
+    assert again[0].scope is not first[0].scope
+    assert not {id(s) for b in first for s in b.body} & {id(s) for b in again for s in b.body}
+
+
+def test_a_callee_inlined_at_two_call_sites_computes_as_in_python():
+    from numba.core import inline_closurecall
+    from pcsg.trace import inlinecopy
+    assert inline_closurecall.InlineWorker.inline_ir is inlinecopy.inline_ir
+
+    @njit(inline="always")
+    def step(a, k):
+        s = 0.0
+        for i in range(a.shape[0]):
+            if a[i] > k:
+                s += a[i]
+            else:
+                s -= 1.0
+        return s
+
+    @njit
+    def twice(a):
+        return step(a, 0.5) + 2.0 * step(a, 2.0)
+
+    a = np.linspace(0.0, 3.0, 7)
+    # above 0.5: 1 + 1.5 + 2 + 2.5 + 3, less 2; above 2: 2.5 + 3, less 5
+    assert twice(a) == twice.py_func(a) == 8.0 + 2.0 * 0.5

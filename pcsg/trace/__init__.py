@@ -10,7 +10,7 @@ import functools
 import hashlib
 from pathlib import Path
 
-from . import cacheload, compilestack
+from . import cacheload, compilestack, inlinecopy
 
 
 def _cache_dirs(here: Path) -> list[Path]:
@@ -56,3 +56,4 @@ def _refresh_kernel_cache() -> None:
 _refresh_kernel_cache()
 cacheload.install()
 compilestack.install()
+inlinecopy.install()
