@@ -125,3 +125,53 @@ def test_a_callee_inlined_at_two_call_sites_computes_as_in_python():
     a = np.linspace(0.0, 3.0, 7)
     # above 0.5: 1 + 1.5 + 2 + 2.5 + 3, less 2; above 2: 2.5 + 3, less 5
     assert twice(a) == twice.py_func(a) == 8.0 + 2.0 * 0.5
+
+
+NOTICE = b"pcsg: compiling the tracing kernels"
+
+
+def _on_a_terminal(args, env, until, timeout=180.0):
+    """The command's output on a pseudo-terminal, read until `until` shows or it ends;
+    then the command is stopped (a cold start would go on compiling for minutes)."""
+    import os
+    import pty
+    import select
+    import subprocess
+    import sys
+    import time
+    master, slave = pty.openpty()
+    p = subprocess.Popen([sys.executable, "-m", "pcsg.cli", *args], stdin=slave,
+                         stdout=slave, stderr=slave, env=env)
+    os.close(slave)
+    out, end = b"", time.monotonic() + timeout
+    try:
+        while until not in out and time.monotonic() < end:
+            if select.select([master], [], [], 0.2)[0]:
+                try:
+                    chunk = os.read(master, 4096)
+                except OSError:     # the command ended and closed the terminal
+                    break
+                out += chunk
+            elif p.poll() is not None:
+                break
+    finally:
+        p.kill()
+        p.wait()
+        os.close(master)
+    return out
+
+
+def test_a_person_at_a_terminal_is_told_when_a_render_compiles_the_kernels(tmp_path):
+    import os
+    import subprocess
+    import sys
+    args = ["render", "grammars/sierpinski.pcsg", "--set", "c=1", "--size", "32x24",
+            "-o", str(tmp_path / "s.png")]
+    cold = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "empty"))
+    assert NOTICE in _on_a_terminal(args, cold, NOTICE)
+    # the kernels compiled and cached first, if no earlier test did
+    subprocess.run([sys.executable, "-m", "pcsg.cli", *args, "-q"], check=True)
+    warm = _on_a_terminal(args, dict(os.environ), b"rays/s")
+    assert b"s.png: 32x24" in warm and NOTICE not in warm
+    quiet = _on_a_terminal(args + ["-q"], cold, NOTICE, timeout=5.0)
+    assert NOTICE not in quiet

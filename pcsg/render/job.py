@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import copy
 import math
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -199,6 +200,9 @@ def render_file(path: Path, out: Path, opts: Options,
     runtime errors."""
     clock = timings or Timings()
     deadline = None if opts.timeout is None else time.perf_counter() + opts.timeout
+    notice = None if opts.reference else preload.compile_notice(opts.quiet)
+    if notice:
+        print(notice, file=sys.stderr, flush=True)
     loading = None if opts.reference else preload.start()
     try:
         with clock.phase("compile", "parse, checks" + (", the shading kernel loading beside"

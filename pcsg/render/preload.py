@@ -22,13 +22,27 @@ def start() -> threading.Thread | None:
     return thread
 
 
+def compile_notice(quiet: bool) -> str | None:
+    """The line for a person at a terminal whose render is about to compile the kernels:
+    three minutes or so on two cores, before any progress line can show."""
+    import sys
+    if quiet or not sys.stderr.isatty() or cached():
+        return None
+    return ("pcsg: compiling the tracing kernels, once for this version of pcsg "
+            "(about 3 minutes on two cores) ...")
+
+
 def cached() -> bool:
-    """Whether numba's cache has an index for the shading kernel (the kernel guard in
-    trace/__init__.py removes it whenever a kernel source changes)."""
-    from ..trace import _cache_dirs, shading
+    """Whether numba's cache has an index for the shading kernel, in the folder numba
+    reads (beside the sources, or under NUMBA_CACHE_DIR when that is set; the kernel
+    guard in trace/__init__.py empties both whenever a kernel source changes). True
+    under NUMBA_DISABLE_JIT: nothing is compiled."""
     from pathlib import Path
-    here = Path(shading.__file__).resolve().parent
-    return any(any(d.glob("shading.shade_share-*.nbi")) for d in _cache_dirs(here))
+    from ..trace.shading import shade_share
+    cache = getattr(shade_share, "_cache", None)
+    if cache is None:
+        return True
+    return any(Path(cache.cache_path).glob("shading.shade_share-*.nbi"))
 
 
 def _load() -> None:
