@@ -1,12 +1,23 @@
 """How the kernels are compiled: on a frame stack of their own (trace/compilestack.py),
-and the packet trace, the largest kernel, once per render, not once more for a literal."""
+with one copy of an inlined callee's scope per call site (trace/inlinecopy.py), the
+packet trace, the largest kernel, once per render and not once more for a literal, and
+a person at a terminal told when a render is about to compile them."""
+import os
+import pty
 import resource
+import select
+import subprocess
+import sys
+import time
 
 import numpy as np
 from numba import njit, types
+from numba.core import inline_closurecall
+from numba.core.compiler import run_frontend
+from numba.core.dispatcher import Dispatcher
 
 import pcsg
-from pcsg.trace import compilestack, packet
+from pcsg.trace import compilestack, inlinecopy, packet
 from pcsg.trace.jit import kernel
 from pcsg.render.camera import make_camera
 from pcsg.render.shade import make_lighting, shade
@@ -38,7 +49,6 @@ def test_deep_calls_on_their_own_stack_do_not_map_chunks_again_and_again():
 
 
 def test_compiles_go_through_the_own_stack_and_work():
-    from numba.core.dispatcher import Dispatcher
     assert Dispatcher.compile is compilestack.compile_on_own_stack
 
     @njit
@@ -84,8 +94,6 @@ def _two_branches(x):
 
 
 def test_blocks_copied_at_one_call_site_share_one_copy_of_the_scope():
-    from numba.core.compiler import run_frontend
-    from pcsg.trace import inlinecopy
     blocks = list(run_frontend(_two_branches).blocks.values())
     assert len(blocks) > 3
     inlinecopy._memos.stack = [{}]
@@ -104,8 +112,6 @@ def test_blocks_copied_at_one_call_site_share_one_copy_of_the_scope():
 
 
 def test_a_callee_inlined_at_two_call_sites_computes_as_in_python():
-    from numba.core import inline_closurecall
-    from pcsg.trace import inlinecopy
     assert inline_closurecall.InlineWorker.inline_ir is inlinecopy.inline_ir
 
     @njit(inline="always")
@@ -133,12 +139,6 @@ NOTICE = b"pcsg: compiling the tracing kernels"
 def _on_a_terminal(args, env, until, timeout=180.0):
     """The command's output on a pseudo-terminal, read until `until` shows or it ends;
     then the command is stopped (a cold start would go on compiling for minutes)."""
-    import os
-    import pty
-    import select
-    import subprocess
-    import sys
-    import time
     master, slave = pty.openpty()
     p = subprocess.Popen([sys.executable, "-m", "pcsg.cli", *args], stdin=slave,
                          stdout=slave, stderr=slave, env=env)
@@ -162,9 +162,6 @@ def _on_a_terminal(args, env, until, timeout=180.0):
 
 
 def test_a_person_at_a_terminal_is_told_when_a_render_compiles_the_kernels(tmp_path):
-    import os
-    import subprocess
-    import sys
     args = ["render", "grammars/sierpinski.pcsg", "--set", "c=1", "--size", "32x24",
             "-o", str(tmp_path / "s.png")]
     cold = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "empty"))

@@ -17,21 +17,21 @@ import types
 from numba.core.dispatcher import Dispatcher
 
 NUMBA_COMPILE = Dispatcher.compile
-SPARE_SLOTS = 1 << 18       # 2 MiB of frame stack for the compiler's calls
+SPARE_SLOTS = 1 << 18   # the frame's 2 MiB: its chunk is 4 MiB, 2 MiB left for the compiler
 
 
-def _call(fn, *args):
-    return fn(*args)
+def _call(fn, *args, **kwargs):
+    return fn(*args, **kwargs)
 
 
 on_own_stack = types.FunctionType(
     _call.__code__.replace(co_stacksize=_call.__code__.co_stacksize + SPARE_SLOTS + 64),
     _call.__globals__, "on_own_stack")
-on_own_stack.__doc__ = "fn(*args), under a frame large enough to start a chunk of its own."
+on_own_stack.__doc__ = "fn(*args, **kwargs), under a frame that starts a chunk of its own."
 
 
-def compile_on_own_stack(self, sig):
-    return on_own_stack(NUMBA_COMPILE, self, sig)
+def compile_on_own_stack(self, *args, **kwargs):
+    return on_own_stack(NUMBA_COMPILE, self, *args, **kwargs)
 
 
 def install() -> None:

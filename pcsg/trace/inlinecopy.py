@@ -48,7 +48,8 @@ def inline_ir(self, *args, **kwargs):
 
 
 def install() -> None:
-    """Only over the numba this was measured on, or one that copies the same way."""
+    """Where numba's inliner reaches `copy` through its module, as numba 0.68 does: a
+    numba that copies otherwise keeps its own way."""
     if getattr(inline_closurecall, "copy", None) is copy:
         inline_closurecall.copy = _Copy
         inline_closurecall.InlineWorker.inline_ir = inline_ir
