@@ -16,7 +16,7 @@ from pathlib import Path
 IMPORTS_BEGAN = time.perf_counter()     # for --timings: the imports start here
 
 from .distributed.sweep import sweep_set  # noqa: E402
-from .interrupt import redeliver_in_finalizers  # noqa: E402
+from .interrupt import redeliver_in_finalizers, release_compiler_lock  # noqa: E402
 from .language.errors import PcsgError  # noqa: E402
 from .limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES,  # noqa: E402
                      bounces_problem)
@@ -577,6 +577,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"pcsg {args.command}: error: {what}", file=sys.stderr)
         return EXIT_ERRORS
     except KeyboardInterrupt:
+        release_compiler_lock()
         print("pcsg: interrupted", file=sys.stderr)
         return 130
     except Exception as e:  # noqa: BLE001 -- a user sees one line, never a traceback

@@ -1,4 +1,6 @@
-"""Ctrl-C that lands in a finalizer. Python cannot raise out of a `__del__` (llvmlite's
+"""Ctrl-C where Python handles it badly: in a finalizer, and inside numba's compiler lock.
+
+In a finalizer: Python cannot raise out of a `__del__` (llvmlite's
 and numba's objects have them, and run while kernels load): it prints "Exception ignored
 in ..." with a traceback and drops the KeyboardInterrupt, so the command would print a
 traceback and go on as if not interrupted. The hook delivers the interrupt again instead,
@@ -30,3 +32,18 @@ def _later(returned: threading.Event) -> None:
 
 def redeliver_in_finalizers() -> None:
     sys.unraisablehook = _hook
+
+
+def release_compiler_lock() -> None:
+    """Once a KeyboardInterrupt has unwound: numba's global compiler lock, if this thread
+    still holds it. numba takes it in a `with` through Python methods
+    (`_CompilerLock.__enter__` calls `acquire`), so an interrupt raised as the lock's own
+    acquire returns, before the `with` body starts, leaves it held. Every other thread that
+    then loads or compiles a kernel (the shading kernel's preload, the tracer's helper
+    threads) waits for it forever, and so does the process's exit, which joins them: an
+    animate worker interrupted at the wrong moment was seen to hang so, once, in CI."""
+    module = sys.modules.get("numba.core.compiler_lock")
+    lock = getattr(getattr(module, "global_compiler_lock", None), "_lock", None)
+    owned = getattr(lock, "_is_owned", None)
+    while owned is not None and owned():
+        lock.release()

@@ -1,7 +1,8 @@
 """Ctrl-C that lands in a finalizer (pcsg/interrupt.py): Python would print a traceback
 and drop it; pcsg delivers it again, so the command stops and prints no traceback. The
 animation test that presses Ctrl-C while workers load kernels (test_animate.py) met
-llvmlite's ObjectRef.__del__ that way."""
+llvmlite's ObjectRef.__del__ that way. And a Ctrl-C that leaves numba's compiler lock held
+(raised as its acquire returns, before the `with` body): released once it has unwound."""
 import subprocess
 import sys
 
@@ -50,3 +51,32 @@ def test_other_exceptions_in_finalizers_are_still_reported():
             "        raise ValueError('from a finalizer')\n"
             "Other()")
     assert "ValueError: from a finalizer" in p.stderr and p.stdout.strip() == "interrupted"
+
+
+def test_a_compiler_lock_left_held_by_an_interrupt_is_released_for_the_other_threads():
+    import threading
+    from numba.core.compiler_lock import global_compiler_lock
+    from pcsg.interrupt import release_compiler_lock
+
+    def another_thread_gets_it():
+        got = []
+
+        def take():
+            ok = global_compiler_lock._lock.acquire(timeout=0.5)
+            got.append(ok)
+            if ok:
+                global_compiler_lock._lock.release()
+        t = threading.Thread(target=take)
+        t.start()
+        t.join()
+        return got[0]
+
+    # what an interrupt between numba's acquire and its `with` body leaves: held twice
+    global_compiler_lock.acquire()
+    global_compiler_lock.acquire()
+    try:
+        assert not another_thread_gets_it()
+    finally:
+        release_compiler_lock()
+    assert another_thread_gets_it()
+    release_compiler_lock()         # not held: nothing to do, no error

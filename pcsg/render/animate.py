@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..interrupt import release_compiler_lock
 from ..language.errors import PcsgError
 from .job import Options, RenderFailed, render_file, traced_for
 from .path import bezier
@@ -167,6 +168,7 @@ def _render_job(job: FrameJob, in_worker: bool = True):
         return job.index, None, [], f"{e.strerror or e}" + (f": {e.filename}"
                                                              if e.filename else "")
     except KeyboardInterrupt:
+        release_compiler_lock()
         if not in_worker:
             raise
         return job.index, None, [], "interrupted"
