@@ -7,6 +7,7 @@ Nothing is loaded unless the cache holds the kernel: compiling it would take min
 and whoever waits for the thread (a file that fails to parse) would wait for that."""
 from __future__ import annotations
 
+import sys
 import threading
 
 
@@ -25,7 +26,6 @@ def start() -> threading.Thread | None:
 def compile_notice(quiet: bool) -> str | None:
     """The line for a person at a terminal whose render is about to compile the kernels:
     three minutes or so on two cores, before any progress line can show."""
-    import sys
     if quiet or not sys.stderr.isatty() or cached():
         return None
     return ("pcsg: compiling the tracing kernels, once for this version of pcsg "
