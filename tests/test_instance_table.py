@@ -11,7 +11,7 @@ from pcsg.graph.model import DIFFERENCE, INTERSECTION, SELECT, UNION
 from pcsg.graph.regroup import regroup
 from pcsg.trace.boxwalk import walk_boxes
 from pcsg.trace.instance_table import OWNER, clip_to_owners, drop_level, empty_table, record
-from pcsg.trace.nodes import DX, F_WIDTH, INV, OX, box_window, table_slot
+from pcsg.trace.nodes import DX, F_WIDTH, OX, box_window, set_inverse, table_slot
 
 from .conftest import GRAMMARS
 from .oracle import camera_rays
@@ -107,8 +107,7 @@ def test_the_window_of_a_clipped_entry_is_the_window_of_both_boxes(ends, ray):
     F = np.zeros((1, F_WIDTH))
     F[0, OX:OX + 3] = ray[:3]
     F[0, DX:DX + 3] = ray[3:]
-    with np.errstate(divide="ignore"):
-        F[0, INV:INV + 3] = 1.0 / np.asarray(ray[3:])
+    set_inverse(F, 0)
     a0, a1 = box_window(a[None], 0, F, 0)
     b0, b1 = box_window(b[None], 0, F, 0)
     c0, c1 = box_window(clipped, 0, F, 0)
@@ -135,8 +134,7 @@ def test_disjoint_boxes_whose_rounded_windows_touch_give_an_empty_entry():
     F = np.zeros((1, F_WIDTH))
     F[0, OX:OX + 3] = (0.0, 1.0, 0.0)
     F[0, DX:DX + 3] = (0.0, 1.0, 0.0)
-    with np.errstate(divide="ignore"):
-        F[0, INV:INV + 3] = 1.0 / F[0, DX:DX + 3]
+    set_inverse(F, 0)
     c0, c1 = box_window(clipped, 0, F, 0)
     assert c0 > c1
 

@@ -9,39 +9,30 @@ from __future__ import annotations
 import numpy as np
 
 from ..language.names import FRACTAL_PRIMITIVES
-from ..trace.vm import LOAD
 from .model import CALC, MATERIAL, PAINT, PRIMITIVE, TRANSFORM, Graph
 
 
-def deferrable(graph: Graph, vm: dict, fixed: np.ndarray, starts: np.ndarray,
-               children: np.ndarray) -> np.ndarray:
-    """int8 per node: 1 where the walks may pass it (see above). `vm`: the expressions'
-    code before operand fusion; `starts`, `children`: the flat graph's."""
-    nodes = graph.nodes
-    code = np.asarray(vm["code"], dtype=np.int64).reshape(-1, 2)
-
-    def reads(i: int) -> set:
-        out = set()
-        for e in nodes[i].exprs:
-            rows = code[vm["start"][e]:vm["end"][e]]
-            out.update(rows[rows[:, 0] == LOAD, 1].tolist())
-        return out
-
-    defer = np.zeros(len(nodes), dtype=np.int8)
-    for i, node in enumerate(nodes):
-        if not (node.kind == CALC or (node.kind == PAINT and not fixed[i])):
-            continue
-        chain = []
-        j = int(children[starts[i]])
-        while nodes[j].kind in (TRANSFORM, PAINT, MATERIAL):
-            chain.append(j)
-            j = int(children[starts[j]])
-        if nodes[j].kind != PRIMITIVE or nodes[j].name in FRACTAL_PRIMITIVES:
-            continue
-        if node.kind == CALC:
-            assigned = set(node.targets)
-            if any(nodes[c].kind == TRANSFORM and not fixed[c] and reads(c) & assigned
-                   for c in chain):
-                continue
-        defer[i] = 1
+def deferrable(graph: Graph, fixed: np.ndarray) -> np.ndarray:
+    """int8 per node: 1 where the walks may pass it (see above); fixed: the flat graph's
+    constant paints."""
+    defer = np.zeros(len(graph.nodes), dtype=np.int8)
+    for i, node in enumerate(graph.nodes):
+        if node.kind == CALC or (node.kind == PAINT and not fixed[i]):
+            defer[i] = colours_only(graph, i)
     return defer
+
+
+def colours_only(graph: Graph, i: int) -> bool:
+    """Whether C-node or paint node i is followed by a chain of T-, paint and material
+    nodes that ends at a primitive (not a fractal), none of whose T-nodes reads what a
+    C-node i assigns: what it computes can then only colour that primitive."""
+    nodes = graph.nodes
+    assigned = frozenset(name for name, slot in graph.params.items()
+                         if slot in nodes[i].targets) if nodes[i].kind == CALC else frozenset()
+    j = nodes[i].children[0]
+    while nodes[j].kind in (TRANSFORM, PAINT, MATERIAL):
+        if nodes[j].kind == TRANSFORM and any(graph.exprs.reads(e) & assigned
+                                             for e in nodes[j].exprs):
+            return False
+        j = nodes[j].children[0]
+    return nodes[j].kind == PRIMITIVE and nodes[j].name not in FRACTAL_PRIMITIVES

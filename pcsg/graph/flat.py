@@ -151,8 +151,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
             state_count[i] = len(slots)
     starts = _starts(counts)
     _compose_fixed_chains(kind, fixed, fixed_map, starts, children)
-    # before the runs are composed: the T-nodes a run skips read parameters too
-    defer = deferrable(graph, vm, fixed, starts, children)
+    defer = deferrable(graph, fixed)
     then = (_compose_chains(kind, starts, children) if runs
             else np.full(n, -1, dtype=np.int32))
     chain = _chains(kind, starts, children)

@@ -19,8 +19,8 @@ import dataclasses
 
 import numpy as np
 
-from ..language.names import FRACTAL_PRIMITIVES
-from .model import CALC, MATERIAL, OPERATORS, PAINT, PRIMITIVE, TRANSFORM, Graph
+from .defer import colours_only
+from .model import CALC, MATERIAL, OPERATORS, PAINT, Graph
 
 
 def without_passable(graph: Graph) -> tuple[Graph, dict[int, int]]:
@@ -62,19 +62,8 @@ def _parents(graph: Graph) -> dict[int, int]:
 
 
 def _passable(graph: Graph, i: int) -> bool:
-    nodes = graph.nodes
-    if nodes[i].kind in (PAINT, MATERIAL):
-        return True
-    if nodes[i].kind != CALC:
-        return False
-    assigned = {name for name, slot in graph.params.items() if slot in set(nodes[i].targets)}
-    j = nodes[i].children[0]
-    while nodes[j].kind in (TRANSFORM, PAINT, MATERIAL):
-        if nodes[j].kind == TRANSFORM and any(graph.exprs.reads(e) & assigned
-                                             for e in nodes[j].exprs):
-            return False
-        j = nodes[j].children[0]
-    return nodes[j].kind == PRIMITIVE and nodes[j].name not in FRACTAL_PRIMITIVES
+    kind = graph.nodes[i].kind
+    return kind in (PAINT, MATERIAL) or (kind == CALC and colours_only(graph, i))
 
 
 def _past(skip: dict[int, int], i: int) -> int:

@@ -304,14 +304,15 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
         while sp > 0:
             p = sp - 1
             up = fr[p, NODE]
-            if flat.kind[up] == TRANSFORM:
+            above = flat.kind[up]
+            if above == TRANSFORM:
                 if node_affine(flat, up, params, fr[p, SLOT], hs[p], stack, args, m34):
                     _transform_box(m34, acc[p + 1], tmp)
                     copy_into(acc[p], tmp)
                 else:               # non-finite arguments: the tracer empties the instance
                     acc[p, :3] = np.inf
                     acc[p, 3:] = -np.inf
-            elif flat.kind[up] == CALC or flat.kind[up] == PAINT or flat.kind[up] == MATERIAL:
+            elif above == CALC or above == PAINT or above == MATERIAL:
                 copy_into(acc[p], acc[p + 1])
             else:
                 break

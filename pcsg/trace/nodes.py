@@ -81,7 +81,9 @@ def copy_frame(F, I, H, src, dst):
 @inline
 def set_inverse(F, f):
     for a in range(3):
-        F[f, INV + a] = 1.0 / F[f, DX + a]
+        # + 0.0 turns -0.0 into 0.0: a direction parallel to an axis gets 1/d = +inf
+        # whatever the sign of its zero, as _slab needs
+        F[f, INV + a] = 1.0 / (F[f, DX + a] + 0.0)
 
 
 @inline
@@ -95,22 +97,31 @@ def box_window(boxes, b, F, f):
                  F, f)
 
 
+FAR = 1.7976931348623157e308       # the largest double
+
+
 @inline
 def slabs(x0, y0, z0, x1, y1, z1, F, f):
     """box_window of the box (x0, y0, z0)-(x1, y1, z1), which is not empty: the packets
-    read a frame's box once for all its rays."""
-    t0, t1 = _slab(F[f, OX], F[f, DX], F[f, INV], x0, x1, -np.inf, np.inf)
-    t0, t1 = _slab(F[f, OX + 1], F[f, DX + 1], F[f, INV + 1], y0, y1, t0, t1)
-    return _slab(F[f, OX + 2], F[f, DX + 2], F[f, INV + 2], z0, z1, t0, t1)
+    read a frame's box once for all its rays. It starts from [-FAR, FAR], not [-inf,
+    inf], so that a slab a parallel ray lies outside of, whose ends are both inf or both
+    -inf (_slab), leaves the window crossed over even where no other slab narrowed it (an
+    unbounded box): a window that would end at ±inf ends at ±FAR, which no finite t
+    tells apart."""
+    t0, t1 = _slab(F[f, OX], F[f, INV], x0, x1, -FAR, FAR)
+    t0, t1 = _slab(F[f, OX + 1], F[f, INV + 1], y0, y1, t0, t1)
+    return _slab(F[f, OX + 2], F[f, INV + 2], z0, z1, t0, t1)
 
 
 @inline
-def _slab(o, d, inv, lo, hi, t0, t1):
-    """[t0, t1] narrowed to one axis' slab; (inf, -inf) stays so: no later slab widens it."""
-    if d == 0.0:
-        if o < lo or o > hi:
-            return np.inf, -np.inf
-        return t0, t1
+def _slab(o, inv, lo, hi, t0, t1):
+    """[t0, t1] narrowed to one axis' slab; an empty window stays so: no later slab widens
+    it. A ray parallel to the slab needs no branch of its own where inv is +inf (never
+    -inf: set_inverse, map_ray_scaled): outside, both ends are the same infinity, which
+    crosses the window over (slabs starts it at ±FAR for that); inside, they are -inf
+    and inf, which leave it; in a side plane, that side's end is 0 * inf = nan, which
+    every comparison below leaves out, and the other is +inf (at lo) or -inf (at hi),
+    which narrows nothing."""
     ta = (lo - o) * inv
     tb = (hi - o) * inv
     if ta > tb:
@@ -641,12 +652,14 @@ def powers_of_two(L):
 @inline
 def map_ray_scaled(L, F, f, G, g):
     """map_ray for an L of exact_scaling: the same values (where a product is zero, its
-    sign may differ, which no slab test reads: they test d == 0 first)."""
+    sign may differ, which only 1/d would show: an infinite one is kept +inf, as
+    set_inverse makes it)."""
     for a in range(3):
         s = L[12 + 4 * a]
         G[g, OX + a] = s * (F[f, OX + a] - L[9 + a])
         G[g, DX + a] = s * F[f, DX + a]
-        G[g, INV + a] = F[f, INV + a] * L[4 * a]
+        inv = F[f, INV + a] * L[4 * a]
+        G[g, INV + a] = abs(inv) if math.isinf(inv) else inv
 
 
 @inline
