@@ -122,6 +122,7 @@ def _parser() -> argparse.ArgumentParser:
     x.add_argument("--no-shadows", action="store_true", help="lights cast no shadows")
     x.add_argument("--bounces", type=int, default=3, metavar="N",
                    help="reflection and refraction depth (default 3)")
+    x.add_argument("-q", "--quiet", action="store_true", help="no progress line")
 
     g = sub.add_parser("graph", parents=[common], help="the cyclic CSG graph as Graphviz dot")
     g.add_argument("file", metavar="FILE")
@@ -539,7 +540,12 @@ def cmd_export(args) -> int:
     camera = make_camera(traced, w / h)
     lighting = make_lighting(traced, camera, not args.no_shadows, args.shadow_samples,
                              args.bounces)
-    count, empty, dropped = export_pov(traced, camera, lighting, out, args.size)
+    progress = _export_progress(args, graph)
+    try:
+        count, empty, dropped = export_pov(traced, camera, lighting, out, args.size,
+                                           lambda done: progress.update(done, done))
+    finally:
+        progress.close()
     print(f"{out}: {count:,} primitives, {out.stat().st_size / 1e6:.1f} MB, "
           f"{time.perf_counter() - start:.1f} s; render with: povray +I{out} +W{w} +H{h}")
     if empty:
@@ -549,6 +555,24 @@ def cmd_export(args) -> int:
               f"singular or not finite (a runtime error in the grammar), so pcsg draws "
               f"nothing there either{also}", file=sys.stderr)
     return EXIT_OK
+
+
+PROGRESS_STATES = 20_000     # _export_progress's count: about 0.2 s at most
+
+
+def _export_progress(args, graph):
+    """A progress line for the export (a derivation of half a million primitives takes a
+    minute), out of the primitives stats counts without expanding; none with -q, or where
+    they cannot be counted in a few thousand states (a system whose rules are drawn at
+    random would be derived twice)."""
+    from .graph.stats import count_primitives
+    from .render.image import Progress
+    try:
+        total = count_primitives(graph, max_states=PROGRESS_STATES)
+    except PcsgError:
+        total = 0
+    return Progress(f"{Path(args.file).name} export", total,
+                    not args.quiet and total > 0, unit="primitives")
 
 
 COMMANDS = {"check": cmd_check, "expand": cmd_expand, "stats": cmd_stats, "graph": cmd_graph,

@@ -41,6 +41,7 @@ SHAPES = {
 TRIANGLES = {"tri1": ((0, 0, 0), (1, 0, 0), (0, 1, 0)),
              "tri2": ((0, 0, 0), (-1, 0, 0), (0, -1, 0))}
 SKY_STEPS = 12          # colour-map entries for the sky's s**0.6 blend
+PROGRESS_EVERY = 1024    # primitives between progress calls: 0.1 s of the terrain's
 
 
 def _num(x: float) -> str:
@@ -151,12 +152,13 @@ def _refuse_fractals(graph):
 
 
 def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
-               size: tuple[int, int]) -> tuple[int, int, int]:
+               size: tuple[int, int], progress=None) -> tuple[int, int, int]:
     """Write the scene to `path` (atomically); returns the number of primitives written,
     of those left out because they are empty (a singular or non-finite transform, a
     runtime error in the grammar, draws nothing in pcsg, and POV-Ray could not parse a
     matrix of NaNs), and of those dropped with the ∩ or \\ they belonged to: leaving an
-    operand out empties an intersection as pcsg's tracer does."""
+    operand out empties an intersection as pcsg's tracer does. progress(n), if given, is
+    called every PROGRESS_EVERY primitives of the derivation with how many have come."""
     graph = traced.graph
     _refuse_fractals(graph)
     textures = _Textures(graph, lighting)
@@ -165,7 +167,9 @@ def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
     # the body streams to a side file: the declarations it needs are known at its end
     with tempfile.TemporaryFile("w+", encoding="utf-8") as body_file:
         body = _BodyWriter(graph, body_file)
-        for inst in instances(graph):
+        for done, inst in enumerate(instances(graph), 1):
+            if progress is not None and done % PROGRESS_EVERY == 0:
+                progress(done)
             if leaf_inverse(inst.matrix) is None:
                 empty += 1
                 continue

@@ -3,12 +3,9 @@ with one copy of an inlined callee's scope per call site (trace/inlinecopy.py), 
 packet trace, the largest kernel, once per render and not once more for a literal, and
 a person at a terminal told when a render is about to compile them."""
 import os
-import pty
 import resource
-import select
 import subprocess
 import sys
-import time
 
 import numpy as np
 from numba import njit, types
@@ -21,6 +18,8 @@ from pcsg.trace import compilestack, inlinecopy, packet
 from pcsg.trace.jit import kernel
 from pcsg.render.camera import make_camera
 from pcsg.render.shade import make_lighting, shade
+
+from .terminal import on_a_terminal
 
 
 def _down(d):
@@ -136,39 +135,14 @@ def test_a_callee_inlined_at_two_call_sites_computes_as_in_python():
 NOTICE = b"pcsg: compiling the tracing kernels"
 
 
-def _on_a_terminal(args, env, until, timeout=180.0):
-    """The command's output on a pseudo-terminal, read until `until` shows or it ends;
-    then the command is stopped (a cold start would go on compiling for minutes)."""
-    master, slave = pty.openpty()
-    p = subprocess.Popen([sys.executable, "-m", "pcsg.cli", *args], stdin=slave,
-                         stdout=slave, stderr=slave, env=env)
-    os.close(slave)
-    out, end = b"", time.monotonic() + timeout
-    try:
-        while until not in out and time.monotonic() < end:
-            if select.select([master], [], [], 0.2)[0]:
-                try:
-                    chunk = os.read(master, 4096)
-                except OSError:     # the command ended and closed the terminal
-                    break
-                out += chunk
-            elif p.poll() is not None:
-                break
-    finally:
-        p.kill()
-        p.wait()
-        os.close(master)
-    return out
-
-
 def test_a_person_at_a_terminal_is_told_when_a_render_compiles_the_kernels(tmp_path):
     args = ["render", "grammars/sierpinski.pcsg", "--set", "c=1", "--size", "32x24",
             "-o", str(tmp_path / "s.png")]
     cold = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "empty"))
-    assert NOTICE in _on_a_terminal(args, cold, NOTICE)
+    assert NOTICE in on_a_terminal(args, cold, NOTICE)
     # the kernels compiled and cached first, if no earlier test did
     subprocess.run([sys.executable, "-m", "pcsg.cli", *args, "-q"], check=True)
-    warm = _on_a_terminal(args, dict(os.environ), b"rays/s")
+    warm = on_a_terminal(args, dict(os.environ), b"rays/s")
     assert b"s.png: 32x24" in warm and NOTICE not in warm
-    quiet = _on_a_terminal(args + ["-q"], cold, NOTICE, timeout=5.0)
+    quiet = on_a_terminal(args + ["-q"], cold, NOTICE, timeout=5.0)
     assert NOTICE not in quiet

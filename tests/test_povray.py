@@ -1,6 +1,8 @@
 """`pcsg export --pov`: the expanded derivation as a POV-Ray scene. The structure is
 checked against the derivation itself; where POV-Ray is installed, its picture of the
 exported scene is compared with pcsg's own render of the same file."""
+import argparse
+import os
 import re
 import shutil
 import subprocess
@@ -10,9 +12,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from pcsg.cli import main
+from pcsg.cli import _export_progress, main
 from pcsg.compiler import compile_file
 from pcsg.graph.flatten import flatten
+
+from .terminal import on_a_terminal
 
 ROOT = Path(__file__).resolve().parent.parent
 SIERPINSKI = ROOT / "grammars" / "sierpinski.pcsg"
@@ -85,6 +89,23 @@ def test_the_count_is_what_the_file_holds(tmp_path, capsys):
 def test_export_errors_are_clean(tmp_path, capsys):
     assert main(["export", str(SIERPINSKI), "--pov", str(tmp_path / "no" / "x.pov")]) == 2
     assert "does not exist" in capsys.readouterr().err
+
+
+def test_a_long_export_shows_its_progress_on_a_terminal(tmp_path):
+    """The terrain at 7 (32 769 primitives) takes seconds: the line counts them out of
+    the total stats counts, and the command is stopped once it shows."""
+    args = ["export", str(TERRAIN), "--set", "cnt=7", "--pov", str(tmp_path / "t.pov")]
+    shown = on_a_terminal(args, dict(os.environ), b"primitives/s", timeout=60.0)
+    assert re.search(rb"carpenter_terrain\.pcsg export: +\d+%  +[\d.]+ s, ETA +[\d.]+ s, +"
+                     rb"[\d.]+ k primitives/s", shown), shown
+
+
+def test_export_progress_is_out_of_the_counted_primitives_and_off_with_quiet():
+    graph = compile_file(TERRAIN, {"cnt": 3.0})
+    args = argparse.Namespace(file=str(TERRAIN), quiet=False)
+    assert _export_progress(args, graph).total == 129          # 128 triangles, the sea
+    args.quiet = True
+    assert not _export_progress(args, graph).enabled
 
 
 POVRAY = shutil.which("povray")

@@ -19,15 +19,17 @@ class Endless(Exception):
         self.diagnostic = diagnostic
 
 
-def count_primitives(graph: Graph) -> int:
+def count_primitives(graph: Graph, max_states: int = MAX_STATES) -> int:
     """Primitives in the complete derivation of the axiom."""
-    return sum(count_by_primitive(graph).values())
+    return sum(count_by_primitive(graph, max_states).values())
 
 
-def count_by_primitive(graph: Graph) -> dict[str, int]:
+def count_by_primitive(graph: Graph, max_states: int = MAX_STATES) -> dict[str, int]:
     """Primitives of each kind in the complete derivation of the axiom (memoised on node
-    and the parameters that can change its derivation). PcsgError if it never ends."""
-    counter = _Counter(graph)
+    and the parameters that can change its derivation). PcsgError if it never ends, or
+    passes max_states distinct states (a system that draws its rules at random has one
+    per instance: counting it costs about what deriving it does)."""
+    counter = _Counter(graph, max_states)
     try:
         with recursion_limit(12 * MAX_LEVELS + 1000):
             state, h = counter.d.initial()
@@ -38,8 +40,9 @@ def count_by_primitive(graph: Graph) -> dict[str, int]:
 
 
 class _Counter:
-    def __init__(self, graph: Graph):
+    def __init__(self, graph: Graph, max_states: int = MAX_STATES):
         self.g = graph
+        self.max_states = max_states
         self.d = Deriver(graph)
         self.key = StateKey(graph)
         self.kinds = sorted({n.name for n in graph.nodes if n.kind == PRIMITIVE})
@@ -58,7 +61,7 @@ class _Counter:
             return hit
         if key in self.active:
             raise Endless(self._endless(node_id, state, "repeats with the same parameters"))
-        if node.kind == SELECT and (level >= MAX_LEVELS or len(self.memo) > MAX_STATES):
+        if node.kind == SELECT and (level >= MAX_LEVELS or len(self.memo) > self.max_states):
             raise Endless(self._endless(node_id, state, f"is still being rewritten after "
                                                         f"{min(level, MAX_LEVELS)} levels"))
         self.active.add(key)

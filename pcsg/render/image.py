@@ -50,8 +50,11 @@ class Progress:
         if not self.enabled or elapsed < 1.0 or done == 0:
             return
         eta = elapsed * (self.total - done) / done
+        rate = rays / elapsed
+        # thousands where millions would read 0.01 (an export's primitives)
+        speed = f"{rate / 1e6:5.2f} M" if rate >= 1e5 else f"{rate / 1e3:5.1f} k"
         line = (f"{self.label}: {100 * done / self.total:3.0f}%  {elapsed:5.1f} s, "
-                f"ETA {eta:5.1f} s, {rays / elapsed / 1e6:5.2f} M {self.unit}/s ")
+                f"ETA {eta:5.1f} s, {speed} {self.unit}/s ")
         sys.stderr.write("\r" + line)
         sys.stderr.flush()
         self.shown = max(self.shown, len(line))
