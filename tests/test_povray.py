@@ -6,6 +6,7 @@ import os
 import re
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -100,10 +101,12 @@ def test_a_long_export_shows_its_progress_on_a_terminal(tmp_path):
                      rb"[\d.]+ k primitives/s", shown), shown
 
 
-def test_export_progress_is_out_of_the_counted_primitives_and_off_with_quiet():
+def test_export_progress_is_out_of_the_counted_primitives_and_off_with_quiet(monkeypatch):
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)    # as on a terminal
     graph = compile_file(TERRAIN, {"cnt": 3.0})
     args = argparse.Namespace(file=str(TERRAIN), quiet=False)
-    assert _export_progress(args, graph).total == 129          # 128 triangles, the sea
+    shown = _export_progress(args, graph)
+    assert shown.enabled and shown.total == 129         # 128 triangles and the sea
     args.quiet = True
     assert not _export_progress(args, graph).enabled
 
