@@ -114,3 +114,17 @@ def test_a_write_that_fails_leaves_nothing_behind(cache, monkeypatch):
     assert cache.is_dir() and not list(cache.iterdir())     # no entry, no temporary file
     monkeypatch.undo()
     same(walked, walk_boxes(graph, instances=True))
+
+
+def test_the_terrain_from_order_7_is_kept_by_its_first_render(monkeypatch, tmp_path, capsys):
+    """At the threshold as shipped (no MIN_VISITS patched): the terrain at 7, whose walk
+    makes 212 k visits, is read back by its second render."""
+    monkeypatch.setenv("PCSG_BOUNDS_CACHE", "1")
+    monkeypatch.setenv("PCSG_CACHE_DIR", str(tmp_path))
+    args = [str(TERRAIN), "--size", "32x24", "--shadow-samples", "1", "--timings", "-q"]
+    for cnt, kept in ((6, False), (7, True)):
+        for run in range(2):
+            assert main(["render", *args, "--set", f"cnt={cnt}",
+                         "-o", str(tmp_path / f"{cnt}-{run}.png")]) == 0
+            read = "kept by an earlier render" in capsys.readouterr().err
+            assert read == (kept and run == 1), (cnt, run)

@@ -46,7 +46,8 @@ WORKLOADS = [
     ("carpenter_terrain", "cnt", 12, False, ("--bounds-budget", "60000000")),
 ]
 COMMON = ["--shadow-samples", "1"]      # point lights: POV-Ray's light_source
-KEPT = [("carpenter_terrain", "cnt", 9), ("carpenter_terrain", "cnt", 12)]
+KEPT = [("carpenter_terrain", "cnt", 8), ("carpenter_terrain", "cnt", 9),
+        ("carpenter_terrain", "cnt", 12)]
 WALK = {**os.environ, "PCSG_BOUNDS_CACHE": "0"}
 KEEP = {**os.environ, "PCSG_BOUNDS_CACHE": "1"}
 

@@ -12,8 +12,8 @@ The key hashes what the walk reads: every array of its Flat but the addresses of
 compiled blocks (which change from process to process; their code is `vm_code`), the
 walk's arguments, and the sources of the kernels (pcsg.trace.kernel_digest). An entry is
 one .npz file, written whole and then renamed; one that cannot be read is walked again.
-Only walks of at least MIN_VISITS node visits are kept (below that, reading the table
-costs about what the walk does), and the folder is kept under LIMIT bytes, the entries
+Only walks of at least MIN_VISITS node visits are kept (below that, the walk costs
+little more than reading it back), and the folder is kept under LIMIT bytes, the entries
 read least recently removed first. PCSG_BOUNDS_CACHE=0 turns it off."""
 from __future__ import annotations
 
@@ -29,7 +29,10 @@ from ..trace.instance_table import compact, expand
 from ..trace.native import cache_dir
 
 FORMAT = 1
-MIN_VISITS = 4_000_000      # the terrain at 9 (0.17 s of walk on 2 cores) and deeper
+# the terrain at 7 (212 k visits) and deeper: its bounds phase takes 0.16 to 0.21 s
+# walked on 2 cores and 0.10 s read back, at 9 (3.3 M) 0.27 to 0.29 s and 0.10 s; most
+# of a read is flattening the graph and loading its blocks, which a walk does as well
+MIN_VISITS = 200_000
 LIMIT = 1 << 30             # bytes on disk: an entry of the terrain at 9 to 12 is 14 MB
 SKIP = ("calc_fn", "arg_fn")    # addresses of compiled code: per process
 
