@@ -6,9 +6,11 @@ import math
 
 import numpy as np
 from hypothesis import assume, given, settings, strategies as st
+from numba import njit
 
 from pcsg.trace.nodes import (DX, F_WIDTH, FAR, INV, OX, box_window, map_ray_scaled,
-                              set_inverse)
+                              set_inverse, slabs)
+from pcsg.trace.simd import quad_windows
 
 # few distinct values, so that origins fall on side planes and sides coincide often
 value = st.sampled_from([-2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0, 3.0, math.inf, -math.inf])
@@ -85,3 +87,38 @@ def test_a_ray_mapped_by_a_power_of_two_scale_gets_the_window_of_its_own_inverse
     assert (got[0] <= got[1]) == (want[0] <= want[1])
     if want[0] <= want[1]:
         assert got == want
+
+
+@njit
+def four_at_once(boxes, F, w0, w1):
+    return np.array(quad_windows(boxes, F[0, OX], F[0, OX + 1], F[0, OX + 2], F[0, INV],
+                                 F[0, INV + 1], F[0, INV + 2], w0, w1))
+
+
+@njit
+def one_by_one(boxes, F, w0, w1):
+    """What packet.split_each does for each child: slabs, then max and min with the
+    ray's window."""
+    out = np.empty(8)
+    for k in range(4):
+        t0, t1 = slabs(boxes[0, k], boxes[1, k], boxes[2, k], boxes[3, k], boxes[4, k],
+                       boxes[5, k], F, 0)
+        out[k] = max(t0, w0)
+        out[4 + k] = min(t1, w1)
+    return out
+
+
+@settings(max_examples=1000, deadline=None)
+@given(st.lists(value, min_size=24, max_size=24), st.tuples(finite, finite, finite),
+       st.tuples(direction, direction, direction), finite, value)
+def test_four_boxes_at_once_give_each_box_window_to_the_bit(ends, o, d, w0, w1):
+    """simd.quad_windows (packet.split_quad) against the scalar test, on any four boxes,
+    inverted and with infinite sides too (the lanes of absent children hold zeros): the
+    same windows to the bit, nan and the sign of zero included."""
+    F = np.zeros((1, F_WIDTH))
+    F[0, OX:OX + 3] = o
+    F[0, DX:DX + 3] = d
+    set_inverse(F, 0)
+    boxes = np.reshape(np.asarray(ends), (6, 4))
+    got, want = four_at_once(boxes, F, w0, w1), one_by_one(boxes, F, w0, w1)
+    assert np.array_equal(got.view(np.int64), want.view(np.int64)), (boxes, o, d, got, want)

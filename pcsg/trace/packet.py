@@ -30,11 +30,13 @@ from . import vm
 from .jit import copy_into, inline, kernel
 from .deferred import defer_step
 from .nodes import (BOXED, CUT, DCALC, DPAINT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
-                    EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, LEVEL, M0, MAT, N_EVENTS,
-                    NAVG, NODE, OX, PAINT, PHASE, RAY_WIDTH, SLOT, T0, T1, axis_aligned, child_hash,
+                    EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, INV, LEVEL, M0, MAT,
+                    N_EVENTS, NAVG, NODE, OX, PAINT, PHASE, RAY_WIDTH, SLOT, T0, T1, axis_aligned,
+                    child_hash,
                     copy_frame, culprit, instance_slot, map_matrix, map_ray, map_ray_scaled, note,
                     operand_entry, operand_slot, packet_box, pick_rule, powers_of_two,
                     set_inverse, slabs, state_slot, transform_map, volume_window, world_size)
+from .simd import LANES, quad_windows
 from .walk import finish, hit_primitive, hit_volume, step_unary, walk
 
 # rays per packet: one 16x16 tile of image.tile_order. Per-instance work (hash,
@@ -47,6 +49,8 @@ FRAMES = 128            # packet frames; a deeper stack sends its rays on alone
 ALONE = 4
 WAIT = -1               # pixel_split: frame g waits, marked ALONE
 OVER = -2               # select: a ray may have passed its budget, uncounted (trace)
+# a union of at most QUAD children, each bounded by a box, is split by split_quad
+QUAD = LANES
 
 Packet = namedtuple("Packet", [
     "F", "I", "H",      # the frames' shared columns (nodes.py layout; the ray columns unused)
@@ -63,12 +67,13 @@ Packet = namedtuple("Packet", [
     "count",            # [selections the packet made, the most visits of one ray alone]
     "saved",            # the events as they were before the packet (trace)
     "O", "D", "cone",   # the packet's rays: world origin, direction, footprint at 0
+    "quad",             # split_quad: its children's boxes, (x0, y0, z0, x1, y1, z1) x QUAD
 ])
 
 
 @njit(cache=True, error_model="numpy")
 def make_packet(flat):
-    c = flat.max_children
+    c = max(flat.max_children, QUAD)
     return Packet(
         np.empty((FRAMES, F_WIDTH)), np.zeros((FRAMES, I_WIDTH), dtype=np.int64),
         np.zeros(FRAMES, dtype=np.uint64), np.zeros(FRAMES, dtype=np.int64),
@@ -83,7 +88,8 @@ def make_packet(flat):
         np.empty(PACKET), np.zeros(PACKET, dtype=np.bool_), np.zeros(PACKET, dtype=np.int64),
         np.empty(PACKET), np.zeros(2, dtype=np.int64),
         np.zeros((2 * N_EVENTS, flat.kind.shape[0]), dtype=np.int64),
-        np.empty((PACKET, 3)), np.empty((PACKET, 3)), np.zeros(PACKET))
+        np.empty((PACKET, 3)), np.empty((PACKET, 3)), np.zeros(PACKET),
+        np.zeros((6, QUAD)))
 
 
 @inline
@@ -495,12 +501,38 @@ def narrow(flat, P, g, slot, blk):
 def split(flat, node, P, g, blk, has_table):
     """A union's children that some of frame g's rays enter, pushed at g, g+1, ...
     (nearest entry on top): returns how many."""
-    F, I, H, R, act, win = P.F, P.I, P.H, P.R, P.act, P.win
-    tact, twin, tn, tkey, tk, th, order = P.tact, P.twin, P.tn, P.tkey, P.tk, P.th, P.order
-    n = flat.child_count[node]
+    F, I, H, act, win = P.F, P.I, P.H, P.act, P.win
+    tact, twin, tn, tk, th, order = P.tact, P.twin, P.tn, P.tk, P.th, P.order
+    used = -1
+    if flat.child_count[node] <= QUAD:
+        used = split_quad(flat, node, P, g, blk, has_table)
+    if used < 0:
+        used = split_each(flat, node, P, g, blk, has_table)
+    for j in range(used - 1, -1, -1):      # the source frame g is overwritten last
+        d = g + j
+        u = order[j]
+        copy_frame(F, I, H, g, d)
+        I[d, NODE] = flat.children[flat.child_start[node] + tk[u]]
+        I[d, PHASE] = P.tphase[u]
+        F[d, T0] = P.tfar[u]
+        H[d] = th[u]
+        P.block[d] = P.block[g]
+        P.n[d] = tn[u]
+        for q in range(tn[u]):
+            act[d, q] = tact[u, q]
+            win[d, q, 0] = twin[u, q, 0]
+            win[d, q, 1] = twin[u, q, 1]
+    return used
+
+
+@inline
+def split_each(flat, node, P, g, blk, has_table):
+    """The children of split's union into P.order (see enlist), one child after another
+    (each ray read once per child): returns how many some ray enters."""
+    I, H, R, act, win, tact, twin = P.I, P.H, P.R, P.act, P.win, P.tact, P.twin
     m = P.n[g]
     used = 0
-    for k in range(n):
+    for k in range(flat.child_count[node]):
         c = flat.children[flat.child_start[node] + k]
         if has_table:
             slot = operand_entry(flat, node, H[g], k, I[g, LEVEL])
@@ -522,34 +554,87 @@ def split(flat, node, P, g, blk, has_table):
             near = min(near, e0 if e0 <= e1 else np.inf)
             far = max(far, e0 if e0 <= e1 else -np.inf)
             q += e0 <= e1
-        if q == 0:
-            continue
-        tn[used] = q
-        P.tfar[used] = far
-        tk[used] = k
-        th[used] = child_hash(flat, H[g], node, k)
-        P.tphase[used] = BOXED if has_table and slot >= 0 else INSIDE
-        # descending, so the nearest pops first; on a tie the earlier operand first
-        j = used
-        while j > 0 and tkey[order[j - 1]] <= near:
-            order[j] = order[j - 1]
-            j -= 1
-        tkey[used] = near
-        order[j] = used
-        used += 1
-    for j in range(used - 1, -1, -1):      # the source frame g is overwritten last
-        d = g + j
-        u = order[j]
-        copy_frame(F, I, H, g, d)
-        I[d, NODE] = flat.children[flat.child_start[node] + tk[u]]
-        I[d, PHASE] = P.tphase[u]
-        F[d, T0] = P.tfar[u]
-        H[d] = th[u]
-        P.block[d] = P.block[g]
-        P.n[d] = tn[u]
-        for q in range(tn[u]):
-            act[d, q] = tact[u, q]
-            win[d, q, 0] = twin[u, q, 0]
-            win[d, q, 1] = twin[u, q, 1]
+        if q > 0:
+            P.tphase[used] = BOXED if has_table and slot >= 0 else INSIDE
+            enlist(flat, node, P, g, used, k, q, near, far, used)
+            used += 1
     return used
 
+
+@inline
+def enlist(flat, node, P, g, u, k, q, near, far, used):
+    """Child k of the union, met by the q rays of row u of P.tact / P.twin (the nearest
+    entry at `near`, the farthest at `far`; its PHASE in P.tphase[u] already), into
+    P.order, which holds the `used` children listed before it: descending by entry, so
+    the nearest pops first; on a tie the earlier operand first."""
+    P.tn[u] = q
+    P.tfar[u] = far
+    P.tk[u] = k
+    P.th[u] = child_hash(flat, P.H[g], node, k)
+    order, tkey = P.order, P.tkey
+    j = used
+    while j > 0 and tkey[order[j - 1]] <= near:
+        order[j] = order[j - 1]
+        j -= 1
+    tkey[u] = near
+    order[j] = u
+
+
+@inline
+def split_quad(flat, node, P, g, blk, has_table):
+    """split_each for a union of at most QUAD children that boxes bound (the terrain's
+    four sub-triangles, the Sierpinski tetrahedron's four corners): each ray is read once
+    and tested against the QUAD boxes at once, in vector instructions (simd.py); a union
+    of fewer children tests empty lanes too, and lists none of them. Returns how many
+    children some ray enters; -1 where a sphere bounds a child (split_each does it)."""
+    n = flat.child_count[node]
+    B, H, I = P.quad, P.H, P.I
+    live = 0                        # bit k: child k has a box that is not empty
+    for k in range(QUAD):
+        use = -1
+        if k < n:
+            c = flat.children[flat.child_start[node] + k]
+            if has_table:
+                slot = operand_entry(flat, node, H[g], k, I[g, LEVEL])
+            else:
+                slot = operand_slot(flat, c, P.params, I, g)
+            use, x0, y0, z0, x1, y1, z1 = packet_box(flat, c, slot, True)
+            if use == 0:
+                return -1
+            if use == 1:
+                live |= 1 << k
+                B[0, k], B[1, k], B[2, k], B[3, k], B[4, k], B[5, k] = x0, y0, z0, x1, y1, z1
+                P.tphase[k] = BOXED if has_table and slot >= 0 else INSIDE
+        if use != 1:
+            for a in range(6):
+                B[a, k] = 0.0           # a lane tested, and not listed
+    act, win, R, tact, twin = P.act, P.win, P.R, P.tact, P.twin
+    q0, q1, q2, q3 = 0, 0, 0, 0
+    for j in range(P.n[g]):
+        ray = act[g, j]
+        r = blk + ray
+        ox, oy, oz = R[r, OX], R[r, OX + 1], R[r, OX + 2]
+        ix, iy, iz = R[r, INV], R[r, INV + 1], R[r, INV + 2]
+        w0, w1 = win[g, j, 0], win[g, j, 1]
+        a0, b0, c0, d0, a1, b1, c1, d1 = quad_windows(B, ox, oy, oz, ix, iy, iz, w0, w1)
+        keep_ray(tact, twin, 0, q0, ray, a0, a1)
+        keep_ray(tact, twin, 1, q1, ray, b0, b1)
+        keep_ray(tact, twin, 2, q2, ray, c0, c1)
+        keep_ray(tact, twin, 3, q3, ray, d0, d1)
+        q0 += a0 <= a1
+        q1 += b0 <= b1
+        q2 += c0 <= c1
+        q3 += d0 <= d1
+    used = 0
+    for k in range(n):
+        q = (q0, q1, q2, q3)[k] if live >> k & 1 else 0
+        if q == 0:
+            continue
+        near = np.inf
+        far = -np.inf
+        for j in range(q):
+            near = min(near, twin[k, j, 0])
+            far = max(far, twin[k, j, 0])
+        enlist(flat, node, P, g, k, k, q, near, far, used)
+        used += 1
+    return used
