@@ -1,7 +1,8 @@
-"""The slab test every box test of both walks makes (nodes.box_window, nodes.slabs),
-against the textbook definition: a ray parallel to a slab is inside it for all t or for
-none, decided by its origin, sides included. The kernel reads no direction, only 1/d,
-and has no branch for d = 0 or -0: these are the cases where that must come out the same."""
+"""The slab test every box test of both walks makes (nodes.box_window, nodes.slabs, and
+simd.quad_windows for four boxes at once), against the textbook definition: a ray
+parallel to a slab is inside it for all t or for none, decided by its origin, sides
+included. The kernel reads no direction, only 1/d, and has no branch for d = 0 or -0:
+these are the cases where that must come out the same."""
 import math
 
 import numpy as np

@@ -32,10 +32,10 @@ from .deferred import defer_step
 from .nodes import (BOXED, CUT, DCALC, DPAINT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, INV, LEVEL, M0, MAT,
                     N_EVENTS, NAVG, NODE, OX, PAINT, PHASE, RAY_WIDTH, SLOT, T0, T1, axis_aligned,
-                    child_hash,
-                    copy_frame, culprit, instance_slot, map_matrix, map_ray, map_ray_scaled, note,
-                    operand_entry, operand_slot, packet_box, pick_rule, powers_of_two,
-                    set_inverse, slabs, state_slot, transform_map, volume_window, world_size)
+                    child_hash, copy_frame, culprit, instance_slot, map_matrix, map_ray,
+                    map_ray_scaled, note, operand_entry, operand_slot, packet_box, pick_rule,
+                    powers_of_two, set_inverse, slabs, state_slot, transform_map, volume_window,
+                    world_size)
 from .simd import LANES, quad_windows
 from .walk import finish, hit_primitive, hit_volume, step_unary, walk
 
@@ -526,19 +526,26 @@ def split(flat, node, P, g, blk, has_table):
 
 
 @inline
+def operand_box(flat, node, P, g, k, has_table):
+    """Operand k of frame g's union: (its node, its table slot or -1, packet_box of it)."""
+    c = flat.children[flat.child_start[node] + k]
+    if has_table:
+        slot = operand_entry(flat, node, P.H[g], k, P.I[g, LEVEL])
+    else:
+        slot = operand_slot(flat, c, P.params, P.I, g)
+    use, x0, y0, z0, x1, y1, z1 = packet_box(flat, c, slot, True)
+    return c, slot, use, x0, y0, z0, x1, y1, z1
+
+
+@inline
 def split_each(flat, node, P, g, blk, has_table):
     """The children of split's union into P.order (see enlist), one child after another
     (each ray read once per child): returns how many some ray enters."""
-    I, H, R, act, win, tact, twin = P.I, P.H, P.R, P.act, P.win, P.tact, P.twin
+    R, act, win, tact, twin = P.R, P.act, P.win, P.tact, P.twin
     m = P.n[g]
     used = 0
     for k in range(flat.child_count[node]):
-        c = flat.children[flat.child_start[node] + k]
-        if has_table:
-            slot = operand_entry(flat, node, H[g], k, I[g, LEVEL])
-        else:
-            slot = operand_slot(flat, c, P.params, I, g)
-        use, x0, y0, z0, x1, y1, z1 = packet_box(flat, c, slot, True)
+        c, slot, use, x0, y0, z0, x1, y1, z1 = operand_box(flat, node, P, g, k, has_table)
         q = 0
         near = np.inf
         far = -np.inf
@@ -588,17 +595,12 @@ def split_quad(flat, node, P, g, blk, has_table):
     of fewer children tests empty lanes too, and lists none of them. Returns how many
     children some ray enters; -1 where a sphere bounds a child (split_each does it)."""
     n = flat.child_count[node]
-    B, H, I = P.quad, P.H, P.I
+    B = P.quad
     live = 0                        # bit k: child k has a box that is not empty
     for k in range(QUAD):
         use = -1
         if k < n:
-            c = flat.children[flat.child_start[node] + k]
-            if has_table:
-                slot = operand_entry(flat, node, H[g], k, I[g, LEVEL])
-            else:
-                slot = operand_slot(flat, c, P.params, I, g)
-            use, x0, y0, z0, x1, y1, z1 = packet_box(flat, c, slot, True)
+            c, slot, use, x0, y0, z0, x1, y1, z1 = operand_box(flat, node, P, g, k, has_table)
             if use == 0:
                 return -1
             if use == 1:

@@ -2,7 +2,7 @@
 
 A union of the terrain or of the Sierpinski tetrahedron has four children, each with
 its box; the packets test every ray of a frame against all four (packet.split_quad),
-about a third of the terrain's camera rays' time. numba compiles the four slab tests
+which took about a third of the terrain's camera rays' time as four scalar tests. numba compiles the four slab tests
 written out in Python to scalar code, even side by side (LLVM's SLP vectoriser leaves
 them: the boxes are read through array strides), so this writes them as vector IR: the
 same comparisons and selects as nodes._slab and Python's max and min as numba lowers
