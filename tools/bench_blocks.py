@@ -38,11 +38,11 @@ def main():
     from pcsg.trace.boxwalk import walk_boxes
 
     @njit(cache=True)
-    def compiled(address, params, consts, runs):
+    def compiled(address, block, params, consts, runs):
         for i in range(runs):
             for p in range(params.shape[1]):
                 params[1, p] = params[0, p]
-            native.call_block(address, params, 1, consts, np.uint64(i))
+            native.call_block(address, params, 1, consts, np.uint64(i), block)
         return params[1, 0]
 
     @njit(cache=True)
@@ -73,7 +73,8 @@ def main():
               "without jumps are)")
     for node in nodes:
         s, e = int(flat.calc_start[node]), int(flat.calc_end[node])
-        on = best(lambda n: compiled(flat.calc_fn[node], params, flat.vm_consts, n))
+        on = best(lambda n: compiled(flat.calc_fn[node], flat.block_no[node], params,
+                                     flat.vm_consts, n))
         off = best(lambda n: machine(flat.vm_code, flat.vm_consts, s, e, params, stack, n))
         print(f"block of node {node} ({e - s} rows): {on:.0f} ns compiled, {off:.0f} ns on "
               f"the machine ({off / on:.1f}x)")

@@ -60,12 +60,13 @@ Flat = namedtuple("Flat", [
     "calc_start",    # int32[n]     C-nodes: their block as one program in vm_code
     "calc_end",      # int32[n]
     "calc_cache",    # int8[n]      C-nodes whose results the walk caches (long blocks)
-    "calc_fn",       # int64[n]     C-nodes: the address of their compiled block, 0: none
-                     #              (trace/native.py)
+    "calc_fn",       # int64[n]     C-nodes: the address of the callback that runs their
+                     #              compiled block, 0: none (trace/native.py)
     "arg_fn",        # int64[n]     T- and paint nodes with arguments that are not constants:
                      #              their arguments compiled as one block that stores them in
                      #              the parameter columns from arg_base on (nodes.eval_args);
                      #              S-nodes: their selection, into arg_base (nodes.pick_rule)
+    "block_no",      # int64[n]     the number of that block in the callback
     "defer",         # int8[n]      C- and paint nodes the first-hit walks leave to a hit
                      #              (graph/defer.py)
     "chain",         # int8[n]      1: the node heads a run of single-child steps (C-, T-,
@@ -133,7 +134,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
     # are one call instead of one run of the machine per argument
     blocks = {int(i): (int(prog_start[i]), int(prog_end[i])) for i in np.flatnonzero(programs)
               if with_args[i] or prog_end[i] - prog_start[i] >= MIN_ROWS}
-    compiled = native_blocks(vm_code, blocks, n)
+    compiled, block_no = native_blocks(vm_code, blocks, n)
     calc_fn = np.where(is_calc, compiled, 0)
     arg_fn = np.where(with_args, compiled, 0)
     if table is None:
@@ -173,7 +174,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
         state_start=_starts(np.maximum(state_count, 0)),
         state_slots=np.concatenate([np.zeros(0, dtype=np.int32), *keyed]),
         vm_code=vm_code, calc_start=calc_start, calc_end=calc_end, calc_cache=calc_cache,
-        calc_fn=calc_fn, arg_fn=arg_fn, arg_base=np.int64(arg_base),
+        calc_fn=calc_fn, arg_fn=arg_fn, block_no=block_no, arg_base=np.int64(arg_base),
         defer=defer, chain=chain, holds=_holds(kind, starts, counts, children, boxes, spheres),
         vm_consts=np.asarray(vm["consts"], dtype=np.float64),
         vm_start=vm_start, vm_end=vm_end,

@@ -16,11 +16,12 @@ matrix, 13 to 14 ns with them compiled; an S-node's selection `if(cnt > 0, 2, 1)
 on the machine.
 
 The blocks of a system are written to one module in the user's cache directory, named
-after a hash of its source, and compiled as C callbacks with numba's on-disk cache: 1.6 s
-for the terrain's eleven blocks the first time it is rendered, 27 ms to load them after
-that. The kernels call a block through its address (call_block), so the cached kernels
-serve every system. Calculation blocks shorter than MIN_ROWS rows stay on the machine;
-PCSG_NATIVE=0 keeps every block there."""
+after a hash of its source, and compiled into one C callback, which runs the block whose
+number it is given, with numba's on-disk cache: 1.5 s for the terrain's 22 blocks the
+first time it is rendered, 10 ms to load them after that (30 ms as a callback each). The
+kernels call a block through the callback's address and its number (call_block), so the
+cached kernels serve every system. Calculation blocks shorter than MIN_ROWS rows stay on
+the machine; PCSG_NATIVE=0 keeps every block there."""
 from __future__ import annotations
 
 import functools
@@ -39,31 +40,33 @@ from numba.extending import intrinsic
 from . import vm
 
 MIN_ROWS = 24           # shorter blocks cost little more on the machine than a call
-SIGNATURE = "void(CPointer(float64), CPointer(float64), uint64)"
+# the one C callback of a system's blocks: run_blocks(params row, constants, hash, block)
+SIGNATURE = "void(CPointer(float64), CPointer(float64), uint64, int64)"
 
 
 @intrinsic
-def call_block(typingctx, address, params, row, consts, inst_hash):
-    """Run the compiled block at `address` (an integer) on params[row] (a C-contiguous
-    2-D array) with the constant pool `consts`: a call through the address keeps the
-    kernels the same for every system, where a function-typed argument would make numba
-    compile and cache them again for each."""
+def call_block(typingctx, address, params, row, consts, inst_hash, block):
+    """Run compiled block number `block` of the callback at `address` (an integer) on
+    params[row] (a C-contiguous 2-D array) with the constant pool `consts`: a call through
+    the address keeps the kernels the same for every system, where a function-typed
+    argument would make numba compile and cache them again for each."""
     if not (isinstance(params, types.Array) and params.ndim == 2 and params.layout == "C"
             and isinstance(consts, types.Array) and consts.layout == "C"):
         return None
-    sig = types.void(address, params, row, consts, inst_hash)
+    sig = types.void(address, params, row, consts, inst_hash, block)
 
     def codegen(context, builder, signature, args):
-        fn_address, p, r, c, h = args
+        fn_address, p, r, c, h, b = args
         table = context.make_array(signature.args[1])(context, builder, p)
         pool = context.make_array(signature.args[3])(context, builder, c)
         i64 = ir.IntType(64)
         stride = builder.extract_value(table.strides, 0)
         start = builder.add(builder.ptrtoint(table.data, i64), builder.mul(r, stride))
         double_ptr = ir.DoubleType().as_pointer()
-        fnty = ir.FunctionType(ir.VoidType(), [double_ptr, double_ptr, i64])
+        fnty = ir.FunctionType(ir.VoidType(), [double_ptr, double_ptr, i64, i64])
         fn = builder.inttoptr(fn_address, fnty.as_pointer())
-        builder.call(fn, [builder.inttoptr(start, double_ptr), pool.data, h])
+        builder.call(fn, [builder.inttoptr(start, double_ptr), pool.data, h,
+                          context.cast(builder, b, signature.args[5], types.int64)])
         return context.get_dummy_value()
 
     return sig, codegen
@@ -97,9 +100,20 @@ def block_source(code: np.ndarray, start: int, end: int, name: str) -> str | Non
         return None
     # rand() draws from the instance's hash until a SALT row salts it (vm.py); nd counts
     # the draws since, at run time, since a branch may draw or not
-    return "\n".join(["@cfunc(SIGNATURE, cache=True, error_model='numpy', nopython=True)",
+    return "\n".join(["@njit(error_model='numpy', inline='always')",
                       f"def {name}(p, c, h0):", "    h = h0", "    nd = 0", *body[0],
                       "    return"])
+
+
+def dispatch_source(names: list[str]) -> str:
+    """The C callback that runs block number `which` of `names` (compile_blocks): one
+    callback, so one library for numba to load (the terrain's 22 blocks loaded as 22
+    libraries took 30 ms, as one 10 ms), each block inlined into its branch."""
+    lines = ["@cfunc(SIGNATURE, cache=True, error_model='numpy', nopython=True)",
+             "def run_blocks(p, c, h0, which):"]
+    for k, name in enumerate(names):
+        lines += [f"    {'if' if k == 0 else 'elif'} which == {k}:", f"        {name}(p, c, h0)"]
+    return "\n".join(lines)
 
 
 def _statements(code, pc: int, end: int, sp: int, indent: str):
@@ -175,7 +189,7 @@ HEADER = '''"""Calculation blocks of one system, written by pcsg.trace.native: d
 import math
 
 import numpy as np
-from numba import cfunc
+from numba import cfunc, njit
 from pcsg.trace.native import SIGNATURE
 from pcsg.trace.vm import (_DEG, _RAD, fmax, fmin, hash_to_unit, mix, rand_seed,
                            round_half_away, salt, truth)
@@ -190,24 +204,28 @@ def cache_dir() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "pcsg"
 
 
-def native_blocks(code: np.ndarray, blocks: dict[int, tuple[int, int]], n: int) -> np.ndarray:
-    """Per node (n of them) the address of its compiled program among `blocks` {node:
-    (start, end)}, 0 where it has none (not asked for, a program with jumps,
-    PCSG_NATIVE=0, or compiling failed: the machine then runs it, with the same results)."""
-    out = np.zeros(n, dtype=np.int64)
+def native_blocks(code: np.ndarray, blocks: dict[int, tuple[int, int]],
+                  n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per node (n of them) the address of the callback that runs its compiled program
+    among `blocks` {node: (start, end)}, 0 where it has none (not asked for, a program
+    with jumps, PCSG_NATIVE=0, or compiling failed: the machine then runs it, with the
+    same results), and the program's number in that callback."""
+    address = np.zeros(n, dtype=np.int64)
+    number = np.zeros(n, dtype=np.int64)
     if os.environ.get("PCSG_NATIVE", "1") == "0":
-        return out
+        return address, number
     try:
-        for node, address in compile_blocks(code, blocks).items():
-            out[node] = address
+        for node, (a, k) in compile_blocks(code, blocks).items():
+            address[node], number[node] = a, k
     except Exception:       # noqa: BLE001 -- only ever a speed-up
-        out[:] = 0
-    return out
+        address[:] = 0
+    return address, number
 
 
-def compile_blocks(code: np.ndarray, blocks: dict[int, tuple[int, int]]) -> dict[int, int]:
-    """{node: address of its compiled block} for the blocks {node: (start, end)} that
-    can be compiled; the others stay on the machine."""
+def compile_blocks(code: np.ndarray,
+                   blocks: dict[int, tuple[int, int]]) -> dict[int, tuple[int, int]]:
+    """{node: (address of the callback, number of its block in it)} for the blocks
+    {node: (start, end)} that can be compiled; the others stay on the machine."""
     sources = {}
     for node, (start, end) in blocks.items():
         src = block_source(code, start, end, f"block_{node}")
@@ -215,10 +233,12 @@ def compile_blocks(code: np.ndarray, blocks: dict[int, tuple[int, int]]) -> dict
             sources[node] = src
     if not sources:
         return {}
-    text = HEADER + "\n\n".join(sources[n] for n in sorted(sources)) + "\n"
+    nodes = sorted(sources)
+    text = (HEADER + "\n\n".join(sources[n] for n in nodes) + "\n\n"
+            + dispatch_source([f"block_{n}" for n in nodes]) + "\n")
     digest = hashlib.sha256((machine_digest() + text).encode()).hexdigest()[:20]
-    module = _load(text, f"pcsg_blocks_{digest}")
-    return {node: getattr(module, f"block_{node}").address for node in sources}
+    address = _load(text, f"pcsg_blocks_{digest}").run_blocks.address
+    return {node: (address, k) for k, node in enumerate(nodes)}
 
 
 @functools.cache

@@ -454,7 +454,7 @@ def run_calc(flat, node, params, src, dst, h, stack):
     if src != dst:
         copy_into(params[dst], params[src])
     if flat.calc_fn[node] != 0:
-        call_block(flat.calc_fn[node], params, dst, flat.vm_consts, h)
+        call_block(flat.calc_fn[node], params, dst, flat.vm_consts, h, flat.block_no[node])
     else:
         vm.eval_row(flat.vm_code, flat.vm_consts, flat.calc_start[node], flat.calc_end[node],
                     params, dst, h, -1, stack)
@@ -483,7 +483,7 @@ def cached_calc(flat, node, params, src, dst, h, stack, ckeys, cvals):
 def pick_rule(flat, node, params, slot, h, stack):
     """The 0-based rule an S-node selects, or -1 if its selection is invalid."""
     if flat.arg_fn[node] != 0:      # compiled (Flat.arg_fn), into a scratch column
-        call_block(flat.arg_fn[node], params, slot, flat.vm_consts, h)
+        call_block(flat.arg_fn[node], params, slot, flat.vm_consts, h, flat.block_no[node])
         x = params[slot, flat.arg_base]
     else:
         x = expr(flat, params, slot, flat.expr_ids[flat.expr_start[node]], h, 0, stack)
@@ -498,7 +498,7 @@ def eval_args(flat, node, params, slot, h, stack, args):
     final triangles, with its matrix, took 56 to 66 ns that way and 13 to 14 ns compiled)."""
     compiled = flat.arg_fn[node] != 0
     if compiled:
-        call_block(flat.arg_fn[node], params, slot, flat.vm_consts, h)
+        call_block(flat.arg_fn[node], params, slot, flat.vm_consts, h, flat.block_no[node])
     e0 = flat.expr_start[node]
     ok = True
     for k in range(flat.expr_count[node]):
