@@ -527,14 +527,16 @@ def split(flat, node, P, g, blk, has_table):
 
 @inline
 def operand_box(flat, node, P, g, k, has_table):
-    """Operand k of frame g's union: (its node, its table slot or -1, packet_box of it)."""
+    """Operand k of frame g's union: (its node, its table slot or -1, the PHASE of its
+    frame once pushed, packet_box of it)."""
     c = flat.children[flat.child_start[node] + k]
     if has_table:
         slot = operand_entry(flat, node, P.H[g], k, P.I[g, LEVEL])
     else:
         slot = operand_slot(flat, c, P.params, P.I, g)
     use, x0, y0, z0, x1, y1, z1 = packet_box(flat, c, slot, True)
-    return c, slot, use, x0, y0, z0, x1, y1, z1
+    phase = BOXED if has_table and slot >= 0 else INSIDE
+    return c, slot, phase, use, x0, y0, z0, x1, y1, z1
 
 
 @inline
@@ -545,7 +547,8 @@ def split_each(flat, node, P, g, blk, has_table):
     m = P.n[g]
     used = 0
     for k in range(flat.child_count[node]):
-        c, slot, use, x0, y0, z0, x1, y1, z1 = operand_box(flat, node, P, g, k, has_table)
+        c, slot, phase, use, x0, y0, z0, x1, y1, z1 = operand_box(flat, node, P, g, k,
+                                                                    has_table)
         q = 0
         near = np.inf
         far = -np.inf
@@ -562,7 +565,7 @@ def split_each(flat, node, P, g, blk, has_table):
             far = max(far, e0 if e0 <= e1 else -np.inf)
             q += e0 <= e1
         if q > 0:
-            P.tphase[used] = BOXED if has_table and slot >= 0 else INSIDE
+            P.tphase[used] = phase
             enlist(flat, node, P, g, used, k, q, near, far, used)
             used += 1
     return used
@@ -600,13 +603,14 @@ def split_quad(flat, node, P, g, blk, has_table):
     for k in range(QUAD):
         use = -1
         if k < n:
-            c, slot, use, x0, y0, z0, x1, y1, z1 = operand_box(flat, node, P, g, k, has_table)
+            _, _, phase, use, x0, y0, z0, x1, y1, z1 = operand_box(flat, node, P, g, k,
+                                                                   has_table)
             if use == 0:
                 return -1
             if use == 1:
                 live |= 1 << k
                 B[0, k], B[1, k], B[2, k], B[3, k], B[4, k], B[5, k] = x0, y0, z0, x1, y1, z1
-                P.tphase[k] = BOXED if has_table and slot >= 0 else INSIDE
+                P.tphase[k] = phase
         if use != 1:
             for a in range(6):
                 B[a, k] = 0.0           # a lane tested, and not listed
