@@ -1,5 +1,7 @@
 """Kernels loaded from numba's cache without numba's compiler set-up (trace/cacheload.py)
-give the same picture as numba's own load, and skip that set-up."""
+give the same picture as numba's own load, and skip that set-up; their symbols come
+from the object file, the same names numba reads off the bitcode, and the bitcode is
+still there for a compile that links them."""
 import json
 import subprocess
 import sys
@@ -20,6 +22,8 @@ import pcsg.trace
 from pcsg.trace import cacheload
 if sys.argv[1] == "numba":
     cacheload.Cache.load_overload = cacheload.NUMBA_LOAD
+    cacheload.codegen.CPUCodeLibrary._unserialize = cacheload.NUMBA_UNSERIALIZE
+    cacheload.codegen.CPUCodeLibrary._get_module_for_linking = cacheload.NUMBA_LINKING
 from pcsg.cli import main
 assert main(["render", sys.argv[2], "--set", "c=3", "--size", "48x36", "-q",
              "-o", sys.argv[3]]) == 0
@@ -44,3 +48,66 @@ def test_cached_kernels_load_without_the_compiler_set_up(tmp_path):
     assert theirs["refreshes"] > 0
     assert ours["refreshes"] == 0
     assert ours["png"] == theirs["png"]
+
+
+# every library a render loads from the cache: the names its object file defines, and
+# those its bitcode defines, as numba lists them
+SYMBOLS = """
+import json, sys
+from llvmlite import binding
+from pcsg.trace import cacheload
+seen = []
+def kept(cls, codegen_, state):
+    seen.append(state)
+    return cacheload._unserialize(cls, codegen_, state)
+cacheload.codegen.CPUCodeLibrary._unserialize = classmethod(kept)
+from pcsg.cli import main
+assert main(["render", sys.argv[1], "--set", "cnt=3", "--size", "24x18", "-q",
+             "-o", sys.argv[2]]) == 0
+out = []
+for name, kind, (objects, bitcode) in seen:
+    module = binding.parse_bitcode(bitcode)
+    numba = {g.name for gs in (module.functions, module.global_variables) for g in gs
+             if not g.is_declaration}
+    out.append([name, sorted(cacheload.defined_symbols(objects)), sorted(numba)])
+print(json.dumps(out))
+"""
+
+
+def test_the_object_files_define_the_names_the_bitcode_does(tmp_path):
+    # the terrain: the walk, the instance table and the system's blocks besides the shading
+    out = subprocess.run([sys.executable, "-c", SYMBOLS, str(GRAMMARS / "carpenter_terrain.pcsg"),
+                          str(tmp_path / "t.png")], capture_output=True, text=True, timeout=900)
+    assert out.returncode == 0, out.stderr
+    libraries = json.loads(out.stdout.splitlines()[-1])
+    names = {name.split(".")[-1] for name, _, _ in libraries}
+    assert {"shade_share", "walk", "run_blocks"} <= {n.split("$")[0] for n in names}, names
+    for name, ours, numbas in libraries:
+        assert ours == numbas, name
+        assert len(ours) > 0
+
+
+# a kernel loaded from the cache, then linked into a function compiled afterwards
+LINK = """
+import numpy as np
+from numba import njit
+from pcsg.trace import vm
+library = vm.hash_to_unit.overloads[vm.hash_to_unit.signatures[0]].library
+assert "_pcsg_bitcode" in library.__dict__      # loaded, its bitcode not parsed
+
+@njit
+def twice(h):
+    return 2.0 * vm.hash_to_unit(h)
+
+h = np.uint64(0x9E3779B97F4A7C15)
+assert twice(h) == 2.0 * vm.hash_to_unit(h) == 2.0 * float(int(h) >> 11) / 2.0 ** 53
+assert "_pcsg_bitcode" not in library.__dict__ and library._shared_module is not None
+print("linked")
+"""
+
+
+def test_a_kernel_loaded_from_the_cache_links_into_a_new_compile():
+    out = subprocess.run([sys.executable, "-c", LINK], capture_output=True, text=True,
+                         timeout=900)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split()[-1] == "linked"

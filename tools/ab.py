@@ -1,5 +1,5 @@
-"""Two versions of pcsg against each other: the render and bounds phases of fresh
-`pcsg render --timings` processes, alternating which goes first in every round (a fixed
+"""Two versions of pcsg against each other: the render and bounds phases and the whole
+process (--timings' total) of fresh `pcsg render --timings` processes, alternating which goes first in every round (a fixed
 order biases in-process comparisons by several per cent, see the README), medians, and
 whether the PNGs are the same bytes.
 
@@ -25,8 +25,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def render(tree: Path, grammar: str, setting: str, png: Path) -> tuple[float, float, str]:
-    """(render s, bounds s, PNG digest) of one fresh process of the pcsg in `tree`."""
+def render(tree: Path, grammar: str, setting: str, png: Path) -> tuple[float, float, float, str]:
+    """(render s, bounds s, total s, PNG digest) of one fresh process of the pcsg in
+    `tree`."""
     # the bounds walked in every process: kept ones would time a file read (graph/boxcache.py)
     env = dict(os.environ, PYTHONPATH=str(tree), PCSG_BOUNDS_CACHE="0")
     out = subprocess.run([sys.executable, "-m", "pcsg.cli", "render",
@@ -39,7 +40,8 @@ def render(tree: Path, grammar: str, setting: str, png: Path) -> tuple[float, fl
 
     def phase(name):
         return float(re.search(rf"^\s+{name}\s+([\d.]+) s", out.stderr, re.M).group(1))
-    return phase("render"), phase("bounds"), hashlib.sha256(png.read_bytes()).hexdigest()
+    return (phase("render"), phase("bounds"), phase("total"),
+            hashlib.sha256(png.read_bytes()).hexdigest())
 
 
 def main():
@@ -55,18 +57,22 @@ def main():
             grammar, setting = load.split(":")
             times = {t: [] for t in trees}
             bounds = {t: [] for t in trees}
+            totals = {t: [] for t in trees}
             digests = {}
             for i in range(args.rounds):
                 for t in (trees if i % 2 == 0 else trees[::-1]):
-                    r, b, d = render(t, grammar, setting, Path(tmp) / f"{trees.index(t)}.png")
+                    r, b, w, d = render(t, grammar, setting, Path(tmp) / f"{trees.index(t)}.png")
                     times[t].append(r)
                     bounds[t].append(b)
+                    totals[t].append(w)
                     digests.setdefault(t, set()).add(d)
             a, b = (statistics.median(times[t]) for t in trees)
             ba, bb = (statistics.median(bounds[t]) for t in trees)
+            wa, wb = (statistics.median(totals[t]) for t in trees)
             same = len(digests[trees[0]] | digests[trees[1]]) == 1
             print(f"{grammar} {setting}: render A {a:.4f} s, B {b:.4f} s (B/A {b / a:.3f}); "
-                  f"bounds A {ba:.3f} s, B {bb:.3f} s; same PNG bytes: {same}", flush=True)
+                  f"bounds A {ba:.3f} s, B {bb:.3f} s; total A {wa:.3f} s, B {wb:.3f} s "
+                  f"(B/A {wb / wa:.3f}); same PNG bytes: {same}", flush=True)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,8 @@
 """The shading kernel loaded from numba's cache on a second thread while the file
-compiles. Loading it is mostly LLVM parsing the kernel's bitcode (about a megabyte),
-which releases the GIL: some 50 ms that otherwise stand between the compile and the
-first ray of every `pcsg render`.
+compiles. Loading it is mostly LLVM linking the kernel's machine code (about 400 KB),
+which releases the GIL: some 20 ms (50 ms while numba parsed its bitcode too, see
+trace/cacheload.py) that otherwise stand between the compile and the first ray of every
+`pcsg render`.
 
 Nothing is loaded unless the cache holds the kernel: compiling it would take minutes,
 and whoever waits for the thread (a file that fails to parse) would wait for that."""
