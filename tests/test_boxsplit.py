@@ -7,7 +7,7 @@ from pcsg.compiler import compile_file, compile_text
 from pcsg.graph.flat import flatten_graph
 from pcsg.trace.boxsplit import _split_level, walk_split
 from pcsg.trace.boxwalk import STOPPED, walk_boxes
-from pcsg.trace.instance_table import TABLE_SLOTS, empty_table, new_book
+from pcsg.trace.instance_table import TABLE_SLOTS, new_book
 
 from tests.conftest import GRAMMARS
 
@@ -18,13 +18,14 @@ def split_walk(graph, depth, workers, budget=10**9, most=TABLE_SLOTS // 2, slots
     empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
     flat = flatten_graph(graph, empty, runs=False)     # as walk_boxes: runs map by map
     boxes = empty.copy()
-    table = empty_table(slots)
     book = new_book(depth + 1, most)
     per_level = np.zeros(depth + 2, dtype=np.int64)
     changed = np.zeros(1, dtype=np.int64)
     capacity = (depth + 2) * (n + 2) + 16
-    visits = walk_split(flat, depth, budget, capacity, boxes, book, table, per_level, changed,
-                        workers, watch)
+    visits, table = walk_split(flat, depth, budget, capacity, boxes, book, slots, per_level,
+                               changed, workers, watch)
+    if table is None:
+        return visits, boxes, int(changed[0]), per_level.tolist(), int(book[0]), None, flat
     keys, used, vals = table
     kept = used > 0
     entries = sorted(zip(keys[kept].tolist(), used[kept].tolist(), map(tuple, vals[kept])))

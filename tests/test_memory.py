@@ -1,5 +1,6 @@
 """pcsg/memory.py: inside freeing_blocks, blocks freed after a large one has been freed go
-back to the system; after it, freed blocks are kept for reuse (the render's)."""
+back to the system, and numpy's arrays are not advised huge pages; after it, freed blocks
+are kept for reuse (the render's) and numpy advises them again."""
 import platform
 import subprocess
 import sys
@@ -40,3 +41,37 @@ def test_freed_blocks_go_back_to_the_system_inside_and_are_kept_after():
     assert inside < 5
     assert after >= 25
 
+
+
+HUGE = """
+import numpy as np
+from pcsg.memory import freeing_blocks
+def advised(a):
+    # the VmFlags of the mapping that holds a's middle ('hg' for MADV_HUGEPAGE): numpy
+    # advises the whole huge pages within the array, a mapping of their own
+    start = a.ctypes.data + a.nbytes // 2
+    with open("/proc/self/smaps") as f:
+        inside = False
+        for line in f:
+            head = line.split()[0]
+            if "-" in head and not head.endswith(":"):
+                lo, hi = (int(x, 16) for x in head.split("-"))
+                inside = lo <= start < hi
+            elif inside and head == "VmFlags:":
+                return "hg" in line.split()
+    raise SystemExit("no mapping")
+size = 16 << 17             # 16 MiB: numpy advises from 4 MiB up
+before = advised(np.zeros(size))
+with freeing_blocks():
+    within = advised(np.zeros(size))
+print(before, within, advised(np.zeros(size)))
+"""
+
+
+@pytest.mark.skipif(platform.system() != "Linux", reason="/proc/self/smaps")
+def test_no_huge_pages_are_advised_inside_and_numpys_choice_is_back_after():
+    out = subprocess.run([sys.executable, "-c", HUGE], capture_output=True, text=True,
+                         check=True).stdout.split()
+    if out[0] != "True":
+        pytest.skip("this numpy or kernel advises no huge pages")
+    assert out == ["True", "False", "True"]

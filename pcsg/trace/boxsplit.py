@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import vm
 from .boxwalk import COLLECT, CONSUME, STOPPED, walk, walk_in, walk_scratch
-from .instance_table import ENTRY, empty_table, merge
+from .instance_table import ENTRY, empty_table, levels_kept, merge
 from .jit import share, watched
 
 MAX_ITEMS = 8192            # instances one split level may have
@@ -23,48 +24,87 @@ def items_for(flat, count: int):
             np.zeros((count, flat.n_params)), np.zeros((count, 6)))
 
 
-def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, table, per_level,
-               changed, workers: int, watch=None, tick=None) -> int:
-    """walk from the root into the given boxes, table and counts, the subtrees below the
-    split level on `workers` threads; returns the visits (-1: over budget or stack,
-    STOPPED: watch[0] was set). The long walks run on helper threads (jit.watched): watch
+def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, slots: int,
+               per_level, changed, workers: int, watch=None, tick=None):
+    """walk from the root into the given boxes and counts, the subtrees below the split
+    level on `workers` threads; returns the visits (-1: over budget or stack, STOPPED:
+    watch[0] was set) and the table of at most `slots` slots that `book` keeps (None
+    unless the walk ended). The long walks run on helper threads (jit.watched): watch
     (int64, 1 + workers) is their stop flag and their visits by worker, tick() is called
-    while they run."""
+    while they run.
+
+    Every walk appends its entries to a buffer of its own, the top walk too (the root as
+    its instance), and the table is made once they are all known, with twice as many
+    slots as entries: the walks that only measure how the instances grow keep a few
+    hundred, and a table of every slot, touched all over by hashing, made each of them
+    fault in 30 MiB (and any system with few instances keep it resident)."""
     if watch is None:
         watch = np.zeros(1 + workers, dtype=np.int64)
     level, count, items = _split_level(flat, depth, budget, capacity, workers, watch)
-    if count < 2:
-        return watched([(walk, (flat, depth, budget, capacity, boxes, book, *table, per_level,
-                                changed, np.zeros(3, dtype=np.int64), *items_for(flat, 0), -1,
-                                watch, 1))], watch, tick)[0]
-    # each thread's buffer may hold as many entries as the table: it may get them all
+    # the buffers: one per worker and the top walk's last, each with room for every
+    # entry the table may keep, all of which one of them may hold
+    shares = workers if count >= 2 else 0
     room = int(book[1]) if book[0] >= 0 else 0
-    bkeys = np.zeros((workers, room), dtype=np.uint64)
-    bused = np.zeros((workers, room), dtype=np.int16)
-    bvals = np.zeros((workers, room, ENTRY))
-    bbook = np.zeros((workers, book.shape[0]), dtype=np.int64)
+    bkeys = np.zeros((shares + 1, room), dtype=np.uint64)
+    bused = np.zeros((shares + 1, room), dtype=np.int16)
+    bvals = np.zeros((shares + 1, room, ENTRY))
+    bbook = np.zeros((shares + 1, book.shape[0]), dtype=np.int64)
     bbook[:, :2] = book[:2]
-    wboxes = np.repeat(boxes[None], workers, axis=0)
-    wlevels = np.zeros((workers, per_level.shape[0]), dtype=np.int64)
-    wchanged = np.zeros(workers, dtype=np.int64)
-    wvisits = np.zeros(workers, dtype=np.int64)
-    watched([(_walk_share, (w, workers, flat, depth, budget, capacity, count, *items, wboxes,
-                            bbook, bkeys, bused, bvals, wlevels, wchanged, wvisits, watch))
-             for w in range(workers)], watch, tick)
-    split = np.array([CONSUME, level, 0], dtype=np.int64)
-    top = walk(flat, depth, budget, capacity, boxes, book, *table, per_level, changed, split,
-               *items, -1, watch, 1)
+    items = _with_root(flat, items)
+    root = len(items[0]) - 1
+    if count < 2:
+        top = watched([(walk, (flat, depth, budget, capacity, boxes, bbook[0], bkeys[0],
+                               bused[0], bvals[0], per_level, changed,
+                               np.zeros(3, dtype=np.int64), *items, root, watch, 1))],
+                      watch, tick)[0]
+        wvisits = np.zeros(0, dtype=np.int64)
+    else:
+        wboxes = np.repeat(boxes[None], workers, axis=0)
+        wlevels = np.zeros((workers, per_level.shape[0]), dtype=np.int64)
+        wchanged = np.zeros(workers, dtype=np.int64)
+        wvisits = np.zeros(workers, dtype=np.int64)
+        watched([(_walk_share, (w, workers, flat, depth, budget, capacity, count, *items,
+                                wboxes, bbook, bkeys, bused, bvals, wlevels, wchanged,
+                                wvisits, watch))
+                 for w in range(workers)], watch, tick)
+        split = np.array([CONSUME, level, 0], dtype=np.int64)
+        top = walk(flat, depth, budget, capacity, boxes, bbook[-1], bkeys[-1], bused[-1],
+                   bvals[-1], per_level, changed, split, *items, root, watch, 1)
+        np.minimum(boxes[:, :3], wboxes[:, :, :3].min(axis=0), out=boxes[:, :3])
+        np.maximum(boxes[:, 3:], wboxes[:, :, 3:].max(axis=0), out=boxes[:, 3:])
+        per_level += wlevels.sum(axis=0)
+        changed[0] += wchanged.sum()
     if top == STOPPED or (wvisits == STOPPED).any():
-        return STOPPED
+        return STOPPED, None
     if top < 0 or (wvisits < 0).any() or top + wvisits.sum() > budget:
-        return -1
-    np.minimum(boxes[:, :3], wboxes[:, :, :3].min(axis=0), out=boxes[:, :3])
-    np.maximum(boxes[:, 3:], wboxes[:, :, 3:].max(axis=0), out=boxes[:, 3:])
-    per_level += wlevels.sum(axis=0)
-    changed[0] += wchanged.sum()
+        return -1, None
+    # as many entries as the instances of the levels kept, whatever the thread count
+    entries = int(levels_kept(per_level, book)[1]) if book[0] >= 0 else 0
+    table = empty_table(table_slots(entries, slots))
     if book[0] >= 0:
         merge(per_level, book, *table, bkeys, bused, bvals, bbook)
-    return int(top + wvisits.sum())
+    return int(top + wvisits.sum()), table
+
+
+def table_slots(entries: int, most: int) -> int:
+    """The slots of a table for `entries` entries: a power of two, at least twice as
+    many (a probe ends at an empty slot), at most `most` (no more entries are kept than
+    half of that)."""
+    return min(most, max(2, 1 << (2 * entries - 1).bit_length()))
+
+
+def _with_root(flat, items):
+    """The split instances' items (or none) and the root's last, as the instance the
+    top walk starts from: level 0, the root's hash, no parameter set."""
+    count = 0 if items is None else len(items[0])
+    out = items_for(flat, count + 1)
+    if items is not None:
+        for a, b in zip(out, items):
+            a[:count] = b
+    out[0][count] = (flat.root, 0, 0)
+    out[1][count] = vm.ROOT_HASH
+    out[2][count] = np.nan
+    return out
 
 
 def _split_level(flat, depth: int, budget: int, capacity: int, workers: int, watch):

@@ -424,14 +424,13 @@ def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bo
     boxes = empty.copy()
     capacity = (max_depth + 2) * (n + 2) + 16     # as deep a stack as the full walk's
     per_level = np.zeros(depth + 2, dtype=np.int64)
-    table = empty_table(TABLE_SLOTS if instances else 2)
     book = new_book(depth + 1 if instances else -1, TABLE_SLOTS // 2)
     changed = np.zeros(1, dtype=np.int64)
     workers = threads()
     watch = np.zeros(1 + workers, dtype=np.int64)
     tick = None if poll is None else lambda: poll(int(watch[1:].sum()), expected)
-    visits = walk_split(flat, depth, budget, capacity, boxes, book, table, per_level, changed,
-                        workers, watch, tick)
+    visits, table = walk_split(flat, depth, budget, capacity, boxes, book, TABLE_SLOTS,
+                               per_level, changed, workers, watch, tick)
     if instances and book[0] < 0:
         table = empty_table()           # not even the root's level fits
     return boxes, visits, int(changed[0]), table

@@ -181,17 +181,27 @@ def append(level, h, node, k, owner, box, book, keys, used, vals, per_level):
 
 
 @njit(cache=True, error_model="numpy")
-def merge(per_level, book, keys, used, vals, bkeys, bused, bvals, bbook):
-    """Add the entries of the buffers (one per row of bkeys, bused, bvals, bbook) to the
-    table, keeping the deepest levels whose instances, counted by per_level over the
-    whole walk, fit book[1] entries, as record would have kept them."""
+def levels_kept(per_level, book):
+    """The deepest level a table keeps, and its entries: the levels down to book[0] whose
+    instances, counted by per_level over the whole walk, fit book[1] entries together, as
+    record would have kept them."""
     deepest = -1
     total = 0
+    kept = 0
     for level in range(min(book[0] + 1, per_level.shape[0])):
         total += per_level[level]
         if total > book[1]:
             break
         deepest = level
+        kept = total
+    return deepest, kept
+
+
+@njit(cache=True, error_model="numpy")
+def merge(per_level, book, keys, used, vals, bkeys, bused, bvals, bbook):
+    """Add the entries of the buffers (one per row of bkeys, bused, bvals, bbook) to the
+    table, keeping the levels levels_kept keeps."""
+    deepest = levels_kept(per_level, book)[0]
     while book[0] > deepest:
         drop_level(book[0], keys, used, vals)
         book[2] -= book[3 + book[0]]
