@@ -182,6 +182,37 @@ else:
     assert r.returncode == 0, r.stderr
 
 
+BLAS = """
+import ctypes, os, sys
+import pcsg.cli
+pcsg.cli.import_kernels()
+for path in {line.split()[-1] for line in open("/proc/self/maps") if "openblas" in line}:
+    for name in ("scipy_openblas_get_num_threads64_", "openblas_get_num_threads64_",
+                 "openblas_get_num_threads"):
+        threads = getattr(ctypes.CDLL(path), name, None)
+        if threads is not None:
+            print(threads())
+            sys.exit()
+print("no OpenBLAS")
+"""
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="/proc/self/maps")
+def test_the_command_gives_openblas_one_thread_unless_the_user_chose():
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+
+    def threads(**extra):
+        r = subprocess.run([sys.executable, "-c", BLAS], capture_output=True, text=True,
+                           timeout=120, env={**env, **extra})
+        assert r.returncode == 0, r.stderr
+        return r.stdout.strip()
+    got = threads()
+    if got == "no OpenBLAS":
+        pytest.skip("this numpy does not use OpenBLAS")
+    assert got == "1"
+    assert threads(OPENBLAS_NUM_THREADS="2") == "2"
+
+
 def test_written_files_get_ordinary_permissions(capsys, sierpinski, tmp_path):
     import stat
     out = tmp_path / "g.dot"
