@@ -1,8 +1,9 @@
 """Kernels loaded from numba's cache without numba's compiler set-up (trace/cacheload.py)
 give the same picture as numba's own load, and skip that set-up; their symbols come
 from the object file, the same names numba reads off the bitcode, and the bitcode is
-still there for a compile that links them."""
+still there for a compile that links them. numba's runtime is compiled once, then read."""
 import json
+import os
 import subprocess
 import sys
 
@@ -111,3 +112,31 @@ def test_a_kernel_loaded_from_the_cache_links_into_a_new_compile():
                          timeout=900)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split()[-1] == "linked"
+
+
+# numba's runtime in a fresh process: compiled (and kept) or read, then linked into a
+# function compiled afterwards, which allocates (the runtime's work)
+RUNTIME = """
+import numpy as np
+from numba.core.runtime import nrtdynmod
+compiled = []
+create = nrtdynmod.create_nrt_module
+nrtdynmod.create_nrt_module = lambda ctx: compiled.append(1) or create(ctx)
+import pcsg.trace
+from numba import njit
+total = njit(lambda n: np.ones(n).sum())(10)
+print(len(compiled), total)
+"""
+
+
+def test_numbas_runtime_is_compiled_once_then_read_from_the_cache(tmp_path):
+    env = dict(os.environ, PCSG_CACHE_DIR=str(tmp_path))
+
+    def start():
+        out = subprocess.run([sys.executable, "-c", RUNTIME], capture_output=True,
+                             text=True, timeout=300, env=env)
+        assert out.returncode == 0, out.stderr
+        return out.stdout.split()
+    assert start() == ["1", "10.0"]
+    assert len(list(tmp_path.glob("nrt-*.bin"))) == 1
+    assert start() == ["0", "10.0"]

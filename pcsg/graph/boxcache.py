@@ -26,7 +26,7 @@ import numpy as np
 
 from ..trace import kernel_digest
 from ..trace.instance_table import compact, expand
-from ..trace.native import cache_dir
+from ..caches import cache_dir
 
 FORMAT = 1
 # the terrain at 7 (212 k visits) and deeper: its bounds phase takes 0.16 to 0.21 s

@@ -19,17 +19,29 @@ terrain render. Here the names come from the object file's own symbol table (the
 names, read in a tenth of a millisecond), and the bitcode is parsed only when a compile
 links the library. An object file that is not ELF (macOS, Windows) loads as numba loads it.
 
+numba's runtime (NRT: reference counts, allocation) is LLVM IR that numba compiles in
+every process before the first kernel loads, 18 ms of every `pcsg` command. Its machine
+code is kept in the user's cache directory (nrt-*.bin, by numba's and llvmlite's versions,
+the CPU it was compiled for and the settings its IR depends on) and loaded like a kernel's
+after the first time.
+
 With a numba that lacks the methods used here, numba's own load stays."""
 from __future__ import annotations
 
+import hashlib
+import os
+import pickle
 import struct
+import tempfile
 
 from numba.core import codegen
 from numba.core.caching import Cache
+from numba.core.runtime import nrtdynmod
 
 NUMBA_LOAD = Cache.load_overload        # kept for the test that compares the two
 NUMBA_UNSERIALIZE = codegen.CPUCodeLibrary.__dict__.get("_unserialize")
 NUMBA_LINKING = getattr(codegen.CPUCodeLibrary, "_get_module_for_linking", None)
+NUMBA_NRT = nrtdynmod.compile_nrt_functions
 
 
 def load_overload(self, sig, target_context):
@@ -89,9 +101,46 @@ def _get_module_for_linking(self):
     return NUMBA_LINKING(self)
 
 
+def runtime_file(ctx):
+    """Where the runtime's machine code for this numba, llvmlite and CPU is kept."""
+    import llvmlite
+    import numba
+    from ..caches import cache_dir
+    from numba.core import config
+    key = repr((numba.__version__, llvmlite.__version__, ctx.codegen().magic_tuple(),
+                config.OPT, config.DEBUG_NRT))
+    return cache_dir() / f"nrt-{hashlib.sha256(key.encode()).hexdigest()[:20]}.bin"
+
+
+def compile_nrt_functions(ctx):
+    """numba's runtime library (nrtdynmod.compile_nrt_functions), read from the cache
+    when an earlier process kept it, else compiled as numba does and kept."""
+    path = runtime_file(ctx)
+    try:
+        return ctx.codegen().unserialize_library(pickle.loads(path.read_bytes()))
+    except Exception:   # noqa: BLE001 -- none kept, or unreadable: compile it
+        pass
+    ir_module, library = nrtdynmod.create_nrt_module(ctx)
+    library.enable_object_caching()
+    library.add_ir_module(ir_module)
+    library.finalize()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        # written whole, then renamed: another process may be reading it
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        with os.fdopen(fd, "wb") as f:
+            f.write(pickle.dumps(library.serialize_using_object_code()))
+        os.replace(tmp, path)
+    except OSError:
+        pass            # a read-only home: compiled again next time
+    return library
+
+
 def install() -> None:
     if hasattr(Cache, "_load_overload") and hasattr(Cache, "_guard_against_spurious_io_errors"):
         Cache.load_overload = load_overload
     if isinstance(NUMBA_UNSERIALIZE, classmethod) and NUMBA_LINKING is not None:
         codegen.CPUCodeLibrary._unserialize = classmethod(_unserialize)
         codegen.CPUCodeLibrary._get_module_for_linking = _get_module_for_linking
+    if hasattr(nrtdynmod, "create_nrt_module"):
+        nrtdynmod.compile_nrt_functions = compile_nrt_functions

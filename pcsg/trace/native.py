@@ -37,6 +37,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
+from ..caches import cache_dir
 from . import vm
 
 MIN_ROWS = 24           # shorter blocks cost little more on the machine than a call
@@ -195,13 +196,6 @@ from pcsg.trace.vm import (_DEG, _RAD, fmax, fmin, hash_to_unit, mix, rand_seed,
                            round_half_away, salt, truth)
 
 '''
-
-
-def cache_dir() -> Path:
-    """PCSG_CACHE_DIR, else pcsg under XDG_CACHE_HOME or ~/.cache."""
-    if os.environ.get("PCSG_CACHE_DIR"):
-        return Path(os.environ["PCSG_CACHE_DIR"])
-    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "pcsg"
 
 
 def native_blocks(code: np.ndarray, blocks: dict[int, tuple[int, int]],
