@@ -39,8 +39,7 @@ def release_compiler_lock() -> None:
     still holds it. numba takes it in a `with` through Python methods
     (`_CompilerLock.__enter__` calls `acquire`), so an interrupt raised as the lock's own
     acquire returns, before the `with` body starts, leaves it held. Every other thread that
-    then loads or compiles a kernel (the shading kernel's preload, the tracer's helper
-    threads) waits for it forever, and so does the process's exit, which joins them: an
+    then loads or compiles a kernel (the tracer's helper threads) waits for it forever, and so does the process's exit, which joins them: an
     animate worker interrupted at the wrong moment was seen to hang so, once, in CI."""
     module = sys.modules.get("numba.core.compiler_lock")
     lock = getattr(getattr(module, "global_compiler_lock", None), "_lock", None)

@@ -2,8 +2,8 @@
 
 The limit belongs to the interpreter, not to a thread. Two passes that each saved it,
 raised it and put the saved value back could, on two threads, leave one of them running
-under the other's lower limit (render_file bounds a sphere on a second thread while the
-file compiles: render/preload.py). So the passes inside are counted, the limit is the
+under the other's lower limit (render_file once bounded a sphere on a second thread
+while the file compiled). So the passes inside are counted, the limit is the
 highest any of them asked for, and the first one's saved value returns when the last one
 leaves."""
 from __future__ import annotations

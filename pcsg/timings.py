@@ -1,7 +1,8 @@
 """`pcsg render --timings`: where one render's wall time goes, phase by phase.
 
-The phases are the ones a render runs through in order (compile, the wait for the
-shading kernel, bounds, render, PNG), each timed on the wall clock. The command
+The phases are the ones a render runs through in order (compile, bounds, render, PNG),
+each timed on the wall clock; a kernel loads from numba's cache in the phase that first
+calls it. The command
 (cli.run) also notes how long the process took to reach them: the interpreter's own
 start and the imports (numpy, numba and pcsg's modules), from the process's start
 time in /proc, so on Linux only."""

@@ -59,41 +59,25 @@ def test_ambient_occlusion_png_is_the_same_at_one_and_two_threads(tmp_path):
     assert pngs[0] == pngs[1]
 
 
-PRELOAD = """
-import sys
-from pcsg.cli import main
-from pcsg.render import preload
-from pcsg.render.camera import _rays
-from pcsg.render.image import _gather
-from pcsg.trace.shading import shade_share
-assert preload.cached(), "the warm-up render left no cached shading kernel"
-loading = preload.start()
-assert loading is not None
-loading.join()
-compiled = (shade_share, _rays, _gather)
-loaded = [len(f.signatures) for f in compiled]
-main(["render", "grammars/sympodial_tree.pcsg", "--set", "cnt=3", "--size", "16x12", "-q",
-      "-o", sys.argv[1]])
-print(",".join(map(str, loaded)), ",".join(str(len(f.signatures)) for f in compiled),
-      sum(sum(f.stats.cache_misses.values()) for f in compiled), preload.start() is None)
+CACHED = """
+from pcsg.render import kernelcache
+print(kernelcache.cached())
 """
 
 
-def test_the_preloaded_kernel_is_the_one_the_render_uses(tmp_path):
-    """render_file loads the shading kernel, the camera rays and the gather into pixels on
-    a second thread while the file compiles, by rendering a sphere built without the
-    parser: their types must be every render's, or the render would load (or compile)
-    other versions after them."""
+def test_a_render_finds_the_kernels_cached_after_the_first(tmp_path):
+    """kernelcache.cached(), which decides whether a render at a terminal first says that
+    it will compile the kernels: true once a render has compiled them, false where numba
+    keeps no kernel yet (an empty NUMBA_CACHE_DIR)."""
     warm = subprocess.run([sys.executable, "-m", "pcsg", "render", "grammars/sierpinski.pcsg",
                            "--set", "c=1", "--size", "8x6", "-q", "-o", str(tmp_path / "w.png")],
                           cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert warm.returncode == 0, warm.stderr
-    r = subprocess.run([sys.executable, "-c", PRELOAD, str(tmp_path / "t.png")], cwd=ROOT,
-                       capture_output=True, text=True, timeout=600)
-    assert r.returncode == 0, r.stderr
-    preloaded, after, misses, again = r.stdout.splitlines()[-1].split()
-    assert preloaded == "1,1,1", "the preload left a function unloaded"
-    assert after == "1,1,1", "the render needed another version than the preload's"
-    assert misses == "0", "the preload compiled instead of loading"
-    assert again == "True", "a second start loads the kernel again"
-    assert (tmp_path / "t.png").stat().st_size > 0
+
+    def cached(**env):
+        r = subprocess.run([sys.executable, "-c", CACHED], cwd=ROOT, capture_output=True,
+                           text=True, timeout=600, env={**os.environ, **env})
+        assert r.returncode == 0, r.stderr
+        return r.stdout.split()[-1]
+    assert cached() == "True"
+    assert cached(NUMBA_CACHE_DIR=str(tmp_path / "empty")) == "False"

@@ -21,7 +21,7 @@ from ..limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES,
 from ..memory import freeing_blocks
 from ..timings import Timings
 from ..tracer import Hits, Traced
-from . import preload
+from . import kernelcache
 from .camera import CameraError, make_camera
 from .image import Frame, Progress, render_frame, write_depth, write_png
 from .shade import make_lighting
@@ -200,18 +200,11 @@ def render_file(path: Path, out: Path, opts: Options,
     runtime errors."""
     clock = timings or Timings()
     deadline = None if opts.timeout is None else time.perf_counter() + opts.timeout
-    notice = None if opts.reference else preload.compile_notice(opts.quiet)
+    notice = None if opts.reference else kernelcache.compile_notice(opts.quiet)
     if notice:
         print(notice, file=sys.stderr, flush=True)
-    loading = None if opts.reference else preload.start()
-    try:
-        with clock.phase("compile", "parse, checks" + (", the shading kernel loading beside"
-                                                        if loading else "")):
-            graph = compile_file(path, opts.overrides)
-    finally:
-        if loading is not None:
-            with clock.phase("kernel", "the rest of the shading kernel's load"):
-                loading.join()
+    with clock.phase("compile", "parse, checks"):
+        graph = compile_file(path, opts.overrides)
     poll, progress = bounds_poll(Path(path).name, opts, deadline)
     kept = boxcache.hits
     with clock.phase("bounds", "hyper-bounding boxes, instance table"), freeing_blocks():
