@@ -59,6 +59,41 @@ def test_ambient_occlusion_png_is_the_same_at_one_and_two_threads(tmp_path):
     assert pngs[0] == pngs[1]
 
 
+LOADED = """
+import sys
+from pcsg.cli import main
+from pcsg.render import kernelcache
+from pcsg.render.camera import _rays
+from pcsg.render.image import _gather
+from pcsg.trace.shading import shade_share
+kernelcache.load()
+compiled = (shade_share, _rays, _gather)
+loaded = [len(f.signatures) for f in compiled]
+main(["render", "grammars/sympodial_tree.pcsg", "--set", "cnt=3", "--size", "16x12", "-q",
+      "-o", sys.argv[1]])
+print(",".join(map(str, loaded)), ",".join(str(len(f.signatures)) for f in compiled),
+      sum(sum(f.stats.cache_misses.values()) for f in compiled))
+"""
+
+
+def test_the_kernels_loaded_before_the_render_are_the_ones_it_uses(tmp_path):
+    """render_file loads the shading kernel, the camera rays and the gather into pixels
+    by the signatures in numba's cache index before its render phase starts: they must be
+    every render's, or the render would load (or compile) other versions after them."""
+    warm = subprocess.run([sys.executable, "-m", "pcsg", "render", "grammars/sierpinski.pcsg",
+                           "--set", "c=1", "--size", "8x6", "-q", "-o", str(tmp_path / "w.png")],
+                          cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert warm.returncode == 0, warm.stderr
+    r = subprocess.run([sys.executable, "-c", LOADED, str(tmp_path / "t.png")], cwd=ROOT,
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    loaded, after, misses = r.stdout.splitlines()[-1].split()
+    assert all(int(n) >= 1 for n in loaded.split(",")), "a kernel was left unloaded"
+    assert after == loaded, "the render needed another version than the ones loaded"
+    assert misses == "0", "a kernel was compiled instead of loaded"
+    assert (tmp_path / "t.png").stat().st_size > 0
+
+
 CACHED = """
 from pcsg.render import kernelcache
 print(kernelcache.cached())

@@ -45,7 +45,8 @@ def test_the_command_times_its_start_and_every_phase(tmp_path):
     labels = [k for k, _, _ in table]
     assert labels[:3] == ["interpreter", "imports", "compile"], labels
     phases = [k for k in labels if k != "other"]
-    assert phases == ["interpreter", "imports", "compile", "bounds", "render", "PNG", "total"]
+    assert phases == ["interpreter", "imports", "compile", "bounds", "kernels", "render", "PNG",
+                      "total"]
     seconds = dict((k, s) for k, s, _ in table)
     assert all(s >= 0 for s in seconds.values())
     # the process's start time in /proc is to the clock tick (10 ms)
@@ -70,7 +71,7 @@ def test_in_process_the_report_holds_the_phases_of_each_file(capsys, tmp_path):
         table = rows(err, str(path))
         labels = [k for k, _, _ in table]
         assert "interpreter" not in labels and "imports" not in labels
-        assert labels == ["compile", "bounds", "render", "PNG", "total"]
+        assert labels == ["compile", "bounds", "kernels", "render", "PNG", "total"]
         total = table[-1][1]
         assert abs(total - sum(s for _, s, _ in table[:-1])) < 0.002 + 1e-3 * len(table)
     assert out.count("M rays/s") == 2

@@ -161,6 +161,8 @@ def prepare_scene(graph: Graph, opts: Options, poll=None) -> Scene:
 def render_scene(scene: Scene, label: str, opts: Options, deadline: float | None = None,
                  rows: tuple[int, int] | None = None) -> tuple[Frame, np.ndarray | None]:
     """The frame (or its rows y0..y1) and the runtime events of this render alone."""
+    if not opts.reference:
+        kernelcache.load()                  # not on the render's clock (once a process)
     traced = copy.copy(scene.traced)        # its own events, however often the scene is used
     traced.events = no_events(len(traced.graph.nodes))
     target = _ReferenceTarget(traced) if opts.reference else traced
@@ -215,6 +217,9 @@ def render_file(path: Path, out: Path, opts: Options,
     if boxcache.hits > kept:
         clock.annotate("bounds", f"read from {boxcache.folder()}, kept by an earlier "
                                  f"render (PCSG_BOUNDS_CACHE=0: walk again)")
+    if not opts.reference:
+        with clock.phase("kernels", "the shading kernels' load from numba's cache"):
+            kernelcache.load()
     with clock.phase("render"):
         frame, events = render_scene(scene, Path(path).name, opts, deadline)
     clock.annotate("render", f"{frame.rays / 1e6:.2f} M rays, "

@@ -1,16 +1,40 @@
-"""Whether the tracing kernels are in numba's cache, and the notice for a render that
-will compile them first.
+"""The shading kernels loaded from numba's cache before a render's clock starts; whether
+they are cached, and the notice for a render that will compile them first.
 
-A render loads its kernels from the cache where it first calls them. Until 2026-12-04 a
-second thread loaded the shading kernel (by rendering a sphere at 2x2 pixels) while the
-file compiled; once a cached kernel no longer had its bitcode parsed (trace/cacheload.py),
-that thread's work, which held the interpreter's lock, delayed the compile by more than
-the load it saved: without it the terrain at 9 took 0.863 s against 0.878 s, Sierpinski
-at 8 0.394 s against 0.405 s, the tree at 14 0.386 s against 0.393 s (medians of 10
-alternating renders each, the same PNG bytes)."""
+`load` loads each with every signature numba's cache index holds for it, so that the
+render phase, and the rays per second it reports, time tracing only (the shading
+kernel's load is about 20 ms). Until 2026-12-04 a second thread loaded it (by rendering a
+sphere at 2x2 pixels) while the file compiled; once a cached kernel no longer had its
+bitcode parsed (trace/cacheload.py), that thread's work, which held the interpreter's
+lock, delayed the compile by more than the load it saved: without it the terrain at 9
+took 0.863 s against 0.878 s, Sierpinski at 8 0.394 s against 0.405 s, the tree at 14
+0.386 s against 0.393 s (medians of 10 alternating renders each, the same PNG bytes)."""
 from __future__ import annotations
 
+import functools
 import sys
+
+
+@functools.cache
+def load() -> None:
+    """Every cached version of the kernels a render calls, loaded (once a process): a
+    kernel not cached, or a numba without the cache index read here, loads or compiles
+    where the render first calls it, as before."""
+    from ..trace.shading import shade_share
+    from .camera import _rays
+    from .image import _gather
+    for kernel in (shade_share, _rays, _gather):
+        for signature in cached_signatures(kernel):
+            kernel.compile(signature)
+
+
+def cached_signatures(kernel) -> list:
+    """The signatures numba's cache index holds for `kernel`: none without a cache (or
+    under NUMBA_DISABLE_JIT), or with a numba whose cache reads its index otherwise."""
+    try:
+        return [key[0] for key in kernel._cache._cache_file._load_index()]
+    except AttributeError:
+        return []
 
 
 def compile_notice(quiet: bool) -> str | None:
