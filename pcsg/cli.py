@@ -620,8 +620,8 @@ def import_kernels() -> None:
     (pcsg/__init__.py), so that it happens here.
     numpy's OpenBLAS gets one thread unless the user chose otherwise: pcsg's matrices are
     3x3 and 4x4, and the threads it starts spin on a core after each call (8 % of the
-    CPU samples of a terrain render, on the core the shading kernel loads on during the
-    compile; Sierpinski at 8: 0.418 s against 0.410 s whole, medians of 12)."""
+    CPU samples of a terrain render, by `perf`; Sierpinski at 8: 0.418 s against 0.410 s
+    whole, medians of 12)."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     collecting = gc.isenabled()
     gc.disable()
