@@ -431,6 +431,4 @@ def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bo
     tick = None if poll is None else lambda: poll(int(watch[1:].sum()), expected)
     visits, table = walk_split(flat, depth, budget, capacity, boxes, book, TABLE_SLOTS,
                                per_level, changed, workers, watch, tick)
-    if instances and book[0] < 0:
-        table = empty_table()           # not even the root's level fits
     return boxes, visits, int(changed[0]), table

@@ -34,9 +34,14 @@ import pickle
 import struct
 import tempfile
 
-from numba.core import codegen
+import llvmlite
+import numba
+from llvmlite import binding
+from numba.core import codegen, config
 from numba.core.caching import Cache
 from numba.core.runtime import nrtdynmod
+
+from ..caches import cache_dir
 
 NUMBA_LOAD = Cache.load_overload        # kept for the test that compares the two
 NUMBA_UNSERIALIZE = codegen.CPUCodeLibrary.__dict__.get("_unserialize")
@@ -96,17 +101,12 @@ def _get_module_for_linking(self):
     """numba's, after parsing a loaded library's bitcode the first time it is linked."""
     bitcode = self.__dict__.pop("_pcsg_bitcode", None)
     if bitcode is not None:
-        from llvmlite import binding
         self._shared_module = binding.parse_bitcode(bitcode)
     return NUMBA_LINKING(self)
 
 
 def runtime_file(ctx):
     """Where the runtime's machine code for this numba, llvmlite and CPU is kept."""
-    import llvmlite
-    import numba
-    from ..caches import cache_dir
-    from numba.core import config
     key = repr((numba.__version__, llvmlite.__version__, ctx.codegen().magic_tuple(),
                 config.OPT, config.DEBUG_NRT))
     return cache_dir() / f"nrt-{hashlib.sha256(key.encode()).hexdigest()[:20]}.bin"
