@@ -1,7 +1,7 @@
 """Two versions of pcsg against each other: the render and bounds phases and the whole
 process (--timings' total) of fresh `pcsg render --timings` processes, alternating which
 goes first in every round (a fixed order biases in-process comparisons by several per
-cent, see the README), medians, and whether the PNGs are the same bytes.
+cent, see tools/performance_notes.md), medians, and whether the PNGs are the same bytes.
 
     git worktree add /tmp/before HEAD~1
     (cd /tmp && PYTHONPATH=/tmp/before python -m pcsg.cli render ...)   # compile its kernels

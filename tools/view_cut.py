@@ -5,7 +5,7 @@
 The bounding walk of a system with too many states (the terrain) visits every instance,
 and the tracer's level of detail never fires on the terrain (its hyper boxes span the
 whole height at every level), so the bounding walk of the terrain at 12 makes 313
-million node visits, most of its time (README, "Against POV-Ray"). A cut that the walk and the tracer could both apply is one made per
+million node visits, most of its time (tools/performance_notes.md). A cut that the walk and the tracer could both apply is one made per
 instance from what the instance alone knows: stop refining where the box of the
 instance's terminating geometry (its terminating rule, every S-node below it cut too)
 is smaller than a pixel seen from the file's #camera eye. This walks the derivation

@@ -7,7 +7,7 @@ only the symbols it links to: numba's C helpers and exception classes, which the
 installs when it is made, and the reference-counting runtime (NRT), which the refresh
 initialises and so is initialised here. numba refreshed 265 times in a render of
 Sierpinski, the first time importing and installing everything; without it the wall time
-of `pcsg render` fell by 0.09 to 0.13 s (README, "Against POV-Ray"). A kernel that is not
+of `pcsg render` fell by 0.09 to 0.13 s (tools/performance_notes.md). A kernel that is not
 cached still compiles as before: numba's compiler refreshes both contexts itself
 (`CompilerBase.__init__`).
 

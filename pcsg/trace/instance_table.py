@@ -61,7 +61,7 @@ def probe_rows(keys, used, boxes) -> dict:
     [box (6) | used | key], aligned to a cache line, so that a probe and the box it finds
     load one line, not one from each of three arrays (the table is 32 MiB at the
     terrain's orders, far more than the caches; its probes were the walk's hottest loads,
-    though the time this layout saves measured within the noise, see the README).
+    though the time this layout saves measured within the noise, see tools/performance_notes.md).
     inst_deepest lets a walk skip the probes past the deepest level kept, which could only
     miss (the terrain at order 9 keeps 10 of its 11 levels)."""
     slots = len(keys)

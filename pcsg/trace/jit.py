@@ -50,7 +50,7 @@ def _helpers(count: int) -> ThreadPoolExecutor:
     """The process's pool of helper threads, started once and grown when more are asked
     for. A pool per call started its threads for every batch of rays, and waited for
     each to start: Sierpinski 6 rendered in 0.14 to 0.18 s that way, 0.14 to 0.15 s
-    with this pool (README, "Against POV-Ray")."""
+    with this pool (tools/performance_notes.md)."""
     global _pool, _pool_size
     with _pool_lock:
         if _pool is None or _pool_size < count:

@@ -41,7 +41,8 @@ from .walk import finish, hit_primitive, hit_volume, step_unary, walk
 
 # rays per packet: one 16x16 tile of image.tile_order. Per-instance work (hash,
 # calculation, selection, map, table box) is shared by more rays than in the 64 (16x4
-# pixels) it was: renders 8 to 16 % faster, 32 slower, 512 and 1024 no faster (README)
+# pixels) it was: renders 8 to 16 % faster, 32 slower, 512 and 1024 no faster
+# (tools/performance_notes.md)
 PACKET = 256
 FRAMES = 128            # packet frames; a deeper stack sends its rays on alone
 # a frame's PHASE at or above ALONE: its rays go on alone when it is popped, their

@@ -307,7 +307,7 @@ def eval_row(code, consts, start, end, params, row, inst_hash, salt_slot, stack)
         # the fused operators, the loads and the stores first: they are most rows of
         # calculation blocks (the terrain's: 29 %, 22 % and 20 %), and the branches are
         # tested in turn. The terrain at 9 rendered in 2.17 s against 2.24 s with them
-        # last (6 rounds alternating, medians; README, "Start-up")
+        # last (6 rounds alternating, medians; tools/performance_notes.md)
         if op == BIN_LOAD:
             stack[sp - 1] = binary(arg & OP_MASK, stack[sp - 1], params[row, arg >> OP_BITS])
         elif op == BIN_CONST:
