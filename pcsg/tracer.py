@@ -15,7 +15,7 @@ from .graph.volumes import bounding_volumes
 from .graph.model import KIND_NAMES, SELECT, Graph
 from .trace.jit import threads
 from .trace.kernel import CHUNK, trace_rays
-from .trace.instance_table import clip_to_owners
+from .trace.instance_table import tracer_rows
 from .trace.pad import pad_boxes
 from .trace.nodes import (EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
                           EV_SINGULAR, EV_STACK, EV_VISITS, N_EVENTS, add_events,
@@ -36,11 +36,10 @@ class Hits:
     events: np.ndarray = field(repr=False, default=None)   # trace.nodes.no_events layout
 
 
-def _pad(boxes: np.ndarray, in_place: bool = False) -> np.ndarray:
-    """Boxes made conservative (trace/pad.py): a copy, or `boxes` itself with `in_place`
-    (the instance table's, which nothing else keeps: a copy was the terrain's peak of
-    memory, 41 MiB over the rest at order 9)."""
-    out = boxes if in_place else boxes.copy()
+def _pad(boxes: np.ndarray) -> np.ndarray:
+    """A copy of the boxes made conservative (trace/pad.py); the instance table's entries
+    are padded as they are laid out (instance_table.tracer_rows)."""
+    out = boxes.copy()
     pad_boxes(out)
     return out
 
@@ -81,12 +80,11 @@ class Traced:
         if isinstance(table, StateTable):       # a memoised system's boxes by state
             table, states = (table.keys, table.used, table.boxes), table.slots
         padded = _pad(boxes)
-        if table is not None:
-            table = (table[0], table[1], _pad(table[2], in_place=True))   # nothing else keeps it
-            clip_to_owners(table[1], table[2], padded)
+        # padded, cut to the padded node boxes and laid out in place: nothing else keeps it
+        rows = None if table is None else tracer_rows(*table, padded)
         spheres = None if self.spheres is None else _pad_spheres(self.spheres)
         # a graftal hit's normal: averaged over the boxes that led to it, else its box's
-        self.flat = flatten_graph(graph, padded, table,
+        self.flat = flatten_graph(graph, padded, rows,
                                   NORMAL_DECAY if average_normals else 0.0, spheres, states,
                                   native_args=self.bounds_method == "every instance")
         self.events = no_events(len(graph.nodes))      # of all traces so far

@@ -205,3 +205,36 @@ def test_the_walks_probe_the_table_down_to_its_deepest_level_and_no_further(pack
     last = read[-1]
     assert not np.array_equal(emptied(last, last), whole)
     assert np.array_equal(emptied(last, last - 1), whole)
+
+
+def test_a_row_table_is_laid_out_in_place_as_a_copied_table_is():
+    """A table merged into row_table's arrays becomes the tracer's rows in place (no copy),
+    with the same rows as a plain table copied into them: each entry padded and cut to its
+    owner, `used` where the owner was, and a slot whose entry was dropped empty."""
+    from pcsg.trace.instance_table import row_table, tracer_rows
+    from pcsg.trace.pad import pad_boxes
+    rng = np.random.default_rng(3)
+    boxes = np.array([[0.0, 0, 0, 1, 1, 1], [-2.0, -2, -2, 2, 2, 2]])
+    padded = boxes.copy()
+    pad_boxes(padded)
+    lows = rng.uniform(-1.5, 0.5, (40, 3))
+    entries = np.c_[lows, lows + rng.uniform(0, 1.5, (40, 3))]
+    rows_table, plain = row_table(64), empty_table(64)
+    for table in (rows_table, plain):
+        for k, box in enumerate(entries):
+            record(k % 3, np.uint64(1000 + 7 * k), 5, -1, k % 2, box,
+                   np.array([2, 64, 0, 0, 0, 0], dtype=np.int64), *table, np.zeros(4, dtype=np.int64))
+        drop_level(2, *table)               # leaves stale keys and owners in its slots
+    assert (rows_table[1] == 0).sum() > 24 and not np.array_equal(rows_table[2][:, OWNER], 0)
+    data = rows_table[2].ctypes.data
+    fields = tracer_rows(*rows_table, padded)
+    assert fields["inst_boxes"].ctypes.data == data            # finished where it lay
+    want = tracer_rows(*plain, padded)
+    assert fields["inst_boxes"].ctypes.data % 64 == 0
+    assert np.array_equal(fields["inst_used"], want["inst_used"])
+    live = want["inst_used"] > 0
+    assert np.array_equal(fields["inst_keys"][live], want["inst_keys"][live])
+    assert np.array_equal(fields["inst_boxes"][live, :6], want["inst_boxes"][live, :6])
+    assert fields["inst_deepest"] == want["inst_deepest"] == 1
+    inside = (want["inst_boxes"][live, :3] >= padded[plain[2][live, OWNER].astype(int), :3])
+    assert inside.all()

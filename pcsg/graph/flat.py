@@ -7,7 +7,7 @@ import numpy as np
 
 from ..language.names import FRACTAL_PRIMITIVES, PIXELS, PRIMITIVES
 from ..trace.fractals import ARG_WIDTH, fractal_row
-from ..trace.instance_table import probe_rows
+from ..trace.instance_table import row_fields
 from ..trace.native import MIN_ROWS, native_blocks
 from ..trace.transforms import CODES as TRANSFORM_CODES
 from ..trace.transforms import matrix as transform_matrix
@@ -46,7 +46,7 @@ Flat = namedtuple("Flat", [
     "inst_keys",     # uint64[s]    instance table: S-node instance hash ->
     "inst_used",     # float64[s]   0: empty, else the entry's level + 1
     "inst_boxes",    # float64[s,8]   that instance's own box (top levels only); the
-                     #              three are views of one array (instance_table.probe_rows)
+                     #              three are views of one array (instance_table.tracer_rows)
     "inst_deepest",  # int64        the deepest level the table keeps (-1: none)
     "by_state",      # int64        1: the table is a memoised system's, keyed by state
                      #              (graph/states.py), not by instance hash
@@ -85,10 +85,10 @@ Flat = namedtuple("Flat", [
 ])
 
 
-def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
+def flatten_graph(graph: Graph, boxes: np.ndarray, table: dict | None = None,
                   normal_decay: float = NORMAL_DECAY, spheres=None, states=None,
                   native_args: bool = False, runs: bool = True) -> Flat:
-    """`table`: (keys, used, boxes) of the instance table; keyed by state where
+    """`table`: the instance table's rows (instance_table.tracer_rows); keyed by state where
     `states` gives each node's key slots (graph/states.py; None: not keyed). With
     `native_args`, the arguments of T- and paint nodes and the selections of S-nodes are
     compiled too (Flat.arg_fn): for the systems bounded instance by instance, whose walks
@@ -138,7 +138,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
     calc_fn = np.where(is_calc, compiled, 0)
     arg_fn = np.where(with_args, compiled, 0)
     if table is None:
-        table = (np.zeros(2, dtype=np.uint64), np.zeros(2, dtype=np.int16), np.zeros((2, 6)))
+        table = row_fields()
     fractal = np.zeros((n, ARG_WIDTH))
     for i, x in enumerate(nodes):
         if x.kind == PRIMITIVE and x.name in FRACTAL_PRIMITIVES:
@@ -169,7 +169,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
         box=np.ascontiguousarray(boxes, dtype=np.float64), fractal=fractal,
         sphere=np.ascontiguousarray(np.zeros((0, 4)) if spheres is None else spheres,
                                     dtype=np.float64),
-        **probe_rows(*table),
+        **table,
         by_state=np.int64(states is not None), state_count=state_count,
         state_start=_starts(np.maximum(state_count, 0)),
         state_slots=np.concatenate([np.zeros(0, dtype=np.int32), *keyed]),
@@ -182,7 +182,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table=None,
         n_params=np.int64(max(1, arg_base + scratch)),
         max_stack=np.int64(max(1, vm["max_stack"])),
         max_children=np.int64(max(1, counts.max(initial=1))),
-        hashed=np.int64((len(table[0]) > 2 and states is None)
+        hashed=np.int64((len(table["inst_keys"]) > 2 and states is None)
                         or bool(np.any(vm["code"][:, 0] == RAND))
                         or bool(calc_cache.any())),
         pixels_slot=np.int64(graph.params.get(PIXELS, -1)),

@@ -10,7 +10,7 @@ import numpy as np
 
 from . import vm
 from .boxwalk import COLLECT, CONSUME, STOPPED, walk, walk_in, walk_scratch
-from .instance_table import ENTRY, empty_table, levels_kept, merge
+from .instance_table import ENTRY, empty_table, levels_kept, merge, row_table
 from .jit import share, watched
 
 MAX_ITEMS = 8192            # instances one split level may have
@@ -80,7 +80,7 @@ def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, slots:
         return -1, None
     # as many entries as the instances of the levels kept, whatever the thread count
     entries = int(levels_kept(per_level, book)[1]) if book[0] >= 0 else 0
-    table = empty_table(table_slots(entries, slots))
+    table = row_table(table_slots(entries, slots))
     if book[0] >= 0:
         merge(per_level, book, *table, bkeys, bused, bvals, bbook)
     return int(top + wvisits.sum()), table

@@ -15,17 +15,48 @@ from numba import njit
 from . import vm
 from .jit import copy_into, inline, kernel
 from .nodes import table_slot
+from .pad import pad_row
 
 TABLE_SLOTS = 1 << 19      # instance boxes kept: ~30 MB at most, whatever the order
 # an entry's values: its box (xmin, ymin, zmin, xmax, ymax, zmax) and its owner, the
 # node whose hyper box holds it (an S-node, or an operator's operand)
 OWNER = 6
 ENTRY = 7
+ROW = 8                    # a slot as the tracer reads it: box (6), used, key
 
 
 def empty_table(slots: int = 2, width: int = ENTRY):
+    """A table of plain arrays, for the walks' own small ones (a kernel's argument types
+    stay those it was compiled for)."""
     return (np.zeros(slots, dtype=np.uint64), np.zeros(slots, dtype=np.int16),
             np.zeros((slots, width)))
+
+
+def row_table(slots: int):
+    """An empty table laid out as the tracer will read it, so that tracer_rows need not
+    copy it: keys and values are views of one (slots, 8) array aligned to 64 bytes, each
+    slot one cache line, the key in column 7 and the values (box, owner) in 0 to 6;
+    `used` is apart until then. Merging into it writes one line per entry where three
+    arrays took three, and the copy into rows was 16 ms and 32 MiB more of the terrain at
+    9's bounds phase."""
+    rows = _aligned_rows(slots)
+    return rows.view(np.uint64)[:, ROW - 1], np.zeros(slots, dtype=np.int16), rows[:, :ENTRY]
+
+
+def _aligned_rows(slots: int) -> np.ndarray:
+    buf = np.zeros(slots * ROW + ROW)          # zero pages: only what is written is faulted in
+    start = (-buf.ctypes.data % 64) // 8
+    return buf[start:start + slots * ROW].reshape(slots, ROW)
+
+
+def _rows_of(keys, vals) -> np.ndarray | None:
+    """The (slots, 8) array that a row_table's keys and values view, or None."""
+    if (vals.ndim == 2 and vals.shape[1] == ENTRY and vals.strides == (ROW * 8, 8)
+            and keys.strides == (ROW * 8,) and len(keys) == len(vals)
+            and vals.ctypes.data % 64 == 0
+            and keys.ctypes.data == vals.ctypes.data + (ROW - 1) * 8):
+        return np.lib.stride_tricks.as_strided(vals, (len(vals), ROW), (ROW * 8, 8))
+    return None
 
 
 def compact(table):
@@ -42,7 +73,7 @@ def expand(entries):
     """The table again from compact's entries (the same entries; their slots may differ,
     which no lookup sees)."""
     keys, used, vals, slots = entries
-    table = empty_table(slots, vals.shape[1])
+    table = row_table(slots)
     _insert(keys, used, vals, *table)
     return table
 
@@ -56,24 +87,46 @@ def _insert(keys, used, vals, tkeys, tused, tvals):
         tvals[slot, :] = vals[i]
 
 
-def probe_rows(keys, used, boxes) -> dict:
+def tracer_rows(keys, used, vals, boxes) -> dict:
     """The table as the tracer reads it (Flat's inst_* fields): one 64-byte row per slot,
     [box (6) | used | key], aligned to a cache line, so that a probe and the box it finds
     load one line, not one from each of three arrays (the table is 32 MiB at the
     terrain's orders, far more than the caches; its probes were the walk's hottest loads,
-    though the time this layout saves measured within the noise, see tools/performance_notes.md).
+    though the time this layout saves measured within the noise, see
+    tools/performance_notes.md). Each entry's box is padded (trace/pad.py) and cut to its
+    owner's box in `boxes`, the nodes' padded boxes (clip_to_owners).
+    A row_table is finished in place, its owner column becoming `used`: from then on it
+    is the tracer's. Any other table is copied.
     inst_deepest lets a walk skip the probes past the deepest level kept, which could only
     miss (the terrain at order 9 keeps 10 of its 11 levels)."""
-    slots = len(keys)
-    buf = np.empty(slots * 8 + 8)
-    start = (-buf.ctypes.data % 64) // 8
-    rows = buf[start:start + slots * 8].reshape(slots, 8)
-    rows[:, :6] = boxes[:, :6]
-    rows[:, 6] = used
-    bits = rows.view(np.uint64)
-    bits[:, 7] = keys
-    return dict(inst_keys=bits[:, 7], inst_used=rows[:, 6], inst_boxes=rows,
-                inst_deepest=np.int64(int(used.max(initial=0)) - 1))
+    rows = _rows_of(keys, vals)
+    if rows is None:
+        rows = _aligned_rows(len(keys))
+    _finish_rows(keys, used, vals, boxes, rows, rows.view(np.uint64))
+    return row_fields(rows, int(used.max(initial=0)) - 1)
+
+
+def row_fields(rows: np.ndarray | None = None, deepest: int = -1) -> dict:
+    """Flat's inst_* fields: views of `rows`; without arguments, a table of no entries."""
+    if rows is None:
+        rows = _aligned_rows(2)
+    return dict(inst_keys=rows.view(np.uint64)[:, ROW - 1], inst_used=rows[:, ROW - 2],
+                inst_boxes=rows, inst_deepest=np.int64(deepest))
+
+
+@njit(cache=True, error_model="numpy")
+def _finish_rows(keys, used, vals, boxes, rows, bits):
+    """tracer_rows's pass; rows may be the memory vals views (a row's owner is read before
+    its column becomes `used`)."""
+    for i in range(keys.shape[0]):
+        if used[i]:
+            for a in range(6):
+                rows[i, a] = vals[i, a]
+            o = np.int64(vals[i, OWNER])
+            pad_row(rows, i)
+            clip_row(rows, i, boxes, o)
+            bits[i, ROW - 1] = keys[i]
+        rows[i, ROW - 2] = used[i]      # also where an entry was dropped: 0, not its owner
 
 
 def new_book(deepest: int, most: int) -> np.ndarray:
@@ -231,14 +284,19 @@ def clip_to_owners(used, vals, boxes):
     not meet, the cut box is empty, though their rounded windows may still touch at one
     t: nothing lies in both, so there is nothing that window could hit."""
     for i in range(used.shape[0]):
-        if not used[i]:
-            continue
-        o = np.int64(vals[i, OWNER])
-        empty = False
+        if used[i]:
+            clip_row(vals, i, boxes, np.int64(vals[i, OWNER]))
+
+
+@inline
+def clip_row(vals, i, boxes, o):
+    """clip_to_owners for entry i, owned by node o."""
+    empty = False
+    for a in range(3):
+        vals[i, a] = max(vals[i, a], boxes[o, a])
+        vals[i, a + 3] = min(vals[i, a + 3], boxes[o, a + 3])
+        empty = empty or vals[i, a] > vals[i, a + 3]
+    if empty:       # box_window reads an empty box by its x sides
         for a in range(3):
-            vals[i, a] = max(vals[i, a], boxes[o, a])
-            vals[i, a + 3] = min(vals[i, a + 3], boxes[o, a + 3])
-            empty = empty or vals[i, a] > vals[i, a + 3]
-        if empty:       # box_window reads an empty box by its x sides
-            vals[i, :3] = np.inf
-            vals[i, 3:OWNER] = -np.inf
+            vals[i, a] = np.inf
+            vals[i, a + 3] = -np.inf
