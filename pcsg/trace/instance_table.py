@@ -36,9 +36,9 @@ def row_table(slots: int):
     """An empty table laid out as the tracer will read it, so that tracer_rows need not
     copy it: keys and values are views of one (slots, 8) array aligned to 64 bytes, each
     slot one cache line, the key in column 7 and the values (box, owner) in 0 to 6;
-    `used` is apart until then. Merging into it writes one line per entry where three
-    arrays took three, and the copy into rows was 16 ms and 32 MiB more of the terrain at
-    9's bounds phase."""
+    `used` is apart until then. The copy into new rows took 16 ms of the terrain at 9's
+    bounds phase (merging into these views takes as long as into three arrays did: the
+    time is the first writes into fresh pages)."""
     rows = _aligned_rows(slots)
     return rows.view(np.uint64)[:, ROW - 1], np.zeros(slots, dtype=np.int16), rows[:, :ENTRY]
 
