@@ -17,7 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .graph.flatten import instances, leaf_inverse
+from .graph.flatten import nonempty
+from .graph.leaves import leaf_chunks
 from .graph.model import DIFFERENCE, INTERSECTION, PRIMITIVE
 from .language.names import FRACTAL_PRIMITIVES
 from .output import open_atomic
@@ -38,10 +39,8 @@ SHAPES = {
     + " bounded_by { box { -1, 1 } } }",
     "plane": "plane { z, 0 }",
 }
-TRIANGLES = {"tri1": ((0, 0, 0), (1, 0, 0), (0, 1, 0)),
-             "tri2": ((0, 0, 0), (-1, 0, 0), (0, -1, 0))}
+LINES_AT_ONCE = 1 << 13  # object lines formatted at a time
 SKY_STEPS = 12          # colour-map entries for the sky's s**0.6 blend
-PROGRESS_EVERY = 1024    # primitives between progress calls: 0.1 s of the terrain's
 
 
 def _num(x: float) -> str:
@@ -52,9 +51,8 @@ def _vec(v) -> str:
     return "<" + ", ".join(_num(float(x)) for x in v) + ">"
 
 
-def _matrix(m: np.ndarray) -> str:
-    """POV-Ray's row-vector matrix: p' = p M, so the columns of our 3x4 become rows."""
-    return "matrix <" + ", ".join(_num(float(m[r, c])) for c in range(4) for r in range(3)) + ">"
+# POV-Ray's row-vector matrix: p' = p M, so the columns of our 3x4 become rows (m.T)
+_MATRIX = "matrix <" + ", ".join(["%.9g"] * 12) + ">"
 
 
 @dataclass
@@ -75,9 +73,31 @@ class _Textures:
         self.lighting = lighting
         self.names: dict = {}
         self.declares: list[str] = []
+        self._finishes: dict = {}
         self.ambient = AMBIENT * (lighting.horizon + lighting.zenith) / 2
 
-    def name(self, paint, material) -> str:
+    def of(self, paint: np.ndarray, material: np.ndarray, kept: np.ndarray) -> list:
+        """The texture name of each primitive of a chunk (None where not kept), declared
+        in the order they first come."""
+        out = [None] * len(paint)
+        rows = np.flatnonzero(kept)
+        if not len(rows):
+            return out
+        p = paint[rows]
+        none = np.isnan(p[:, 0])
+        keys = np.column_stack([none, np.where(none[:, None], 0.0, p) + 0.0, material[rows]])
+        _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+        order = np.argsort(first, kind="stable")
+        js = rows[first[order]]
+        found = [None] * len(first)
+        for u, rgb, m in zip(order.tolist(), paint[js].tolist(), material[js].tolist()):
+            found[u] = self.name(None if rgb[0] != rgb[0] else tuple(rgb), m)
+        for j, u in zip(rows.tolist(), inverse.ravel().tolist()):
+            out[j] = found[u]
+        return out
+
+    def name(self, paint: tuple | None, material: int) -> str:
+        """The texture of a paint (None: none) under a material (-1: none)."""
         key = (paint, material)
         found = self.names.get(key)
         if found is None:
@@ -85,57 +105,111 @@ class _Textures:
             self.declares.append(f"#declare {found} = {self._texture(paint, material)}")
         return found
 
-    def _texture(self, paint, material) -> str:
+    def _texture(self, paint, material: int) -> str:
+        fin = self._finishes.get(material)
+        if fin is None:
+            fin = self._finishes[material] = self._finish(material)
+        color, transmit, finish = fin
+        if paint is not None:
+            color = [max(c, 0.0) for c in paint]
+        pigment = ("rgbt <%.9g, %.9g, %.9g, " % tuple(color) + transmit + ">"
+                   if transmit else "rgb <%.9g, %.9g, %.9g>" % tuple(color))
+        return f"texture {{ pigment {{ {pigment} }} {finish} }}"
+
+    def _finish(self, material: int) -> tuple:
+        """A material's colour, its transmit as text ('' for none) and its finish."""
         fin = dict(MATERIAL_DEFAULTS)
         color = DEFAULT_COLOR
-        if material is not None:
-            fin = self.graph.scene.materials[material]
+        if material >= 0:
+            fin = self.graph.scene.materials[self.graph.material_names[material]]
             color = fin["color"]
-        if paint is not None:
-            color = np.clip(paint, 0.0, None)
-        pigment = (f"rgbt <{', '.join(_num(c) for c in color)}, {_num(fin['transmit'])}>"
-                   if fin["transmit"] > 0 else f"rgb {_vec(color)}")
-        return (f"texture {{ pigment {{ {pigment} }} finish {{ ambient rgb {_vec(self.ambient)} "
-                f"diffuse {_num(fin['diffuse'])} phong {_num(fin['specular'])} "
-                f"phong_size {_num(fin['shininess'])} reflection {_num(fin['reflect'])} }} }}")
+        return ([float(c) for c in color], _num(fin["transmit"]) if fin["transmit"] > 0 else "",
+                f"finish {{ ambient rgb {_vec(self.ambient)} diffuse {_num(fin['diffuse'])} "
+                f"phong {_num(fin['specular'])} phong_size {_num(fin['shininess'])} "
+                f"reflection {_num(fin['reflect'])} }}")
 
-    def interior(self, material) -> str:
-        if material is None:
+    def interior(self, material: int) -> str:
+        if material < 0:
             return ""
-        ior = self.graph.scene.materials[material]["ior"]
+        ior = self.graph.scene.materials[self.graph.material_names[material]]["ior"]
         return f" interior {{ ior {_num(ior)} }}" if ior != 1.0 else ""
 
 
 class _Mesh:
     """Flat triangles collected into one mesh2 with shared vertices."""
 
-    def __init__(self):
-        self.vertices: dict = {}
-        self.faces: list = []
-        self.textures: dict = {}
+    WRITE_ROWS = 1 << 16        # lines formatted at a time: their strings stay few
 
-    def add(self, corners, texture: str):
-        ids = []
-        for p in corners:
-            # neighbours compute a shared corner in different frames: a few ulps apart
-            key = tuple(float(f"{x:.11g}") for x in p)
-            ids.append(self.vertices.setdefault(key, len(self.vertices)))
-        t = self.textures.setdefault(texture, len(self.textures))
-        self.faces.append((*ids, t))
+    def __init__(self):
+        self.corners: list[np.ndarray] = []     # chunks of (k, 3, 3), rounded
+        self.textures: dict[str, int] = {}      # texture_list, as the faces first name them
+        self.face_textures: list[np.ndarray] = []
+        self.faces = 0
+
+    def add(self, world: np.ndarray, sign: np.ndarray, textures: list[str]):
+        """Triangles of world maps (k, 3, 4) of the unit triangle (0,0), (s,0), (0,s)
+        with s = sign (tri1: 1, tri2: -1)."""
+        t, s = world[:, :, 3], sign[:, None]
+        corners = np.stack([t, t + s * world[:, :, 0], t + s * world[:, :, 1]], axis=1)
+        # neighbours compute a shared corner in different frames: a few ulps apart
+        self.corners.append(_significant(corners, 11))
+        self.faces += len(world)
+        ids = self.textures
+        self.face_textures.append(np.array([ids.setdefault(name, len(ids))
+                                            for name in textures], dtype=np.int64))
 
     def write(self, out):
         if not self.faces:
             return
-        out.write("mesh2 {\n  vertex_vectors { %d,\n" % len(self.vertices))
-        for v in self.vertices:
-            out.write(f"    {_vec(v)}\n")
+        corners = np.concatenate(self.corners).reshape(-1, 3)
+        self.corners = []
+        vertices, ids = _shared(corners)
+        del corners
+        faces = np.column_stack([ids.reshape(-1, 3), np.concatenate(self.face_textures)])
+        out.write("mesh2 {\n  vertex_vectors { %d,\n" % len(vertices))
+        _write_rows(out, "    <%.9g, %.9g, %.9g>\n", vertices)
         out.write("  }\n  texture_list { %d,\n" % len(self.textures))
         for name in self.textures:
             out.write(f"    texture {{ {name} }}\n")
-        out.write("  }\n  face_indices { %d,\n" % len(self.faces))
-        for a, b, c, t in self.faces:
-            out.write(f"    <{a}, {b}, {c}>, {t}\n")
+        out.write("  }\n  face_indices { %d,\n" % len(faces))
+        _write_rows(out, "    <%d, %d, %d>, %d\n", faces)
         out.write("  }\n}\n")
+
+
+def _write_rows(out, line: str, rows: np.ndarray):
+    """Each row of `rows` as `line` % row, a block of _Mesh.WRITE_ROWS at a time."""
+    for b in range(0, len(rows), _Mesh.WRITE_ROWS):
+        out.write("".join([line % tuple(r) for r in rows[b:b + _Mesh.WRITE_ROWS].tolist()]))
+
+
+def _shared(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct rows of keys (n, 3), numbered in the order they first come, and each
+    row's number. By a stable sort of the rows and a column at a time: np.unique(axis=0)
+    took twice the time and the memory of the terrain's million and a half corners."""
+    order = np.lexsort(keys.T[::-1])
+    new = np.zeros(len(keys), dtype=bool)
+    new[0] = True
+    for c in range(3):
+        col = keys[order, c]
+        new[1:] |= col[1:] != col[:-1]
+    group = np.cumsum(new) - 1
+    firsts = order[new]             # stable: a group's first row is where it first comes
+    number = np.empty(len(firsts), dtype=np.int64)
+    number[np.argsort(firsts, kind="stable")] = np.arange(len(firsts))
+    ids = np.empty(len(keys), dtype=np.int64)
+    ids[order] = number[group]
+    return keys[np.sort(firsts)], ids
+
+
+def _significant(x: np.ndarray, digits: int) -> np.ndarray:
+    """x rounded to `digits` significant decimal digits (0 stays 0, and numbers too
+    small for the scale to be a float, below 1e-298, stay as they are)."""
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+        e = np.floor(np.log10(np.abs(x)))
+        e[~np.isfinite(e)] = 0
+        scale = 10.0 ** (digits - 1 - e)
+        rounded = np.round(x * scale) / scale
+    return np.where(np.isfinite(rounded), rounded, x) + 0.0   # + 0.0: -0 and 0 are one
 
 
 def _refuse_fractals(graph):
@@ -152,35 +226,45 @@ def _refuse_fractals(graph):
 
 
 def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
-               size: tuple[int, int], progress=None) -> tuple[int, int, int]:
+               size: tuple[int, int], progress=None,
+               compiled: bool | None = None) -> tuple[int, int, int]:
     """Write the scene to `path` (atomically); returns the number of primitives written,
     of those left out because they are empty (a singular or non-finite transform, a
     runtime error in the grammar, draws nothing in pcsg, and POV-Ray could not parse a
     matrix of NaNs), and of those dropped with the ∩ or \\ they belonged to: leaving an
     operand out empties an intersection as pcsg's tracer does. progress(n), if given, is
-    called every PROGRESS_EVERY primitives of the derivation with how many have come."""
+    called after each chunk of the derivation (graph/leaves.py) with how many have come.
+    `compiled`: as leaf_chunks's (False: the Python derivation)."""
     graph = traced.graph
     _refuse_fractals(graph)
     textures = _Textures(graph, lighting)
     mesh = _Mesh()
-    empty = 0
+    empty = done = 0
+    names = [n.name for n in graph.nodes]
+    # the flat triangles' unit triangle (0,0), (s,0), (0,s): their s, 0 for the others
+    triangle = np.array([{"tri1": 1, "tri2": -1}.get(name, 0) for name in names])
     # the body streams to a side file: the declarations it needs are known at its end
     with tempfile.TemporaryFile("w+", encoding="utf-8") as body_file:
         body = _BodyWriter(graph, body_file)
-        for done, inst in enumerate(instances(graph), 1):
-            if progress is not None and done % PROGRESS_EVERY == 0:
+        for leaves in leaf_chunks(graph, compiled):
+            kept = nonempty(leaves.world)
+            empty += len(leaves) - int(kept.sum())
+            tex = textures.of(leaves.paint, leaves.material, kept)
+            sign = triangle[leaves.node]
+            flat = kept & (sign != 0)
+            mesh.add(leaves.world[flat], sign[flat], [tex[j] for j in np.flatnonzero(flat)])
+            rows = np.flatnonzero(kept & (sign == 0))
+            # a block of lines at a time: their strings and lists stay few
+            for part in np.array_split(rows, max(1, -(-len(rows) // LINES_AT_ONCE))):
+                lines = _objects(leaves, part, tex, names, textures)
+                if leaves.paths is None:        # unions only: no block to hold a line back
+                    body.add_all(lines)
+                else:
+                    for j, line in zip(part.tolist(), lines):
+                        body.add(leaves.paths[j], line)
+            done += len(leaves)
+            if progress is not None:
                 progress(done)
-            if leaf_inverse(inst.matrix) is None:
-                empty += 1
-                continue
-            tex = textures.name(inst.paint, inst.material)
-            if inst.primitive in TRIANGLES:
-                m = inst.matrix
-                mesh.add([m[:3, :3] @ np.array(c, float) + m[:3, 3]
-                          for c in TRIANGLES[inst.primitive]], tex)
-                continue
-            body.add(inst.path, f"object {{ P_{inst.primitive} {_matrix(inst.matrix)} "
-                                f"texture {{ {tex} }}{textures.interior(inst.material)} }}")
         body.close()
         body_file.seek(0)
         with open_atomic(path, "w") as out:
@@ -191,7 +275,16 @@ def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
                 out.write(line + "\n")
             shutil.copyfileobj(body_file, out)
             mesh.write(out)
-    return body.written + len(mesh.faces), empty, body.dropped
+    return body.written + mesh.faces, empty, body.dropped
+
+
+def _objects(leaves, rows: np.ndarray, tex: list, names: list, textures) -> list[str]:
+    """The object lines of the primitives `rows` of a chunk."""
+    maps = leaves.world[rows].transpose(0, 2, 1).reshape(-1, 12).tolist()
+    return [f"object {{ P_{names[n]} {_MATRIX % tuple(m)} texture {{ {tex[j]} }}"
+            f"{textures.interior(mat)} }}"
+            for j, n, m, mat in zip(rows.tolist(), leaves.node[rows].tolist(), maps,
+                                    leaves.material[rows].tolist())]
 
 
 class _BodyWriter:
@@ -225,6 +318,13 @@ class _BodyWriter:
         for block, need in zip(self.open, needed):
             block.present.add(need[3])
         self._emit(line, 1)
+
+    def add_all(self, lines: list[str]):
+        """Lines with no ∩ or \\ above them."""
+        self.close()
+        if lines:
+            self.out.write("\n".join(lines) + "\n")
+            self.written += len(lines)
 
     def _emit(self, line: str, count: int):
         if self.open:

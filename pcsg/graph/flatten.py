@@ -36,6 +36,22 @@ def leaf_inverse(matrix: np.ndarray) -> np.ndarray | None:
     return inv if np.all(np.isfinite(inv)) else None
 
 
+def nonempty(world: np.ndarray) -> np.ndarray:
+    """leaf_inverse(m) is not None for each world map of (k, 3, 4) or (k, 4, 4), at once."""
+    k = len(world)
+    m = np.zeros((k, 4, 4))
+    m[:, :3] = world[:, :3]
+    m[:, 3, 3] = 1.0
+    ok = np.isfinite(m).all(axis=(1, 2))
+    with np.errstate(all="ignore"):
+        det = np.linalg.det(m[ok, :3, :3])
+        fine = (det != 0.0) & np.isfinite(det)
+        ok[np.flatnonzero(ok)[~fine]] = False
+        inv = np.linalg.inv(m[ok])
+    ok[np.flatnonzero(ok)[~np.isfinite(inv).all(axis=(1, 2))]] = False
+    return ok
+
+
 def flatten(graph: Graph, max_primitives: int = 1_000_000) -> list[Instance]:
     """Every primitive of the derivation with its world matrix, in derivation order.
     Raises PcsgError when there are more than max_primitives."""
@@ -60,12 +76,12 @@ def instances(graph: Graph) -> Iterator[Instance]:
     while stack:
         i, state, h, m, paint, material, path, level = stack.pop()
         n = nodes[i]
-        if level > MAX_LEVELS:
-            raise too_deep(graph, i, MAX_LEVELS)
         if n.kind == PRIMITIVE:
             yield Instance(n.name, m, paint, material, path, graph.constant_args(i))
             continue
         if n.kind == SELECT:
+            if level >= MAX_LEVELS:
+                raise too_deep(graph, i, MAX_LEVELS)
             r = d.select(i, state, h)
             stack.append((n.children[r], state, d.edge(h, i, r), m, paint, material, path,
                           level + 1))

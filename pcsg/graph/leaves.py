@@ -1,0 +1,105 @@
+"""The derivation's primitives in chunks of arrays, for writers of the whole expansion
+(`pcsg export --pov`): compiled (trace/leafwalk.py) where no ∩ or \\ is reachable,
+else from the Python derivation (flatten.instances), which also names the CSG
+operators above each primitive. Both give the same primitives in the same order."""
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..language.errors import PcsgError
+from .checks import reachable
+from .derive import Deriver, State, too_deep
+from .flatten import instances
+from .model import DIFFERENCE, INTERSECTION, PRIMITIVE, Graph
+from .stats import MAX_LEVELS
+
+CHUNK = 1 << 16              # primitives per chunk of the compiled walk
+PYTHON_CHUNK = 1 << 10       # per chunk of the Python derivation: 0.1 s of it
+
+
+@dataclass
+class Leaves:
+    node: np.ndarray          # (k,) int: the primitive node
+    world: np.ndarray         # (k, 3, 4): world from the primitive's object frame
+    paint: np.ndarray         # (k, 3): the innermost paint above it, nan where none
+    material: np.ndarray      # (k,) int: the innermost material above it (an index
+                              # of graph.material_names), -1 where none
+    paths: list | None        # k CSG operator paths (Instance.path); None: unions only
+
+    def __len__(self) -> int:
+        return len(self.node)
+
+
+def leaf_chunks(graph: Graph, compiled: bool | None = None) -> Iterator[Leaves]:
+    """Every primitive of the derivation, in derivation order. `compiled`: None picks
+    the compiled walk where it applies, False forces the Python derivation."""
+    if compiled is None:
+        live = reachable(graph)
+        compiled = not any(live[i] and n.kind in (INTERSECTION, DIFFERENCE)
+                           for i, n in enumerate(graph.nodes))
+    yield from (_compiled(graph) if compiled else _python(graph))
+
+
+def _python(graph: Graph) -> Iterator[Leaves]:
+    ids = {}
+    batch = []
+    for inst in instances(graph):
+        batch.append(inst)
+        if len(batch) == PYTHON_CHUNK:
+            yield _batch(graph, batch, ids)
+            batch = []
+    if batch:
+        yield _batch(graph, batch, ids)
+
+
+def _batch(graph: Graph, batch: list, ids: dict) -> Leaves:
+    if not ids:
+        ids.update({n.name: i for i, n in reversed(list(enumerate(graph.nodes)))
+                    if n.kind == PRIMITIVE})
+    paint = np.array([b.paint if b.paint is not None else (np.nan,) * 3 for b in batch],
+                     dtype=float)
+    with np.errstate(invalid="ignore"):
+        world = np.array([b.matrix[:3] for b in batch], dtype=float)
+    # a primitive node of that name: what the writers read of it is its name
+    materials = graph.material_names
+    return Leaves(np.array([ids[b.primitive] for b in batch]), world, paint,
+                  np.array([-1 if b.material is None else materials.index(b.material)
+                            for b in batch]), [b.path for b in batch])
+
+
+def _compiled(graph: Graph) -> Iterator[Leaves]:
+    from ..trace.leafwalk import BAD_SELECTION, ROOM, SP, STATUS, TOO_DEEP, walker
+    walk = walker(graph)
+    while True:
+        k = walk.run(CHUNK)
+        if k:
+            yield Leaves(walk.out_node[:k].copy(), walk.out_world[:k].reshape(k, 3, 4).copy(),
+                         walk.out_paint[:k].copy(), walk.out_mat[:k].copy(), None)
+        status = walk.state[STATUS]
+        if status == ROOM:
+            walk.grow()
+        elif status in (BAD_SELECTION, TOO_DEEP):
+            raise _stopped(graph, walk, status == TOO_DEEP)
+        elif walk.state[SP] == 0:
+            return
+
+
+def _stopped(graph: Graph, walk, deep: bool) -> PcsgError:
+    """The error the Python derivation raises at the instance the walk stopped on: its
+    selection, made again from the instance's parameters and hash, names the rule."""
+    from ..trace.leafwalk import NODE, SLOT, SP
+    f = walk.state[SP] - 1
+    node = int(walk.fr[f, NODE])
+    if deep:
+        return too_deep(graph, node, MAX_LEVELS)
+    values = walk.params[walk.fr[f, SLOT], :len(graph.params)].copy()
+    # the parameters assigned so far: every one the walk has a number for
+    assigned = sum(1 << slot for slot in np.flatnonzero(~np.isnan(values)).tolist())
+    try:
+        Deriver(graph).select(node, State(values, assigned), int(walk.hs[f]))
+    except PcsgError as e:
+        return e
+    raise AssertionError("the compiled walk found a selection invalid that Python did not")

@@ -1,0 +1,113 @@
+"""The compiled leaf walk (trace/leafwalk.py) against the Python derivation
+(flatten.instances): the same primitives, in the same order, with the same world maps,
+paints and materials, and the same errors where the derivation fails."""
+import numpy as np
+import pytest
+
+from pcsg.compiler import compile_file, compile_text
+from pcsg.graph import leaves as leaves_module
+from pcsg.graph.flatten import leaf_inverse, nonempty
+from pcsg.graph.leaves import leaf_chunks
+from pcsg.language.errors import PcsgError
+from pcsg.trace import leafwalk
+
+from .conftest import GRAMMARS
+
+# every sample at an order whose Python derivation takes well under a second; the
+# fractals' primitives are left to the tracer (the export refuses them) but their
+# derivation is a derivation all the same
+SMALL = {"sierpinski": {"c": 3}, "sympodial_tree": {"cnt": 5}, "carpenter_terrain": {"cnt": 3},
+         "growing_tree": {}, "pixel_forest": {}, "table_tower": {},
+         "menger_sponge": {}, "glass_and_mirror": {}, "fractal_garden": {}}
+
+
+def joined(graph, compiled):
+    chunks = list(leaf_chunks(graph, compiled))
+    names = [graph.nodes[i].name for c in chunks for i in c.node]
+    return (names, np.concatenate([c.world for c in chunks]),
+            np.concatenate([c.paint for c in chunks]),
+            np.concatenate([c.material for c in chunks]))
+
+
+def assert_same_leaves(graph):
+    names, world, paint, material = joined(graph, True)
+    names_py, world_py, paint_py, material_py = joined(graph, False)
+    assert names == names_py and len(names) > 0
+    # the maps compose in another order of the same products: ulps apart at most
+    np.testing.assert_allclose(world, world_py, rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(np.isnan(world), np.isnan(world_py))
+    np.testing.assert_array_equal(paint, paint_py)
+    np.testing.assert_array_equal(material, material_py)
+
+
+@pytest.mark.parametrize("name", SMALL)
+def test_the_compiled_walk_gives_the_python_derivations_primitives(name):
+    assert_same_leaves(compile_file(GRAMMARS / f"{name}.pcsg", SMALL[name]))
+
+
+def test_it_goes_on_across_chunks_and_grows_its_stack(monkeypatch):
+    """Chunks of 7 primitives and a stack of one row to start with: the walk stops and
+    goes on dozens of times, and grows its rows, with the same result."""
+    monkeypatch.setattr(leaves_module, "CHUNK", 7)
+    real = leafwalk.Walker.__init__
+    monkeypatch.setattr(leafwalk.Walker, "__init__",
+                        lambda self, flat, levels, rows=1: real(self, flat, levels, rows))
+    graph = compile_file(GRAMMARS / "sympodial_tree.pcsg", {"cnt": 4})
+    sizes = [len(c) for c in leaf_chunks(graph, True)]
+    assert len(sizes) > 10 and max(sizes) == 7
+    assert min(sizes[:-1]) < 7          # a chunk cut short where the rows ran out
+    assert_same_leaves(graph)
+
+
+def test_paints_materials_and_empty_instances_come_as_in_python():
+    """A paint and a material above some primitives only, a rand() in a map, a map
+    that makes an instance empty (scale 0), and non-finite paint (an empty instance)."""
+    graph = compile_text("""
+#material gold color=(1, 0.8, 0.2) reflect=0.5
+{n = 3} S
+S if(n > 0, 2, 1)
+1: S → sphere
+2: S → paint(n/3, 0.5, rand()) move(rand(), 0, 0) {n = n - 1} S ∪ material(gold) uscale(n - 1) cube ∪
+   paint(0/0, 0, 0) sphere
+""")
+    assert_same_leaves(graph)
+    _, world, paint, material = joined(graph, True)
+    assert not nonempty(world).all() and nonempty(world).any()
+    assert np.isnan(paint[:, 0]).any() and not np.isnan(paint[:, 0]).all()
+    assert set(material.tolist()) == {-1, 0}
+
+
+@pytest.mark.parametrize("text", [
+    "{c = 3} S\nS c\n1: S → sphere\n2: S → cube",
+    # an invalid selection at the last instance, after 4095 primitives
+    "{n = 12; k = 0} S\nS if(n > 0, 2, if(k == 4095, 3, 1))\n1: S → sphere\n"
+    "2: S → move(1, 0, 0) {n = n - 1; k = 2*k} S ∪ move(0, 1, 0) {n = n - 1; k = 2*k + 1} S",
+    "{n = 0} S\nS 2 - (n > 1e300)\n1: S → sphere\n2: S → {n = n + 1} S",
+])
+def test_a_derivation_that_fails_raises_what_the_python_one_raises(text):
+    graph = compile_text(text)
+    errors = []
+    for compiled in (True, False):
+        with pytest.raises(PcsgError) as e:
+            list(leaf_chunks(graph, compiled))
+        errors.append(e.value.diagnostics[0])
+    assert errors[0].message == errors[1].message, errors[0].message
+    assert errors[0].span == errors[1].span and errors[0].span is not None
+    assert errors[0].message.startswith(("the selection of module 'S' gives ",
+                                         "the derivation is deeper than 10000 levels at 'S'"))
+
+
+def test_nonempty_is_leaf_inverse_for_a_stack_of_maps():
+    rng = np.random.default_rng(5)
+    maps = rng.normal(size=(200, 3, 4))
+    maps[::7, 2] = 0.0                          # singular
+    maps[3::11, 0, 1] = np.nan                  # not finite
+    maps[5::13, 1, 3] = np.inf
+    maps[6::17, :, :3] *= 1e-110                # a determinant that underflows to 0
+    maps[8::19, :, :3] *= 1e120                 # one that overflows
+    full = np.zeros((200, 4, 4))
+    full[:, :3], full[:, 3, 3] = maps, 1.0
+    with np.errstate(all="ignore"):
+        expected = [leaf_inverse(m) is not None for m in full]
+    assert 0 < sum(expected) < 200
+    assert nonempty(maps).tolist() == expected
