@@ -213,6 +213,32 @@ def test_the_command_gives_openblas_one_thread_unless_the_user_chose():
     assert threads(OPENBLAS_NUM_THREADS="2") == "2"
 
 
+YAML = """
+import sys
+from pcsg import cli
+cli.import_kernels()
+import numba.core.config as config
+print(config._HAVE_YAML, "yaml" in sys.modules, config.DISABLE_PERFORMANCE_WARNINGS)
+import yaml                     # dask's import after the command's: found as usual
+print(yaml.safe_load("a: 1"))
+"""
+
+
+def test_numba_reads_its_yaml_config_only_where_there_is_one(tmp_path):
+    """The command hides PyYAML from numba's import unless the working directory has a
+    .numba_config.yaml, the only file numba reads it for; yaml imports as usual after."""
+    pytest.importorskip("yaml")
+
+    def config(where):
+        r = subprocess.run([sys.executable, "-c", YAML], capture_output=True, text=True,
+                           timeout=120, cwd=where)
+        assert r.returncode == 0, r.stderr
+        return r.stdout.split("\n")[:2]
+    assert config(tmp_path) == ["False False 0", "{'a': 1}"]
+    (tmp_path / ".numba_config.yaml").write_text("disable_performance_warnings: 1\n")
+    assert config(tmp_path) == ["True True 1", "{'a': 1}"]
+
+
 def test_written_files_get_ordinary_permissions(capsys, sierpinski, tmp_path):
     import stat
     out = tmp_path / "g.dot"
