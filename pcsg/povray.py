@@ -227,14 +227,14 @@ def _refuse_fractals(graph):
 
 def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
                size: tuple[int, int], progress=None,
-               compiled: bool | None = None) -> tuple[int, int, int]:
+               compiled: bool = True) -> tuple[int, int, int]:
     """Write the scene to `path` (atomically); returns the number of primitives written,
     of those left out because they are empty (a singular or non-finite transform, a
     runtime error in the grammar, draws nothing in pcsg, and POV-Ray could not parse a
     matrix of NaNs), and of those dropped with the ∩ or \\ they belonged to: leaving an
     operand out empties an intersection as pcsg's tracer does. progress(n), if given, is
     called after each chunk of the derivation (graph/leaves.py) with how many have come.
-    `compiled`: as leaf_chunks's (False: the Python derivation)."""
+    compiled=False: the Python derivation's primitives (leaf_chunks)."""
     graph = traced.graph
     _refuse_fractals(graph)
     textures = _Textures(graph, lighting)
@@ -257,11 +257,14 @@ def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
             # a block of lines at a time: their strings and lists stay few
             for part in np.array_split(rows, max(1, -(-len(rows) // LINES_AT_ONCE))):
                 lines = _objects(leaves, part, tex, names, textures)
-                if leaves.paths is None:        # unions only: no block to hold a line back
+                if leaves.paths is not None:
+                    for j, line in zip(part.tolist(), lines):
+                        body.add(body.path_blocks(leaves.paths[j]), line)
+                elif not leaves.csg[part].any():    # no block to hold a line back
                     body.add_all(lines)
                 else:
                     for j, line in zip(part.tolist(), lines):
-                        body.add(leaves.paths[j], line)
+                        body.add(body.chain_blocks(leaves.chain[j, :leaves.csg[j]]), line)
             done += len(leaves)
             if progress is not None:
                 progress(done)
@@ -299,14 +302,27 @@ class _BodyWriter:
         self.written = 0            # primitives in the output
         self.dropped = 0            # primitives of ∩ and \\ blocks that came out empty
 
-    def add(self, path, line: str):
-        needed = []         # (key: the path down to the operator, kind, operands, k)
+    def path_blocks(self, path) -> list:
+        """The blocks above a primitive from its Instance.path: (key: the path down to the
+        operator, kind, operands, k) from the first ∩ or \\ down."""
+        needed = []
         inside = False
         for j, (node, k) in enumerate(path):
             g = self.graph.nodes[node]
             inside = inside or g.kind in (INTERSECTION, DIFFERENCE)
             if inside:
                 needed.append((path[:j], g.kind, len(g.children), k))
+        return needed
+
+    def chain_blocks(self, chain: np.ndarray) -> list:
+        """The same from a chain of the compiled walk (trace/leafwalk.py), keyed by the
+        operator instance's id."""
+        nodes = self.graph.nodes
+        return [(op, nodes[node].kind, len(nodes[node].children), k)
+                for op, node, k in chain.tolist()]
+
+    def add(self, needed: list, line: str):
+        """A primitive's line under the blocks `needed` (path_blocks, chain_blocks)."""
         common = 0
         while (common < min(len(self.open), len(needed))
                and self.open[common].key == needed[common][0]):

@@ -9,9 +9,12 @@ from pcsg.graph import leaves as leaves_module
 from pcsg.graph.flatten import leaf_inverse, nonempty
 from pcsg.graph.leaves import leaf_chunks
 from pcsg.language.errors import PcsgError
+from pcsg.povray import _BodyWriter
 from pcsg.trace import leafwalk
 
 from .conftest import GRAMMARS
+
+CSG = GRAMMARS.parent / "tests" / "data" / "csg_export.pcsg"
 
 # every sample at an order whose Python derivation takes well under a second; the
 # fractals' primitives are left to the tracer (the export refuses them) but their
@@ -26,13 +29,29 @@ def joined(graph, compiled):
     names = [graph.nodes[i].name for c in chunks for i in c.node]
     return (names, np.concatenate([c.world for c in chunks]),
             np.concatenate([c.paint for c in chunks]),
-            np.concatenate([c.material for c in chunks]))
+            np.concatenate([c.material for c in chunks]), blocks(graph, chunks))
+
+
+def blocks(graph, chunks):
+    """Each primitive's ∩ and \\ blocks as the export reads them, the operator instances
+    numbered as they first come (a path prefix keys them in Python, an id compiled)."""
+    body = _BodyWriter(graph, None)
+    seen = {}
+    out = []
+    for c in chunks:
+        for j in range(len(c)):
+            needed = (body.path_blocks(c.paths[j]) if c.paths is not None
+                      else body.chain_blocks(c.chain[j, :c.csg[j]]))
+            out.append([(seen.setdefault(key, len(seen)), kind, size, k)
+                        for key, kind, size, k in needed])
+    return out
 
 
 def assert_same_leaves(graph):
-    names, world, paint, material = joined(graph, True)
-    names_py, world_py, paint_py, material_py = joined(graph, False)
+    names, world, paint, material, csg = joined(graph, True)
+    names_py, world_py, paint_py, material_py, csg_py = joined(graph, False)
     assert names == names_py and len(names) > 0
+    assert csg == csg_py
     # the maps compose in another order of the same products: ulps apart at most
     np.testing.assert_allclose(world, world_py, rtol=1e-12, atol=1e-12)
     np.testing.assert_array_equal(np.isnan(world), np.isnan(world_py))
@@ -45,17 +64,29 @@ def test_the_compiled_walk_gives_the_python_derivations_primitives(name):
     assert_same_leaves(compile_file(GRAMMARS / f"{name}.pcsg", SMALL[name]))
 
 
-def test_it_goes_on_across_chunks_and_grows_its_stack(monkeypatch):
+@pytest.mark.parametrize("path, overrides", [(GRAMMARS / "sympodial_tree.pcsg", {"cnt": 4}),
+                                             (CSG, {"n": 4})])
+def test_it_goes_on_across_chunks_and_grows_its_stack_and_chains(monkeypatch, path,
+                                                                 overrides):
     """Chunks of 7 primitives and a stack of one row to start with: the walk stops and
-    goes on dozens of times, and grows its rows, with the same result."""
+    goes on again and again, grows its rows, and its chains (four operators long at
+    first; the CSG file at 4 nests ten), with the same result."""
     monkeypatch.setattr(leaves_module, "CHUNK", 7)
     real = leafwalk.Walker.__init__
     monkeypatch.setattr(leafwalk.Walker, "__init__",
                         lambda self, flat, levels, rows=1: real(self, flat, levels, rows))
-    graph = compile_file(GRAMMARS / "sympodial_tree.pcsg", {"cnt": 4})
-    sizes = [len(c) for c in leaf_chunks(graph, True)]
-    assert len(sizes) > 10 and max(sizes) == 7
-    assert min(sizes[:-1]) < 7          # a chunk cut short where the rows ran out
+    grown = []
+    for name in ("grow", "grow_chain"):
+        method = getattr(leafwalk.Walker, name)
+        monkeypatch.setattr(leafwalk.Walker, name,
+                            lambda self, m=method, n=name: grown.append(n) or m(self))
+    graph = compile_file(path, overrides)
+    chunks = list(leaf_chunks(graph, True))
+    sizes = [len(c) for c in chunks]
+    assert len(sizes) > 8 and max(sizes) == 7
+    assert grown.count("grow") >= 3
+    assert grown.count("grow_chain") == (2 if path == CSG else 0)
+    assert max(c.csg.max() for c in chunks) == (10 if path == CSG else 3)
     assert_same_leaves(graph)
 
 
@@ -71,7 +102,7 @@ S if(n > 0, 2, 1)
    paint(0/0, 0, 0) sphere
 """)
     assert_same_leaves(graph)
-    _, world, paint, material = joined(graph, True)
+    _, world, paint, material, _ = joined(graph, True)
     assert not nonempty(world).all() and nonempty(world).any()
     assert np.isnan(paint[:, 0]).any() and not np.isnan(paint[:, 0]).all()
     assert set(material.tolist()) == {-1, 0}

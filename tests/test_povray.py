@@ -91,12 +91,14 @@ def test_the_count_is_what_the_file_holds(tmp_path, capsys):
     assert ": 33 primitives," in capsys.readouterr().out   # 32 mesh faces and the sea
 
 
-@pytest.mark.parametrize("grammar, overrides", [(SIERPINSKI, {"c": 3}), (TERRAIN, {"cnt": 3}),
-                                                (ROOT / "grammars" / "table_tower.pcsg", {})])
+@pytest.mark.parametrize("grammar, overrides", [
+    (SIERPINSKI, {"c": 3}), (TERRAIN, {"cnt": 3}), (ROOT / "grammars" / "table_tower.pcsg", {}),
+    (ROOT / "grammars" / "sympodial_tree.pcsg", {"cnt": 4}), (CSG, {}), (EMPTY, {})])
 def test_the_compiled_derivation_writes_the_python_derivations_scene(tmp_path, grammar,
                                                                      overrides):
-    """A system without ∩ or \\ is derived by the compiled walk (graph/leaves.py): the
-    scene is the one the Python derivation (the reference's) writes, byte for byte."""
+    """The export derives with the compiled walk (graph/leaves.py): the scene is the one
+    the Python derivation (the reference's) writes, byte for byte, ∩ and \\ blocks, empty
+    primitives and the blocks they empty included."""
     traced = Traced(compile_file(grammar, overrides))
     camera = make_camera(traced, 4 / 3)
     lighting = make_lighting(traced, camera, True, 1, 3)

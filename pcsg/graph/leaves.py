@@ -1,7 +1,7 @@
 """The derivation's primitives in chunks of arrays, for writers of the whole expansion
-(`pcsg export --pov`): compiled (trace/leafwalk.py) where no ∩ or \\ is reachable,
-else from the Python derivation (flatten.instances), which also names the CSG
-operators above each primitive. Both give the same primitives in the same order."""
+(`pcsg export --pov`): from the compiled walk (trace/leafwalk.py), or from the Python
+derivation (flatten.instances, the reference's). Both give the same primitives in the
+same order, and the same ∩ and \\ blocks above them."""
 from __future__ import annotations
 
 from collections.abc import Iterator
@@ -10,10 +10,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..language.errors import PcsgError
-from .checks import reachable
 from .derive import Deriver, State, too_deep
 from .flatten import instances
-from .model import DIFFERENCE, INTERSECTION, PRIMITIVE, Graph
+from .model import PRIMITIVE, Graph
 from .stats import MAX_LEVELS
 
 CHUNK = 1 << 16              # primitives per chunk of the compiled walk
@@ -27,19 +26,20 @@ class Leaves:
     paint: np.ndarray         # (k, 3): the innermost paint above it, nan where none
     material: np.ndarray      # (k,) int: the innermost material above it (an index
                               # of graph.material_names), -1 where none
-    paths: list | None        # k CSG operator paths (Instance.path); None: unions only
+    # the CSG operators above each, from the first ∩ or \\ down (the blocks of an export):
+    # the Python derivation's paths (Instance.path: every operator), or the compiled
+    # walk's chains, (k, w, 3) rows of (instance id, node, operand) and their lengths
+    paths: list | None = None
+    chain: np.ndarray | None = None
+    csg: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.node)
 
 
-def leaf_chunks(graph: Graph, compiled: bool | None = None) -> Iterator[Leaves]:
-    """Every primitive of the derivation, in derivation order. `compiled`: None picks
-    the compiled walk where it applies, False forces the Python derivation."""
-    if compiled is None:
-        live = reachable(graph)
-        compiled = not any(live[i] and n.kind in (INTERSECTION, DIFFERENCE)
-                           for i, n in enumerate(graph.nodes))
+def leaf_chunks(graph: Graph, compiled: bool = True) -> Iterator[Leaves]:
+    """Every primitive of the derivation, in derivation order; compiled=False: from the
+    Python derivation."""
     yield from (_compiled(graph) if compiled else _python(graph))
 
 
@@ -67,20 +67,25 @@ def _batch(graph: Graph, batch: list, ids: dict) -> Leaves:
     materials = graph.material_names
     return Leaves(np.array([ids[b.primitive] for b in batch]), world, paint,
                   np.array([-1 if b.material is None else materials.index(b.material)
-                            for b in batch]), [b.path for b in batch])
+                            for b in batch]), paths=[b.path for b in batch])
 
 
 def _compiled(graph: Graph) -> Iterator[Leaves]:
-    from ..trace.leafwalk import BAD_SELECTION, ROOM, SP, STATUS, TOO_DEEP, walker
+    from ..trace.leafwalk import (BAD_SELECTION, CHAIN_ROOM, ROOM, SP, STATUS, TOO_DEEP,
+                                  walker)
     walk = walker(graph)
     while True:
         k = walk.run(CHUNK)
         if k:
+            csg = walk.out_csg[:k].copy()
             yield Leaves(walk.out_node[:k].copy(), walk.out_world[:k].reshape(k, 3, 4).copy(),
-                         walk.out_paint[:k].copy(), walk.out_mat[:k].copy(), None)
+                         walk.out_paint[:k].copy(), walk.out_mat[:k].copy(),
+                         chain=walk.out_chain[:k, :csg.max()].copy(), csg=csg)
         status = walk.state[STATUS]
         if status == ROOM:
             walk.grow()
+        elif status == CHAIN_ROOM:
+            walk.grow_chain()
         elif status in (BAD_SELECTION, TOO_DEEP):
             raise _stopped(graph, walk, status == TOO_DEEP)
         elif walk.state[SP] == 0:

@@ -4,7 +4,7 @@ them in Python. For `pcsg export --pov`, whose Python derivation took 0.1 ms per
 primitive: a minute for the terrain at order 9.
 
 The walk keeps a stack of pending entries, each an instance of a node with its
-parameter row, level, hash, world map (3x4), paint and material. An entry whose node has
+parameter row, level, hash, world map (3x4), paint, material and chain of CSG blocks. An entry whose node has
 one child (a selection's chosen rule included) becomes that child where it stands; an
 operator's entry becomes its operands, the first on top. A C-node writes its state
 into the row of its own stack position: every entry below it reads a row no higher
@@ -16,24 +16,30 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..graph.model import CALC, MATERIAL, PAINT, PRIMITIVE, SELECT, TRANSFORM
+from ..graph.model import CALC, MATERIAL, PAINT, PRIMITIVE, SELECT, TRANSFORM, UNION
 from . import vm
 from .jit import copy_into, inline, kernel
 from .nodes import eval_args, node_affine, pick_rule, run_calc
 
-NODE, SLOT, LEVEL, MAT = range(4)
-SP, STATUS = range(2)                   # state's fields
-RUNNING, ROOM, BAD_SELECTION, TOO_DEEP = range(4)     # state[STATUS]
+NODE, SLOT, LEVEL, MAT, CSG = range(5)   # fr's columns; CSG: the length of its chain
+SP, STATUS, NEXT_ID = range(3)           # state's fields
+RUNNING, ROOM, BAD_SELECTION, TOO_DEEP, CHAIN_ROOM = range(5)     # state[STATUS]
 
 
 @kernel
-def leaves(flat, max_levels, fr, hs, world, paint, params, stack, args, m34, state,
-           out_node, out_world, out_paint, out_mat):
+def leaves(flat, max_levels, fr, hs, world, paint, chain, params, stack, args, m34, state,
+           out_node, out_world, out_paint, out_mat, out_chain, out_csg):
     """Walk on from state[SP] pending entries, writing leaves into the out_ arrays until
     they are full or the walk ends (state[SP] = 0); returns the leaves written. Stops
-    early with state[STATUS] = ROOM when the entry arrays need more rows (the caller
-    grows them and calls again), or with BAD_SELECTION or TOO_DEEP (more than max_levels
-    nested selections) at the entry on top."""
+    early with state[STATUS] = ROOM when the entry arrays need more rows, CHAIN_ROOM when
+    the chains need more columns (the caller grows them and calls again), or with
+    BAD_SELECTION or TOO_DEEP (more than max_levels nested selections) at the entry on
+    top.
+
+    An entry's chain is the CSG operators above it from the first ∩ or \\ down, unions
+    below that included, which the export writes as blocks: (instance id, node, operand
+    number) each, the id numbering the operator's instances (state[NEXT_ID]); a leaf
+    takes its chain to out_chain and its length to out_csg."""
     n = 0
     sp = state[SP]
     state[STATUS] = RUNNING
@@ -48,6 +54,10 @@ def leaves(flat, max_levels, fr, hs, world, paint, params, stack, args, m34, sta
             copy_into(out_world[n], world[f])
             copy_into(out_paint[n], paint[f])
             out_mat[n] = fr[f, MAT]
+            c = fr[f, CSG]
+            out_csg[n] = c
+            for i in range(c):
+                copy_into(out_chain[n, i], chain[f, i])
             n += 1
             sp -= 1
             continue
@@ -96,14 +106,29 @@ def leaves(flat, max_levels, fr, hs, world, paint, params, stack, args, m34, sta
             continue
         # an operator: its operands above it, the first on top; position f last, as the
         # others copy from it
+        c = fr[f, CSG]
+        block = c > 0 or kind != UNION
+        if block and c == chain.shape[1]:
+            state[STATUS] = CHAIN_ROOM
+            break
+        op = state[NEXT_ID]
+        if block:
+            state[NEXT_ID] += 1
         for k in range(count):
             g = f + count - 1 - k
             if g != f:
                 copy_into(fr[g], fr[f])
                 copy_into(world[g], world[f])
                 copy_into(paint[g], paint[f])
+                for i in range(c):
+                    copy_into(chain[g, i], chain[f, i])
             fr[g, NODE] = flat.children[first + k]
             hs[g] = vm.edge_hash(h, node, k)
+            if block:
+                chain[g, c, 0] = op
+                chain[g, c, 1] = node
+                chain[g, c, 2] = k
+                fr[g, CSG] = c + 1
         sp = f + count
     state[SP] = sp
     return n
@@ -126,12 +151,13 @@ class Walker:
     def __init__(self, flat, max_levels: int, rows: int = 64):
         self.flat = flat
         self.max_levels = max_levels
-        self.fr = np.zeros((rows, 4), dtype=np.int64)
+        self.fr = np.zeros((rows, 5), dtype=np.int64)
         self.hs = np.zeros(rows, dtype=np.uint64)
         self.world = np.zeros((rows, 12))
         self.paint = np.full((rows, 3), np.nan)
+        self.chain = np.zeros((rows, 4, 3), dtype=np.int64)
         self.params = np.full((rows, flat.n_params), np.nan)
-        self.fr[0] = (flat.root, 0, 0, -1)
+        self.fr[0] = (flat.root, 0, 0, -1, 0)
         self.hs[0] = vm.ROOT_HASH
         self.world[0] = np.eye(4)[:3].ravel()
         if flat.pixels_slot >= 0:       # no camera sees the derivation: every instance large
@@ -139,19 +165,24 @@ class Walker:
         self.stack = np.empty(flat.max_stack)
         self.args = np.empty(max(12, int(flat.expr_count.max(initial=0))))
         self.m34 = np.empty((3, 4))
-        self.state = np.array([1, RUNNING], dtype=np.int64)
+        self.state = np.array([1, RUNNING, 0], dtype=np.int64)
         self.out_node = self.out_world = self.out_paint = self.out_mat = None
+        self.out_chain = self.out_csg = None
 
     def run(self, chunk: int) -> int:
         """Walk on until `chunk` leaves are in the out_ arrays, or it stops (state)."""
-        if self.out_node is None or len(self.out_node) != chunk:
+        if (self.out_node is None or len(self.out_node) != chunk
+                or self.out_chain.shape[1] != self.chain.shape[1]):
             self.out_node = np.empty(chunk, dtype=np.int64)
             self.out_world = np.empty((chunk, 12))
             self.out_paint = np.empty((chunk, 3))
             self.out_mat = np.empty(chunk, dtype=np.int64)
+            self.out_chain = np.empty((chunk,) + self.chain.shape[1:], dtype=np.int64)
+            self.out_csg = np.empty(chunk, dtype=np.int64)
         return leaves(self.flat, self.max_levels, self.fr, self.hs, self.world, self.paint,
-                      self.params, self.stack, self.args, self.m34, self.state,
-                      self.out_node, self.out_world, self.out_paint, self.out_mat)
+                      self.chain, self.params, self.stack, self.args, self.m34, self.state,
+                      self.out_node, self.out_world, self.out_paint, self.out_mat,
+                      self.out_chain, self.out_csg)
 
     def grow(self):
         """Twice the entry rows, keeping what they hold."""
@@ -163,7 +194,14 @@ class Walker:
         self.hs = doubled(self.hs, 0)
         self.world = doubled(self.world, 0.0)
         self.paint = doubled(self.paint, np.nan)
+        self.chain = doubled(self.chain, 0)
         self.params = doubled(self.params, np.nan)
+
+    def grow_chain(self):
+        """Chains twice as long, keeping what they hold."""
+        longer = np.zeros((self.chain.shape[0], 2 * self.chain.shape[1], 3), dtype=np.int64)
+        longer[:, :self.chain.shape[1]] = self.chain
+        self.chain = longer
 
 
 def walker(graph) -> Walker:
