@@ -56,14 +56,13 @@ def _python(graph: Graph) -> Iterator[Leaves]:
 
 
 def _batch(graph: Graph, batch: list, ids: dict) -> Leaves:
-    if not ids:
+    if not ids:         # a primitive node of each name: what the writers read is its name
         ids.update({n.name: i for i, n in reversed(list(enumerate(graph.nodes)))
                     if n.kind == PRIMITIVE})
     paint = np.array([b.paint if b.paint is not None else (np.nan,) * 3 for b in batch],
                      dtype=float)
     with np.errstate(invalid="ignore"):
         world = np.array([b.matrix[:3] for b in batch], dtype=float)
-    # a primitive node of that name: what the writers read of it is its name
     materials = graph.material_names
     return Leaves(np.array([ids[b.primitive] for b in batch]), world, paint,
                   np.array([-1 if b.material is None else materials.index(b.material)
