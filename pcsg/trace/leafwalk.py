@@ -4,14 +4,16 @@ them in Python. For `pcsg export --pov`, whose Python derivation took 0.1 ms per
 primitive: a minute for the terrain at order 9.
 
 The walk keeps a stack of pending entries, each an instance of a node with its
-parameter row, level, hash, world map (3x4), paint, material and chain of CSG blocks. An entry whose node has
-one child (a selection's chosen rule included) becomes that child where it stands; an
-operator's entry becomes its operands, the first on top. A C-node writes its state
-into the row of its own stack position: every entry below it reads a row no higher
-than its own position, so no pending entry reads the row it overwrites.
+parameter row, level, hash, world map (3x4), paint, material and chain of CSG blocks.
+An entry whose node has one child (a selection's chosen rule included) becomes that
+child where it stands; an operator's entry becomes its operands, the first on top. A
+C-node writes its state into the row of its own stack position: every entry below it
+reads a row no higher than its own position, so no pending entry reads the row it
+overwrites.
 
-The walk hands out its leaves in chunks and stops when its arrays are full, where it
-can go on from (`state`): the derivation's size does not bound the memory."""
+The walk hands out its leaves in chunks: it stops when its out arrays are full and goes
+on from there (`state`) at the next call, so its memory does not grow with the
+derivation."""
 from __future__ import annotations
 
 import numpy as np
@@ -136,8 +138,9 @@ def leaves(flat, max_levels, fr, hs, world, paint, chain, params, stack, args, m
 
 @inline
 def _compose(w, m34):
-    """w (a 3x4 world map, row-major in 12) := w followed by the T-node's map m34, as
-    the 4x4 product w @ m (the reference's order: its last row (0, 0, 0, 1))."""
+    """w (a 3x4 world map, row-major in 12) := w followed by the T-node's map m34: the
+    products of the reference's 4x4 w @ m, whose last row is (0, 0, 0, 1), summed in an
+    order of their own (ulps apart from numpy's)."""
     for i in range(3):
         a, b, c = w[4 * i], w[4 * i + 1], w[4 * i + 2]
         w[4 * i + 3] = a * m34[0, 3] + b * m34[1, 3] + c * m34[2, 3] + w[4 * i + 3]
