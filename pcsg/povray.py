@@ -39,7 +39,7 @@ SHAPES = {
     + " bounded_by { box { -1, 1 } } }",
     "plane": "plane { z, 0 }",
 }
-LINES_AT_ONCE = 1 << 13  # object lines formatted at a time
+LINES_AT_ONCE = 1 << 13  # lines formatted at a time: their strings and lists stay few
 SKY_STEPS = 12          # colour-map entries for the sky's s**0.6 blend
 
 
@@ -86,13 +86,11 @@ class _Textures:
         p = paint[rows]
         none = np.isnan(p[:, 0])
         keys = np.column_stack([none, np.where(none[:, None], 0.0, p) + 0.0, material[rows]])
-        _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
-        order = np.argsort(first, kind="stable")
-        js = rows[first[order]]
-        found = [None] * len(first)
-        for u, rgb, m in zip(order.tolist(), paint[js].tolist(), material[js].tolist()):
-            found[u] = self.name(None if rgb[0] != rgb[0] else tuple(rgb), m)
-        for j, u in zip(rows.tolist(), inverse.ravel().tolist()):
+        firsts, ids = _distinct(keys)
+        js = rows[firsts]
+        found = [self.name(None if rgb[0] != rgb[0] else tuple(rgb), m)
+                 for rgb, m in zip(paint[js].tolist(), material[js].tolist())]
+        for j, u in zip(rows.tolist(), ids.tolist()):
             out[j] = found[u]
         return out
 
@@ -138,8 +136,6 @@ class _Textures:
 class _Mesh:
     """Flat triangles collected into one mesh2 with shared vertices."""
 
-    WRITE_ROWS = 1 << 16        # lines formatted at a time: their strings stay few
-
     def __init__(self):
         self.corners: list[np.ndarray] = []     # chunks of (k, 3, 3), rounded
         self.textures: dict[str, int] = {}      # texture_list, as the faces first name them
@@ -163,7 +159,8 @@ class _Mesh:
             return
         corners = np.concatenate(self.corners).reshape(-1, 3)
         self.corners = []
-        vertices, ids = _shared(corners)
+        firsts, ids = _distinct(corners)
+        vertices = corners[firsts]
         del corners
         faces = np.column_stack([ids.reshape(-1, 3), np.concatenate(self.face_textures)])
         out.write("mesh2 {\n  vertex_vectors { %d,\n" % len(vertices))
@@ -177,19 +174,20 @@ class _Mesh:
 
 
 def _write_rows(out, line: str, rows: np.ndarray):
-    """Each row of `rows` as `line` % row, a block of _Mesh.WRITE_ROWS at a time."""
-    for b in range(0, len(rows), _Mesh.WRITE_ROWS):
-        out.write("".join([line % tuple(r) for r in rows[b:b + _Mesh.WRITE_ROWS].tolist()]))
+    """Each row of `rows` as `line` % row, LINES_AT_ONCE at a time."""
+    for b in range(0, len(rows), LINES_AT_ONCE):
+        out.write("".join([line % tuple(r) for r in rows[b:b + LINES_AT_ONCE].tolist()]))
 
 
-def _shared(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The distinct rows of keys (n, 3), numbered in the order they first come, and each
-    row's number. By a stable sort of the rows and a column at a time: np.unique(axis=0)
-    took twice the time and the memory of the terrain's million and a half corners."""
+def _distinct(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct rows of keys (n, m), numbered in the order they first come: where each
+    first comes, and each row's number. By a stable sort of the rows and a column at a
+    time: np.unique(axis=0) took twice the time and the memory of the terrain's million
+    and a half corners."""
     order = np.lexsort(keys.T[::-1])
     new = np.zeros(len(keys), dtype=bool)
     new[0] = True
-    for c in range(3):
+    for c in range(keys.shape[1]):
         col = keys[order, c]
         new[1:] |= col[1:] != col[:-1]
     group = np.cumsum(new) - 1
@@ -198,7 +196,7 @@ def _shared(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     number[np.argsort(firsts, kind="stable")] = np.arange(len(firsts))
     ids = np.empty(len(keys), dtype=np.int64)
     ids[order] = number[group]
-    return keys[np.sort(firsts)], ids
+    return np.sort(firsts), ids
 
 
 def _significant(x: np.ndarray, digits: int) -> np.ndarray:
@@ -254,8 +252,10 @@ def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
             flat = kept & (sign != 0)
             mesh.add(leaves.world[flat], sign[flat], [tex[j] for j in np.flatnonzero(flat)])
             rows = np.flatnonzero(kept & (sign == 0))
-            # a block of lines at a time: their strings and lists stay few
-            for part in np.array_split(rows, max(1, -(-len(rows) // LINES_AT_ONCE))):
+            # a block of lines at a time: their strings and lists stay few. A chunk with
+            # none leaves the blocks open: the next chunk's primitives may be in them
+            for b in range(0, len(rows), LINES_AT_ONCE):
+                part = rows[b:b + LINES_AT_ONCE]
                 lines = _objects(leaves, part, tex, names, textures)
                 if leaves.paths is not None:
                     for j, line in zip(part.tolist(), lines):

@@ -14,7 +14,8 @@ import pytest
 from PIL import Image
 
 from pcsg.cli import _export_progress, main
-from pcsg.compiler import compile_file
+from pcsg.compiler import compile_file, compile_text
+from pcsg.graph import leaves as leaves_module
 from pcsg.graph.flatten import flatten
 from pcsg.povray import export_pov
 from pcsg.render.camera import make_camera
@@ -91,6 +92,20 @@ def test_the_count_is_what_the_file_holds(tmp_path, capsys):
     assert ": 33 primitives," in capsys.readouterr().out   # 32 mesh faces and the sea
 
 
+def both_ways(tmp_path, graph):
+    """[counts, scene bytes] exported from the compiled walk, then the same from the
+    Python derivation."""
+    traced = Traced(graph)
+    camera = make_camera(traced, 4 / 3)
+    lighting = make_lighting(traced, camera, True, 1, 3)
+    written = []
+    for compiled in (True, False):
+        out = tmp_path / f"{compiled}.pov"
+        written.append(export_pov(traced, camera, lighting, out, (160, 120), None, compiled))
+        written.append(out.read_bytes())
+    return written
+
+
 @pytest.mark.parametrize("grammar, overrides", [
     (SIERPINSKI, {"c": 3}), (TERRAIN, {"cnt": 3}), (ROOT / "grammars" / "table_tower.pcsg", {}),
     (ROOT / "grammars" / "sympodial_tree.pcsg", {"cnt": 4}), (CSG, {}), (EMPTY, {})])
@@ -99,16 +114,21 @@ def test_the_compiled_derivation_writes_the_python_derivations_scene(tmp_path, g
     """The export derives with the compiled walk (graph/leaves.py): the scene is the one
     the Python derivation (the reference's) writes, byte for byte, ∩ and \\ blocks, empty
     primitives and the blocks they empty included."""
-    traced = Traced(compile_file(grammar, overrides))
-    camera = make_camera(traced, 4 / 3)
-    lighting = make_lighting(traced, camera, True, 1, 3)
-    written = []
-    for compiled in (True, False):
-        out = tmp_path / f"{compiled}.pov"
-        written.append(export_pov(traced, camera, lighting, out, (160, 120), None, compiled))
-        written.append(out.read_bytes())
+    written = both_ways(tmp_path, compile_file(grammar, overrides))
     assert written[0] == written[2] and written[0][0] > 0
     assert written[1] == written[3]
+
+
+def test_a_block_goes_on_across_chunks_of_empty_primitives(tmp_path, monkeypatch):
+    """Chunks of two primitives, the middle one all empty (scale 0) inside an ∩: the ∩ is
+    one block with both operands, as the Python derivation writes it, not closed where a
+    chunk brought no object to write."""
+    monkeypatch.setattr(leaves_module, "CHUNK", 2)
+    graph = compile_text("(sphere ∪ uscale(0) sphere ∪ uscale(0) sphere ∪ uscale(0) sphere) ∩ "
+                         "move(0.5, 0, 0) sphere\n")
+    written = both_ways(tmp_path, graph)
+    assert written[0] == written[2] == (2, 3, 0)
+    assert written[1] == written[3] and written[1].count(b"\nintersection {\n") == 1
 
 
 def test_export_errors_are_clean(tmp_path, capsys):

@@ -351,14 +351,8 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
 
     With `cache`, the result of a long walk is kept on disk and read instead of walking
     again (graph/boxcache.py)."""
-    from ..graph.flat import flatten_graph
     budget = BOUNDS_BUDGET if budget is None else budget
-    n = len(graph.nodes)
-    empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
-    # runs of T-nodes map by map: bounds.bound writes them out as one matrix node first
-    # where it can (graph/fuse.py); composed in the walk (nodes.composed_affine), they
-    # made it slower
-    flat = flatten_graph(graph, empty, native_args=True, runs=False)
+    flat, empty = walk_flat(graph)
     k = None
     if cache and boxcache.enabled():
         k = boxcache.key(flat, max_depth, budget, instances, FIRST_DEPTH, TABLE_SLOTS)
@@ -369,6 +363,17 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
     if k is not None and visits >= boxcache.MIN_VISITS:
         boxcache.store(k, result)
     return result
+
+
+def walk_flat(graph):
+    """The Flat of the walks of every instance (this one and trace/leafwalk.py), and the
+    empty node boxes it is made with: arguments and selections compiled (Flat.arg_fn),
+    runs of T-nodes map by map. bounds.bound writes runs out as one matrix node first
+    where it can (graph/fuse.py); composed in the walk (nodes.composed_affine), they made
+    it slower."""
+    from ..graph.flat import flatten_graph
+    empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (len(graph.nodes), 1))
+    return flatten_graph(graph, empty, native_args=True, runs=False), empty
 
 
 def _walk_depths(flat, empty, max_depth: int, budget: int, instances: bool, poll):

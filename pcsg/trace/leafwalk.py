@@ -209,11 +209,8 @@ class Walker:
 
 def walker(graph) -> Walker:
     """A Walker at the root of graph's derivation, with its parameters undefined (nan)
-    as in flatten.instances."""
-    from ..graph.flat import flatten_graph
+    as in flatten.instances, on the bounding walk's Flat (maps one T-node at a time, as
+    the reference composes them)."""
     from ..graph.stats import MAX_LEVELS
-    n = len(graph.nodes)
-    empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
-    # arguments and selections compiled (Flat.arg_fn), maps one T-node at a time like
-    # the reference
-    return Walker(flatten_graph(graph, empty, native_args=True, runs=False), MAX_LEVELS)
+    from .boxwalk import walk_flat
+    return Walker(walk_flat(graph)[0], MAX_LEVELS)
