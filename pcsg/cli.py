@@ -123,6 +123,11 @@ def _parser() -> argparse.ArgumentParser:
     x.add_argument("--no-shadows", action="store_true", help="lights cast no shadows")
     x.add_argument("--bounces", type=int, default=3, metavar="N",
                    help="reflection and refraction depth (default 3)")
+    x.add_argument("--max-depth", type=int, metavar="N",
+                   help="end the derivation where `pcsg render --max-depth N` does: deeper "
+                        "selections take their terminating rule, and a graftal's instances "
+                        "become their bounding boxes (default: derive to the end; a graftal "
+                        "needs it)")
     x.add_argument("-q", "--quiet", action="store_true", help="no progress line")
 
     g = sub.add_parser("graph", parents=[common], help="the cyclic CSG graph as Graphviz dot")
@@ -533,18 +538,21 @@ def cmd_export(args) -> int:
         raise UsageError(f"--pov {args.pov}: the directory {out.parent} does not exist")
     if problem := bounces_problem(args.bounces):
         raise UsageError(problem)
+    if args.max_depth is not None and not 1 <= args.max_depth <= 10_000:
+        raise UsageError(f"--max-depth {args.max_depth}: use 1 to 10000")
     start = time.perf_counter()
     graph = _compile(args.file, args.overrides)
     _report(None, graph.warnings)
-    traced = Traced(graph)
+    traced = Traced(graph, MAX_DEPTH if args.max_depth is None else args.max_depth)
+    cut = _export_cut(args, traced)
     w, h = args.size
     camera = make_camera(traced, w / h)
     lighting = make_lighting(traced, camera, not args.no_shadows, args.shadow_samples,
                              args.bounces)
-    progress = _export_progress(args, graph)
+    progress = _export_progress(args, graph, cut)
     try:
         count, empty, dropped = export_pov(traced, camera, lighting, out, args.size,
-                                           lambda done: progress.update(done, done))
+                                           lambda done: progress.update(done, done), cut=cut)
     finally:
         progress.close()
     print(f"{out}: {count:,} primitives, {out.stat().st_size / 1e6:.1f} MB, "
@@ -561,15 +569,38 @@ def cmd_export(args) -> int:
 PROGRESS_STATES = 20_000     # _export_progress's count: about 0.2 s at most
 
 
-def _export_progress(args, graph):
+def _export_cut(args, traced):
+    """The export's cut (graph/cut.py) at --max-depth, where the tracer's walk stops; an
+    error for a graftal without one, whose derivation never ends."""
+    from .graph.cut import cut_of
+    from .language.errors import Diagnostic
+    if args.max_depth is None:
+        cut = cut_of(traced)
+        if cut.graftal:
+            g = traced.graph
+            s = next(i for i, n in enumerate(g.nodes) if cut.select[i] and cut.term[i] < 0)
+            raise PcsgError([Diagnostic(
+                "error", f"'{g.nodes[s].name}' has no rule that ends, so its derivation "
+                         f"never does: give --max-depth N to end it where `pcsg render "
+                         f"--max-depth N` does, each instance there its bounding box",
+                g.nodes[s].span, g.source, code="export")])
+        return None
+    if traced.max_depth < args.max_depth:
+        print(f"{args.file}: note: the bounds stop at depth {traced.max_depth}, and so do "
+              f"the tracer and this export", file=sys.stderr)
+    return cut_of(traced)
+
+
+def _export_progress(args, graph, cut):
     """A progress line for the export (a derivation of half a million primitives takes a
-    minute), out of the primitives stats counts without expanding; none with -q, or where
+    minute), out of the primitives stats counts without expanding; none with -q, where
     they cannot be counted in a few thousand states (a system whose rules are drawn at
-    random would be derived twice)."""
+    random would be derived twice), or where a cut ends the derivation (the count is of
+    the whole)."""
     from .graph.stats import count_primitives
     from .render.image import Progress
     try:
-        total = count_primitives(graph, max_states=PROGRESS_STATES)
+        total = 0 if cut is not None else count_primitives(graph, max_states=PROGRESS_STATES)
     except PcsgError:
         total = 0
     return Progress(f"{Path(args.file).name} export", total,

@@ -150,14 +150,18 @@ class Traced:
             return ", ".join(names), int(events[kind].sum())
 
         lines = []
+        # a graftal's node has no rule that ends: its instances are their bounding volume
+        ends = ("with their terminating rule, or as their bounding volume where none ends"
+                if (self.flat.term_rule[self.flat.kind == SELECT] < 0).any() else
+                "with their terminating rule")
         texts = {
-            EV_LOD: "level of detail: {n:,} instances smaller than a pixel were finished with "
-                    "their terminating rule ({w})",
+            EV_LOD: "level of detail: {n:,} instances smaller than a pixel were finished "
+                    + ends + " ({w})",
             EV_DEPTH: ("depth limit: {n:,} instances reached --max-depth {d} and were finished "
-                       "with their terminating rule ({w}); raise --max-depth to refine further"
+                       + ends + " ({w}); raise --max-depth to refine further"
                        if self.max_depth == self.asked_depth else
                        "depth limit: {n:,} instances reached depth {d}, where the bounds stop, "
-                       "and were finished with their terminating rule ({w})"),
+                       "and were finished " + ends + " ({w})"),
             EV_SELECTION: "{n:,} instances were empty because a selection was not a valid rule "
                           "number ({w})",
             EV_SINGULAR: "{n:,} instances were empty because of a singular transformation ({w})",

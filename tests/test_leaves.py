@@ -74,7 +74,8 @@ def test_it_goes_on_across_chunks_and_grows_its_stack_and_chains(monkeypatch, pa
     monkeypatch.setattr(leaves_module, "CHUNK", 7)
     real = leafwalk.Walker.__init__
     monkeypatch.setattr(leafwalk.Walker, "__init__",
-                        lambda self, flat, levels, rows=1: real(self, flat, levels, rows))
+                        lambda self, flat, levels, cut=None, rows=1: real(self, flat, levels,
+                                                                          cut, rows))
     grown = []
     for name in ("grow", "grow_chain"):
         method = getattr(leafwalk.Walker, name)

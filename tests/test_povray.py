@@ -16,6 +16,7 @@ from PIL import Image
 from pcsg.cli import _export_progress, main
 from pcsg.compiler import compile_file, compile_text
 from pcsg.graph import leaves as leaves_module
+from pcsg.graph.cut import cut_of
 from pcsg.graph.flatten import flatten
 from pcsg.povray import export_pov
 from pcsg.render.camera import make_camera
@@ -29,6 +30,8 @@ SIERPINSKI = ROOT / "grammars" / "sierpinski.pcsg"
 TERRAIN = ROOT / "grammars" / "carpenter_terrain.pcsg"
 CSG = Path(__file__).resolve().parent / "data" / "csg_export.pcsg"
 EMPTY = Path(__file__).resolve().parent / "data" / "empty_export.pcsg"
+THIN = Path(__file__).resolve().parent / "data" / "thin_export.pcsg"
+FERN = ROOT / "grammars" / "barnsley_fern.pcsg"      # a graftal: cut at --max-depth
 
 
 def export(tmp_path, grammar, *options):
@@ -149,10 +152,12 @@ def test_export_progress_is_out_of_the_counted_primitives_and_off_with_quiet(mon
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True)    # as on a terminal
     graph = compile_file(TERRAIN, {"cnt": 3.0})
     args = argparse.Namespace(file=str(TERRAIN), quiet=False)
-    shown = _export_progress(args, graph)
+    shown = _export_progress(args, graph, None)
     assert shown.enabled and shown.total == 129         # 128 triangles and the sea
+    # cut at a depth, the derivation is not what stats counts
+    assert not _export_progress(args, graph, cut_of(Traced(graph, max_depth=2))).enabled
     args.quiet = True
-    assert not _export_progress(args, graph).enabled
+    assert not _export_progress(args, graph, None).enabled
 
 
 POVRAY = shutil.which("povray")
@@ -160,7 +165,8 @@ POVRAY = shutil.which("povray")
 
 @pytest.mark.skipif(POVRAY is None, reason="POV-Ray is not installed (apt-get install povray)")
 @pytest.mark.parametrize("grammar,options", [(SIERPINSKI, ["--set", "c=2"]), (CSG, []),
-                                             (EMPTY, [])])
+                                             (EMPTY, []), (THIN, []),
+                                             (FERN, ["--max-depth", "4"])])
 def test_povray_draws_the_same_picture(tmp_path, grammar, options):
     pov = export(tmp_path, grammar, "--shadow-samples", "1", *options)
     subprocess.run([POVRAY, f"+I{pov}", f"+O{tmp_path / 'pov.png'}", "+W160", "+H120", "-D",

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..language.errors import Diagnostic, PcsgError
+from .cut import Cut
 from .derive import Deriver, too_deep
 from .model import CALC, MATERIAL, OPERATORS, PAINT, PRIMITIVE, SELECT, TRANSFORM, Graph
 from .stats import MAX_LEVELS
@@ -21,6 +22,9 @@ class Instance:
     material: str | None          # the innermost material(NAME) above it
     path: tuple                   # CSG operators above it: ((node, child number), ...)
     args: tuple = ()              # a fractal's arguments
+    # a cut graftal instance's volume is clipped by the volumes above it that it pokes out
+    # of (graph/cut.py): (primitive, matrix) each
+    clip: tuple = ()
 
 
 def leaf_inverse(matrix: np.ndarray) -> np.ndarray | None:
@@ -52,11 +56,12 @@ def nonempty(world: np.ndarray) -> np.ndarray:
     return ok
 
 
-def flatten(graph: Graph, max_primitives: int = 1_000_000) -> list[Instance]:
-    """Every primitive of the derivation with its world matrix, in derivation order.
-    Raises PcsgError when there are more than max_primitives."""
+def flatten(graph: Graph, max_primitives: int = 1_000_000, cut: Cut | None = None
+            ) -> list[Instance]:
+    """Every primitive of the derivation with its world matrix, in derivation order (cut
+    where `cut` says). Raises PcsgError when there are more than max_primitives."""
     out: list[Instance] = []
-    for inst in instances(graph):
+    for inst in instances(graph, cut):
         out.append(inst)
         if len(out) > max_primitives:
             raise PcsgError([Diagnostic("error", f"the derivation has more than "
@@ -66,15 +71,29 @@ def flatten(graph: Graph, max_primitives: int = 1_000_000) -> list[Instance]:
     return out
 
 
-def instances(graph: Graph) -> Iterator[Instance]:
+def instances(graph: Graph, cut: Cut | None = None) -> Iterator[Instance]:
     """The primitives of the derivation one by one, in derivation order (left operand
-    first), holding only the open branches: the form for streaming exports."""
+    first), holding only the open branches: the form for streaming exports. With a cut
+    (graph/cut.py), S-node instances deeper than its depth end as the tracer ends them."""
     d = Deriver(graph)
     nodes = graph.nodes
+    clipping = cut is not None and cut.graftal
+
+    def entered(above: tuple, node: int, m: np.ndarray, parent: int = -1) -> tuple:
+        # the volumes that a cut graftal instance's is clipped by (Cut.clips): the box or
+        # sphere of every node above it, in the frame it is entered in, as the tracer's
+        # windows narrow; a T-node below a T-node is entered with it, one map (graph/flat.py)
+        if not clipping or (parent >= 0 and nodes[parent].kind == TRANSFORM
+                            and nodes[node].kind == TRANSFORM):
+            return above
+        volume = cut.leaf(node, m)
+        return above if volume is None else above + (volume,)
+
     state, h = d.initial()
-    stack = [(graph.root, state, h, np.eye(4), None, None, (), 0)]
+    stack = [(graph.root, state, h, np.eye(4), None, None, (), 0,
+              entered((), graph.root, np.eye(4)))]
     while stack:
-        i, state, h, m, paint, material, path, level = stack.pop()
+        i, state, h, m, paint, material, path, level, above = stack.pop()
         n = nodes[i]
         if n.kind == PRIMITIVE:
             yield Instance(n.name, m, paint, material, path, graph.constant_args(i))
@@ -82,9 +101,21 @@ def instances(graph: Graph) -> Iterator[Instance]:
         if n.kind == SELECT:
             if level >= MAX_LEVELS:
                 raise too_deep(graph, i, MAX_LEVELS)
-            r = d.select(i, state, h)
-            stack.append((n.children[r], state, d.edge(h, i, r), m, paint, material, path,
-                          level + 1))
+            if cut is not None and level + 1 > cut.depth:
+                r = int(cut.term[i])
+                if r < 0:
+                    leaf = cut.leaf(i, m)
+                    if leaf is not None:            # above[-1] is its own volume
+                        yield Instance(*leaf, paint, material, path,
+                                       clip=cut.clips(leaf, above[:-1]))
+                    continue
+                if level + 1 > 4 * cut.depth + 64:     # a terminating rule that recurses
+                    continue
+            else:
+                r = d.select(i, state, h)
+            c = n.children[r]
+            stack.append((c, state, d.edge(h, i, r), m, paint, material, path, level + 1,
+                          entered(above, c, m)))
             continue
         if n.kind == CALC:
             state = d.calc(i, state, h)
@@ -99,7 +130,10 @@ def instances(graph: Graph) -> Iterator[Instance]:
             material = n.name
         if n.kind in OPERATORS.values():
             for k in reversed(range(len(n.children))):   # reversed: left operand first out
-                stack.append((n.children[k], state, d.edge(h, i, k), m, paint, material,
-                              path + ((i, k),), level))
+                c = n.children[k]
+                stack.append((c, state, d.edge(h, i, k), m, paint, material,
+                              path + ((i, k),), level, entered(above, c, m)))
         else:
-            stack.append((n.children[0], state, h, m, paint, material, path, level))
+            c = n.children[0]
+            stack.append((c, state, h, m, paint, material, path, level,
+                          entered(above, c, m, i)))

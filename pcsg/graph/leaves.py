@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..language.errors import PcsgError
+from .cut import VOLUME_NAMES, Cut
 from .derive import Deriver, State, too_deep
 from .flatten import instances
 from .model import PRIMITIVE, Graph
@@ -32,21 +33,33 @@ class Leaves:
     paths: list | None = None
     chain: np.ndarray | None = None
     csg: np.ndarray | None = None
+    # per primitive of a cut graftal: the volumes that clip it (Instance.clip), else ()
+    clips: list | None = None
 
     def __len__(self) -> int:
         return len(self.node)
 
 
-def leaf_chunks(graph: Graph, compiled: bool = True) -> Iterator[Leaves]:
-    """Every primitive of the derivation, in derivation order; compiled=False: from the
-    Python derivation."""
-    yield from (_compiled(graph) if compiled else _python(graph))
+def leaf_names(graph: Graph) -> list[str]:
+    """The primitive name of each Leaves.node: the graph's nodes', then the volumes' of
+    cut graftal instances (graph/cut.py), which need not be nodes of the graph."""
+    return [n.name for n in graph.nodes] + list(VOLUME_NAMES.values())
 
 
-def _python(graph: Graph) -> Iterator[Leaves]:
+def leaf_chunks(graph: Graph, compiled: bool = True, cut: Cut | None = None
+                ) -> Iterator[Leaves]:
+    """Every primitive of the derivation, in derivation order, cut where `cut` says;
+    compiled=False: from the Python derivation, which alone writes the volumes of cut
+    graftal instances, so a cut through a graftal takes it."""
+    if cut is not None and cut.graftal:
+        compiled = False
+    yield from (_compiled(graph, cut) if compiled else _python(graph, cut))
+
+
+def _python(graph: Graph, cut: Cut | None) -> Iterator[Leaves]:
     ids = {}
     batch = []
-    for inst in instances(graph):
+    for inst in instances(graph, cut):
         batch.append(inst)
         if len(batch) == PYTHON_CHUNK:
             yield _batch(graph, batch, ids)
@@ -57,6 +70,8 @@ def _python(graph: Graph) -> Iterator[Leaves]:
 
 def _batch(graph: Graph, batch: list, ids: dict) -> Leaves:
     if not ids:         # a primitive node of each name: what the writers read is its name
+        n = len(graph.nodes)
+        ids.update({name: n + k for k, name in enumerate(VOLUME_NAMES.values())})
         ids.update({n.name: i for i, n in reversed(list(enumerate(graph.nodes)))
                     if n.kind == PRIMITIVE})
     paint = np.array([b.paint if b.paint is not None else (np.nan,) * 3 for b in batch],
@@ -66,13 +81,14 @@ def _batch(graph: Graph, batch: list, ids: dict) -> Leaves:
     materials = graph.material_names
     return Leaves(np.array([ids[b.primitive] for b in batch]), world, paint,
                   np.array([-1 if b.material is None else materials.index(b.material)
-                            for b in batch]), paths=[b.path for b in batch])
+                            for b in batch]), paths=[b.path for b in batch],
+                  clips=[b.clip for b in batch])
 
 
-def _compiled(graph: Graph) -> Iterator[Leaves]:
-    from ..trace.leafwalk import (BAD_SELECTION, CHAIN_ROOM, ROOM, SP, STATUS, TOO_DEEP,
-                                  walker)
-    walk = walker(graph)
+def _compiled(graph: Graph, cut: Cut | None) -> Iterator[Leaves]:
+    from ..trace.leafwalk import (BAD_SELECTION, CHAIN_ROOM, GRAFTAL_CUT, ROOM, SP, STATUS,
+                                  TOO_DEEP, walker)
+    walk = walker(graph, None if cut is None else cut.depth)
     while True:
         k = walk.run(CHUNK)
         if k:
@@ -87,6 +103,8 @@ def _compiled(graph: Graph) -> Iterator[Leaves]:
             walk.grow_chain()
         elif status in (BAD_SELECTION, TOO_DEEP):
             raise _stopped(graph, walk, status == TOO_DEEP)
+        elif status == GRAFTAL_CUT:
+            raise AssertionError("a cut graftal instance came to the compiled walk")
         elif walk.state[SP] == 0:
             return
 

@@ -25,18 +25,21 @@ from .nodes import eval_args, node_affine, pick_rule, run_calc
 
 NODE, SLOT, LEVEL, MAT, CSG = range(5)   # fr's columns; CSG: the length of its chain
 SP, STATUS, NEXT_ID = range(3)           # state's fields
-RUNNING, ROOM, BAD_SELECTION, TOO_DEEP, CHAIN_ROOM = range(5)     # state[STATUS]
+# state[STATUS]; GRAFTAL_CUT: an instance with no rule that ends reached the cut, whose
+# volume only the Python derivation writes (graph/cut.py)
+RUNNING, ROOM, BAD_SELECTION, TOO_DEEP, CHAIN_ROOM, GRAFTAL_CUT = range(6)
 
 
 @kernel
-def leaves(flat, max_levels, fr, hs, world, paint, chain, params, stack, args, m34, state,
-           out_node, out_world, out_paint, out_mat, out_chain, out_csg):
+def leaves(flat, max_levels, cut, fr, hs, world, paint, chain, params, stack, args, m34,
+           state, out_node, out_world, out_paint, out_mat, out_chain, out_csg):
     """Walk on from state[SP] pending entries, writing leaves into the out_ arrays until
     they are full or the walk ends (state[SP] = 0); returns the leaves written. Stops
     early with state[STATUS] = ROOM when the entry arrays need more rows, CHAIN_ROOM when
     the chains need more columns (the caller grows them and calls again), or with
     BAD_SELECTION or TOO_DEEP (more than max_levels nested selections) at the entry on
-    top.
+    top. Selections deeper than `cut` take their terminating rule, as the tracer's past
+    its depth bound; GRAFTAL_CUT where there is none.
 
     An entry's chain is the CSG operators above it from the first ∩ or \\ down, unions
     below that included, which the export writes as blocks: (instance id, node, operand
@@ -75,10 +78,19 @@ def leaves(flat, max_levels, fr, hs, world, paint, chain, params, stack, args, m
             if level > max_levels:
                 state[STATUS] = TOO_DEEP
                 break
-            r = pick_rule(flat, node, params, slot, h, stack)
-            if r < 0:
-                state[STATUS] = BAD_SELECTION
-                break
+            if level > cut:         # as the tracer past its depth bound: the rule that
+                r = flat.term_rule[node]                            # ends soonest
+                if r < 0:
+                    state[STATUS] = GRAFTAL_CUT
+                    break
+                if level > 4 * cut + 64:    # a terminating rule that keeps recursing
+                    sp -= 1
+                    continue
+            else:
+                r = pick_rule(flat, node, params, slot, h, stack)
+                if r < 0:
+                    state[STATUS] = BAD_SELECTION
+                    break
             fr[f, NODE] = flat.children[first + r]
             fr[f, LEVEL] = level
             hs[f] = vm.edge_hash(h, node, r)
@@ -151,9 +163,10 @@ def _compose(w, m34):
 class Walker:
     """The walk's arrays and where it stands, for leaf_chunks (graph/leaves.py)."""
 
-    def __init__(self, flat, max_levels: int, rows: int = 64):
+    def __init__(self, flat, max_levels: int, cut: int | None = None, rows: int = 64):
         self.flat = flat
         self.max_levels = max_levels
+        self.cut = max_levels if cut is None else cut
         self.fr = np.zeros((rows, 5), dtype=np.int64)
         self.hs = np.zeros(rows, dtype=np.uint64)
         self.world = np.zeros((rows, 12))
@@ -182,10 +195,10 @@ class Walker:
             self.out_mat = np.empty(chunk, dtype=np.int64)
             self.out_chain = np.empty((chunk,) + self.chain.shape[1:], dtype=np.int64)
             self.out_csg = np.empty(chunk, dtype=np.int64)
-        return leaves(self.flat, self.max_levels, self.fr, self.hs, self.world, self.paint,
-                      self.chain, self.params, self.stack, self.args, self.m34, self.state,
-                      self.out_node, self.out_world, self.out_paint, self.out_mat,
-                      self.out_chain, self.out_csg)
+        return leaves(self.flat, self.max_levels, self.cut, self.fr, self.hs, self.world,
+                      self.paint, self.chain, self.params, self.stack, self.args, self.m34,
+                      self.state, self.out_node, self.out_world, self.out_paint,
+                      self.out_mat, self.out_chain, self.out_csg)
 
     def grow(self):
         """Twice the entry rows, keeping what they hold."""
@@ -207,10 +220,11 @@ class Walker:
         self.chain = longer
 
 
-def walker(graph) -> Walker:
+def walker(graph, cut: int | None = None) -> Walker:
     """A Walker at the root of graph's derivation, with its parameters undefined (nan)
     as in flatten.instances, on the bounding walk's Flat (maps one T-node at a time, as
-    the reference composes them)."""
+    the reference composes them); selections deeper than `cut` take their terminating
+    rule."""
     from ..graph.stats import MAX_LEVELS
     from .boxwalk import walk_flat
-    return Walker(walk_flat(graph)[0], MAX_LEVELS)
+    return Walker(walk_flat(graph)[0], MAX_LEVELS, cut)

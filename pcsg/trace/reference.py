@@ -42,10 +42,12 @@ import math
 import numpy as np
 from numba import njit
 
+from ..graph.cut import Cut
 from ..graph.flatten import flatten, leaf_inverse
 from ..graph.model import DIFFERENCE, INTERSECTION, UNION, Graph
 from . import fractals, primitives
 
+CLIP = " (clip)"     # the name's mark of a volume that clips a cut graftal instance
 LEAF = -1            # tree node kind of a primitive; operators use the graph's kinds
 _OPNAMES = {UNION: "union", INTERSECTION: "intersection", DIFFERENCE: "difference"}
 _CHUNK = 4096        # rays per batch (bounds the per-leaf arrays)
@@ -93,21 +95,23 @@ def _march_many(is_julia, args, O, D, tmin, tmax, out, hit):
 
 
 class Reference:
-    def __init__(self, graph: Graph, max_primitives: int = 200_000):
+    def __init__(self, graph: Graph, max_primitives: int = 200_000, cut: Cut | None = None):
+        """The expansion of graph; with a cut (graph/cut.py), the one a tracer of graph
+        walks with that depth bound and no level of detail (lod=0)."""
         self.graph = graph
         self.nodes: list = []        # tree nodes in pre-order: children after parents
-        self.root = self._build(graph, max_primitives)
+        self.root = self._build(graph, max_primitives, cut)
 
     # ---- the expanded tree ------------------------------------------------------
 
-    def _build(self, graph: Graph, max_primitives: int) -> int:
+    def _build(self, graph: Graph, max_primitives: int, cut: Cut | None) -> int:
         """The derivation from pcsg.graph.flatten, regrouped into its operators: every
         primitive's path names the operator instances above it, so a path prefix is one
         operator instance of the tree."""
         tree = self.nodes
         holder = [None]
         ops: dict[tuple, Op] = {}
-        for inst in flatten(graph, max_primitives):
+        for inst in flatten(graph, max_primitives, cut):
             parent, slot = holder, 0
             for j, (node, k) in enumerate(inst.path):
                 op = ops.get(inst.path[:j])
@@ -119,6 +123,15 @@ class Reference:
                 parent, slot = op.children, k
             material = graph.material_names.index(inst.material) if inst.material else -1
             paint = None if inst.paint is None else tuple(float(v) for v in inst.paint)
+            if inst.clip:           # a cut graftal instance: its volume ∩ those that clip it
+                op = Op(INTERSECTION, 1 + len(inst.clip))
+                parent[slot] = len(tree)
+                tree.append(op)
+                for k, (name, matrix) in enumerate(inst.clip, 1):
+                    op.children[k] = len(tree)
+                    tree.append(Leaf(primitives.CODES[name], name + CLIP, matrix, paint,
+                                     material))
+                parent, slot = op.children, 0
             parent[slot] = len(tree)
             tree.append(Leaf(primitives.CODES[inst.primitive], inst.primitive, inst.matrix,
                              paint, material, inst.args))

@@ -1,0 +1,101 @@
+"""Where a whole derivation stops, as the tracer's walk stops past its depth bound: an
+S-node instance deeper than the bound follows its terminating rule (graph/terminating.py),
+and one whose node has no rule that ever ends, a graftal's, becomes the bounding volume
+that the tracer hits there (trace/walk.py hit_volume): the node's box or sphere, padded as
+the tracer pads them, in the instance's frame. For writers of the whole expansion, which
+could not otherwise derive a graftal at all: `pcsg export --pov --max-depth N` and the
+reference tracer (trace/reference.py) that the tracer's cut is checked against."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .checks import reachable
+from .model import SELECT
+
+NO_VOLUME, BOX, SPHERE = 0, 1, 2        # Cut.kind
+VOLUME_NAMES = {BOX: "cube", SPHERE: "sphere"}
+
+
+@dataclass
+class Cut:
+    """A tracer's cut, per node of its graph (cut_of)."""
+    depth: int                  # S-node instances deeper than this are cut
+    select: np.ndarray          # (n,) which nodes are S-nodes the derivation reaches
+    term: np.ndarray            # (n,) per S-node: the rule that ends soonest, -1 if none
+    kind: np.ndarray            # (n,) per node: its volume, NO_VOLUME / BOX / SPHERE
+    volume: np.ndarray          # (n, 3, 4): the map of the unit cube [-1, 1]^3 or unit
+                                # sphere onto the node's volume, in the node's frame
+
+    @property
+    def graftal(self) -> bool:
+        """Whether an S-node has no rule that ends: its cut instances are volumes."""
+        return bool((self.term[self.select] < 0).any())
+
+    def leaf(self, node: int, world: np.ndarray) -> tuple[str, np.ndarray] | None:
+        """The volume of an instance of `node` with world map `world` (4x4), as the
+        primitive of a cut graftal instance: its name and world map; None where the node
+        has no finite volume."""
+        kind = int(self.kind[node])
+        if kind == NO_VOLUME:
+            return None
+        m = np.eye(4)
+        m[:3] = self.volume[node]
+        with np.errstate(invalid="ignore", over="ignore"):
+            return VOLUME_NAMES[kind], world @ m
+
+    def clips(self, leaf: tuple[str, np.ndarray], above: tuple) -> tuple:
+        """The volumes of `above` ((name, world map) each) that do not hold the leaf's
+        volume, which the tracer clips it by. A graftal's box bounds its attractor, not
+        the boxes of its cut instances, and those can poke out of the boxes above."""
+        if not above:
+            return ()
+        k = len(above)
+        box = np.array([name == "cube" for name, _ in above])
+        with np.errstate(all="ignore"):
+            rel = np.linalg.solve(np.array([m for _, m in above]),
+                                  np.broadcast_to(leaf[1], (k, 4, 4)))
+            a, c = rel[:, :3, :3], rel[:, :3, 3]
+            if leaf[0] == "cube":
+                in_box = (np.abs(c) + np.abs(a).sum(axis=2) <= 1.0).all(axis=1)
+                points = c[:, None] + _CORNERS @ a.transpose(0, 2, 1)
+                in_ball = (np.linalg.norm(points, axis=2) <= 1.0).all(axis=1)
+            else:
+                in_box = (np.abs(c) + np.linalg.norm(a, axis=2) <= 1.0).all(axis=1)
+                in_ball = (np.linalg.norm(c, axis=1) + np.linalg.norm(a, 2, axis=(1, 2))
+                           <= 1.0)
+        held = np.where(box, in_box, in_ball).tolist()
+        return tuple(v for v, h in zip(above, held) if not h)
+
+
+_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+
+
+def cut_of(traced) -> Cut:
+    """The cut of a Traced object's tracer where its walk stops (traced.max_depth), with
+    the tracer's own terminating rules and padded volumes."""
+    flat = traced.flat
+    n = len(traced.graph.nodes)
+    if len(flat.kind) != n:
+        raise ValueError("the tracer's nodes are not the graph's")
+    kind = np.zeros(n, dtype=np.int64)
+    volume = np.zeros((n, 3, 4))
+    box = flat.box
+    finite = np.isfinite(box).all(axis=1)
+    finite[finite] = (box[finite, 3:] > box[finite, :3]).all(axis=1)
+    lo, hi = box[finite, :3], box[finite, 3:]
+    kind[finite] = BOX
+    volume[finite, :, 3] = (lo + hi) / 2
+    for a in range(3):
+        volume[finite, a, a] = (hi[:, a] - lo[:, a]) / 2
+    if flat.sphere.shape[0]:
+        has = flat.sphere[:, 3] > 0
+        kind[has] = SPHERE
+        volume[has] = 0.0
+        volume[has, :, 3] = flat.sphere[has, :3]
+        for a in range(3):
+            volume[has, a, a] = flat.sphere[has, 3]
+    live = np.array(reachable(traced.graph), dtype=bool)
+    return Cut(int(traced.max_depth), live & (flat.kind == SELECT),
+               np.asarray(flat.term_rule, dtype=np.int64).copy(), kind, volume)

@@ -1,0 +1,128 @@
+"""The derivation cut where the tracer's walk stops (graph/cut.py): at the depth bound an
+S-node instance takes its terminating rule, and a graftal's, which has none, is its
+bounding volume clipped by the boxes above it. The tracer is checked against the
+reference expansion of that cut ray by ray, and `pcsg export --pov --max-depth N` writes
+it, so that a graftal can be taken into POV-Ray."""
+import numpy as np
+import pytest
+
+from pcsg.cli import main
+from pcsg.compiler import compile_file, compile_text
+from pcsg.graph.cut import cut_of
+from pcsg.graph.leaves import leaf_chunks
+from pcsg.trace.nodes import EV_DEPTH
+from pcsg.trace.reference import CLIP, Reference
+from pcsg.tracer import Traced
+
+from .conftest import GRAMMARS
+from .oracle import camera_rays
+
+FERN = GRAMMARS / "barnsley_fern.pcsg"
+FERN_AXIOM = "paint(0.22, 0.55, 0.18) FERN ∪ paint(0.50, 0.44, 0.34) move(0, 0, -0.2) plane"
+
+
+def _fern_in_a_ball() -> str:
+    """The fern as the operand of an intersection, whose interval walk cuts it too."""
+    text = FERN.read_text()
+    assert FERN_AXIOM in text
+    return text.replace(FERN_AXIOM, "paint(0.22, 0.55, 0.18) (FERN ∩ move(0.3, 0, 3) "
+                                    "uscale(3.6) sphere)")
+
+
+def _cut_pair(graph, depth):
+    traced = Traced(graph, max_depth=depth, average_normals=False)
+    assert traced.max_depth == depth
+    return traced, Reference(traced.graph, cut=cut_of(traced))
+
+
+CASES = [("fern", 1), ("fern", 2), ("fern", 3), ("fern in a ball", 3), ("cifs_temple", 2),
+         ("sympodial_tree", 4), ("sierpinski", 3)]
+
+
+@pytest.mark.parametrize("name,depth", CASES)
+def test_the_tracer_cut_at_its_depth_bound_is_the_reference_cut(name, depth):
+    """Ray by ray, with no level of detail: hits, distances and paints, and normals but
+    where the reference's hit is on a clipping box (the tracer takes its own volume's
+    face there). Both walks of the tracer: packets and single rays."""
+    if name == "fern in a ball":
+        graph = compile_text(_fern_in_a_ball())
+    else:
+        graph = compile_file(FERN if name == "fern" else GRAMMARS / f"{name}.pcsg", {})
+    traced, ref = _cut_pair(graph, depth)
+    for direction in [(1, -1.5, 0.5), (-1, 0.3, 0.2)]:
+        o, d = camera_rays(traced.bounds, 24, direction, spread=0.3)
+        want = ref.trace(o, d, exits=True)
+        for packets in (True, False):
+            got = traced.trace(o, d, lod=0.0, packets=packets)
+            assert np.array_equal(got.hit, want["hit"]) and got.hit.sum() > 50
+            both = got.hit
+            np.testing.assert_allclose(got.t[both], want["t"][both], rtol=1e-9)
+            np.testing.assert_allclose(got.paint[both], want["paint"][both], atol=1e-12)
+            own = both & ~np.array([p.endswith(CLIP) for p in want["primitive"]])
+            np.testing.assert_allclose(got.normal[own], want["normal"][own], atol=1e-9)
+            assert got.events[EV_DEPTH].sum() > 0          # the cut was reached
+
+
+def test_the_clips_are_what_makes_the_fern_agree():
+    """Without its clips (each cut instance its whole box) the reference sees boxes that
+    the tracer's windows leave out: the clipping is needed, and the test above sees it."""
+    traced, ref = _cut_pair(compile_file(FERN, {}), 3)
+    assert sum(leaf.name.endswith(CLIP) for leaf in ref.leaves) > 10
+    unclipped = Reference(traced.graph, cut=_without_clips(cut_of(traced)))
+    differ = 0
+    for direction in [(1, -1.5, 0.5), (-1, 0.3, 0.2)]:
+        o, d = camera_rays(traced.bounds, 40, direction)
+        got = traced.trace(o, d, lod=0.0)
+        t = unclipped.trace(o, d, exits=True)["t"]
+        differ += int((~np.isclose(got.t, t, rtol=1e-6, atol=0)).sum())
+    assert differ > 0
+
+
+def _without_clips(cut):
+    """The cut with its clipping left out: Cut.clips keeps none."""
+    class Whole(type(cut)):
+        def clips(self, leaf, above):
+            return ()
+    return Whole(**vars(cut))
+
+
+@pytest.mark.parametrize("name,depth", [("sympodial_tree", 5), ("sierpinski", 3),
+                                        ("graftal_tree", 5), ("table_tower", 3)])
+def test_the_compiled_walk_cuts_as_the_python_derivation(name, depth):
+    traced = Traced(compile_file(GRAMMARS / f"{name}.pcsg", {}), max_depth=depth)
+    cut = cut_of(traced)
+    assert not cut.graftal
+    fast = list(leaf_chunks(traced.graph, True, cut))
+    slow = list(leaf_chunks(traced.graph, False, cut))
+    assert fast[0].chain is not None and slow[0].paths is not None   # two derivations
+    nodes = np.concatenate([c.node for c in fast])
+    np.testing.assert_array_equal(nodes, np.concatenate([c.node for c in slow]))
+    np.testing.assert_allclose(np.concatenate([c.world for c in fast]),
+                               np.concatenate([c.world for c in slow]), atol=1e-12)
+    deeper = cut_of(Traced(compile_file(GRAMMARS / f"{name}.pcsg", {}), max_depth=depth + 1))
+    assert len(nodes) < sum(len(c) for c in leaf_chunks(traced.graph, True, deeper))
+
+
+def test_export_writes_a_graftal_cut_at_max_depth(tmp_path, capsys):
+    out = tmp_path / "fern.pov"
+    assert main(["export", str(FERN), "--pov", str(out), "--max-depth", "3", "-q"]) == 0
+    text = out.read_text()
+    traced = Traced(compile_file(FERN, {}), max_depth=3)
+    insts = list(leaf_chunks(traced.graph, False, cut_of(traced)))
+    clips = [c for chunk in insts for c in chunk.clips]
+    assert len(clips) == 4 ** 3 + 1                            # 64 boxes or spheres, a plane
+    assert text.count("\nintersection {") == sum(1 for c in clips if c) > 10
+    objects = text.count("object { P_")
+    assert objects == len(clips) + sum(len(c) for c in clips)
+    assert f"{len(clips)} primitives" in capsys.readouterr().out
+    assert text.count("P_plane matrix") == 1
+
+
+def test_export_of_a_graftal_without_max_depth_says_what_to_do(tmp_path, capsys):
+    code = main(["export", str(FERN), "--pov", str(tmp_path / "f.pov")])
+    err = capsys.readouterr().err
+    assert code != 0 and not (tmp_path / "f.pov").exists()
+    assert "'FERN' has no rule that ends" in err and "--max-depth N" in err
+    assert "barnsley_fern.pcsg:23:1" in err
+    assert main(["export", str(FERN), "--pov", str(tmp_path / "f.pov"), "--max-depth", "0"]) != 0
+    assert "--max-depth 0: use 1 to 10000" in capsys.readouterr().err
