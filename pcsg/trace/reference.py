@@ -34,6 +34,11 @@ Semantics (the contract the tracer is compared on)
   marks the rays whose hit has another surface of a different paint or material at
   the same t.
 - Misses: hit False, t inf, normal nan, paint nan, material -1, primitive ''.
+- With a cut (graph/cut.py), the expansion a tracer walks at its depth bound without
+  a level of detail: deeper selections take their terminating rule, and a graftal's
+  instance there is its bounding box or sphere intersected with the volumes above it
+  that do not hold it (leaves named with CLIP). Where a ray's hit is on such a clip,
+  the graph tracer's normal is its own volume's nearest face's, not the clip's.
 """
 from __future__ import annotations
 
