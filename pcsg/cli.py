@@ -328,7 +328,8 @@ def _stats_text(r: dict) -> str:
     kinds = ", ".join(f"{v} {k}" for k, v in r["node_kinds"].items() if v)
     modules = ", ".join(f"{m} ({n} rule{'s' if n != 1 else ''})" for m, n in r["modules"].items())
     if r.get("endless"):
-        count = "endless: a graftal, refined to pixel size when rendered"
+        count = ("endless: a graftal, refined to pixel size when rendered (`pcsg export "
+                 "--max-depth N` writes it cut at depth N)")
     else:
         count = f"{r['primitives']:,} in the complete derivation" + (
             f" ({', '.join(f'{n:,} {k}' for k, n in r['primitives_by_kind'].items())})"

@@ -229,7 +229,8 @@ def test_stats_shows_each_graftal_modules_volume(capsys, tmp_path):
     octa.write_text(OCTA)
     assert main(["stats", str(GRAMMARS / "cifs_temple.pcsg"), str(octa)]) == 0
     out = capsys.readouterr().out
-    assert "primitives   endless: a graftal, refined to pixel size when rendered" in out
+    assert ("primitives   endless: a graftal, refined to pixel size when rendered (`pcsg "
+            "export --max-depth N` writes it cut at depth N)") in out
     assert "bounds       TEMPLE: box 2.07 x 2.07 x 1.9, mean projected area 6.064 " \
            "(sphere of radius 1.724: 9.333)" in out
     assert "bounds       O: sphere of radius 1, mean projected area 3.142 (box " in out
