@@ -3,6 +3,8 @@ S-node instance takes its terminating rule, and a graftal's, which has none, is 
 bounding volume clipped by the boxes above it. The tracer is checked against the
 reference expansion of that cut ray by ray, and `pcsg export --pov --max-depth N` writes
 it, so that a graftal can be taken into POV-Ray."""
+import re
+
 import numpy as np
 import pytest
 
@@ -29,14 +31,24 @@ def _fern_in_a_ball() -> str:
                                     "uscale(3.6) sphere)")
 
 
+def _fern_with_a_flat_pinna() -> str:
+    """One of the fern's maps made singular: the instances below it are empty."""
+    text = FERN.read_text()
+    flat = text.replace("1: PINNA → stem PINNA", "1: PINNA → scale(0, 1, 1) stem PINNA")
+    assert flat != text
+    return flat
+
+
 def _cut_pair(graph, depth):
     traced = Traced(graph, max_depth=depth, average_normals=False)
     assert traced.max_depth == depth
     return traced, Reference(traced.graph, cut=cut_of(traced))
 
 
-CASES = [("fern", 1), ("fern", 2), ("fern", 3), ("fern in a ball", 3), ("cifs_temple", 2),
-         ("sympodial_tree", 4), ("sierpinski", 3)]
+CASES = [("fern", 1), ("fern", 2), ("fern", 3), ("fern in a ball", 3),
+         ("fern with a flat pinna", 3), ("cifs_temple", 2), ("sympodial_tree", 4),
+         ("sierpinski", 3)]
+TEXTS = {"fern in a ball": _fern_in_a_ball, "fern with a flat pinna": _fern_with_a_flat_pinna}
 
 
 @pytest.mark.parametrize("name,depth", CASES)
@@ -44,8 +56,8 @@ def test_the_tracer_cut_at_its_depth_bound_is_the_reference_cut(name, depth):
     """Ray by ray, with no level of detail: hits, distances and paints, and normals but
     where the reference's hit is on a clipping box (the tracer takes its own volume's
     face there). Both walks of the tracer: packets and single rays."""
-    if name == "fern in a ball":
-        graph = compile_text(_fern_in_a_ball())
+    if name in TEXTS:
+        graph = compile_text(TEXTS[name]())
     else:
         graph = compile_file(FERN if name == "fern" else GRAMMARS / f"{name}.pcsg", {})
     traced, ref = _cut_pair(graph, depth)
@@ -126,3 +138,15 @@ def test_export_of_a_graftal_without_max_depth_says_what_to_do(tmp_path, capsys)
     assert "barnsley_fern.pcsg:23:1" in err
     assert main(["export", str(FERN), "--pov", str(tmp_path / "f.pov"), "--max-depth", "0"]) != 0
     assert "--max-depth 0: use 1 to 10000" in capsys.readouterr().err
+
+
+def test_export_leaves_out_what_a_singular_map_empties(tmp_path, capsys):
+    source = tmp_path / "flat.pcsg"
+    source.write_text(_fern_with_a_flat_pinna())
+    out = tmp_path / "flat.pov"
+    assert main(["export", str(source), "--pov", str(out), "--max-depth", "3", "-q"]) == 0
+    printed = capsys.readouterr()
+    left = int(re.search(r"warning: (\d+) primitives left out", printed.err).group(1))
+    written = int(re.search(r": (\d+) primitives", printed.out).group(1))
+    assert left > 0 and written + left == 4 ** 3 + 1
+    assert "nan" not in out.read_text()

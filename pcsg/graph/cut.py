@@ -51,11 +51,9 @@ class Cut:
         the boxes of its cut instances, and those can poke out of the boxes above."""
         if not above:
             return ()
-        k = len(above)
         box = np.array([name == "cube" for name, _ in above])
         with np.errstate(all="ignore"):
-            rel = np.linalg.solve(np.array([m for _, m in above]),
-                                  np.broadcast_to(leaf[1], (k, 4, 4)))
+            rel = _relative(np.array([m for _, m in above]), leaf[1])
             a, c = rel[:, :3, :3], rel[:, :3, 3]
             if leaf[0] == "cube":
                 in_box = (np.abs(c) + np.abs(a).sum(axis=2) <= 1.0).all(axis=1)
@@ -63,10 +61,28 @@ class Cut:
                 in_ball = (np.linalg.norm(points, axis=2) <= 1.0).all(axis=1)
             else:
                 in_box = (np.abs(c) + np.linalg.norm(a, axis=2) <= 1.0).all(axis=1)
-                in_ball = (np.linalg.norm(c, axis=1) + np.linalg.norm(a, 2, axis=(1, 2))
-                           <= 1.0)
+                # |a| (Frobenius) bounds the ball's largest radius: at worst a clip that
+                # holds it is kept, and changes nothing
+                in_ball = np.linalg.norm(c, axis=1) + np.sqrt((a * a).sum(axis=(1, 2))) <= 1.0
         held = np.where(box, in_box, in_ball).tolist()
         return tuple(v for v, h in zip(above, held) if not h)
+
+
+def _relative(outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
+    """outer^-1 inner for each of the maps outer (k, 4, 4); nan where one is singular (a
+    singular transform above: then the instance is empty too, and the export leaves it
+    out), which holds nothing."""
+    try:
+        return np.linalg.solve(outer, np.broadcast_to(inner, outer.shape))
+    except np.linalg.LinAlgError:
+        ok = np.isfinite(outer).all(axis=(1, 2)) & (np.linalg.det(outer[:, :3, :3]) != 0.0)
+        rel = np.full(outer.shape, np.nan)
+        for j in np.flatnonzero(ok):
+            try:
+                rel[j] = np.linalg.solve(outer[j], inner)
+            except np.linalg.LinAlgError:
+                pass
+        return rel
 
 
 _CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
