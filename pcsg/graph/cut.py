@@ -25,7 +25,7 @@ class Cut:
     select: np.ndarray          # (n,) which nodes are S-nodes the derivation reaches
     term: np.ndarray            # (n,) per S-node: the rule that ends soonest, -1 if none
     kind: np.ndarray            # (n,) per node: its volume, NO_VOLUME / BOX / SPHERE
-    volume: np.ndarray          # (n, 3, 4): the map of the unit cube [-1, 1]^3 or unit
+    volume: np.ndarray          # (n, 4, 4): the map of the unit cube [-1, 1]^3 or unit
                                 # sphere onto the node's volume, in the node's frame
 
     @property
@@ -40,10 +40,8 @@ class Cut:
         kind = int(self.kind[node])
         if kind == NO_VOLUME:
             return None
-        m = np.eye(4)
-        m[:3] = self.volume[node]
         with np.errstate(invalid="ignore", over="ignore"):
-            return VOLUME_NAMES[kind], world @ m
+            return VOLUME_NAMES[kind], world @ self.volume[node]
 
     def clips(self, leaf: tuple[str, np.ndarray], above: tuple) -> tuple:
         """The volumes of `above` ((name, world map) each) that do not hold the leaf's
@@ -96,20 +94,21 @@ def cut_of(traced) -> Cut:
     if len(flat.kind) != n:
         raise ValueError("the tracer's nodes are not the graph's")
     kind = np.zeros(n, dtype=np.int64)
-    volume = np.zeros((n, 3, 4))
+    volume = np.zeros((n, 4, 4))
+    volume[:, 3, 3] = 1.0
     box = flat.box
     finite = np.isfinite(box).all(axis=1)
     finite[finite] = (box[finite, 3:] > box[finite, :3]).all(axis=1)
     lo, hi = box[finite, :3], box[finite, 3:]
     kind[finite] = BOX
-    volume[finite, :, 3] = (lo + hi) / 2
+    volume[finite, :3, 3] = (lo + hi) / 2
     for a in range(3):
         volume[finite, a, a] = (hi[:, a] - lo[:, a]) / 2
     if flat.sphere.shape[0]:
         has = flat.sphere[:, 3] > 0
         kind[has] = SPHERE
-        volume[has] = 0.0
-        volume[has, :, 3] = flat.sphere[has, :3]
+        volume[has, :3] = 0.0
+        volume[has, :3, 3] = flat.sphere[has, :3]
         for a in range(3):
             volume[has, a, a] = flat.sphere[has, 3]
     live = np.array(reachable(traced.graph), dtype=bool)
