@@ -49,6 +49,13 @@ class TestTermination:
         w = warnings_of("S\n1: S → sphere ∪ move(2,0,0) uscale(0.5) S")
         assert [x.code for x in w] == ["endless"]
         assert "its selection reads no parameter" in w[0].message
+        # grouping cannot end it: the hint names what pcsg does with it instead
+        assert "parentheses" not in w[0].message
+        assert "a graftal: `render` refines it to pixel size" in w[0].message
+
+    def test_a_cycle_that_skips_the_block_suggests_grouping(self):
+        w = [x for x in warnings_of(FIG3A_AS_PRINTED) if x.code == "endless"]
+        assert "group operands with parentheses" in w[0].message
 
     def test_random_selection_is_not_reported(self):
         assert warnings_of("S\nS if(rand() < 0.5, 1, 2)\n1: S → sphere\n"

@@ -190,15 +190,20 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
                     stack.append(c)
         if not closing:
             continue
-        what = ", ".join(sorted(names[r] for r in reads)) if reads else None
-        because = (f"without changing {what}, which its selection reads" if what else
-                   "and its selection reads no parameter")
         spans = sorted((nodes[p].edge_spans[k] for p, k in closing), key=lambda sp: sp[0])
         notes = [(sp, "another such cycle closes here") for sp in spans[1:]]
-        out.append(_diag(graph, "warning", f"'{s.name}' can call itself here {because}: this "
-                         f"cycle never terminates (group operands with parentheses, e.g. "
-                         f"'{{...}} (A ∪ B)', if a calculation block should apply to all of them)",
-                         spans[0], "endless", notes))
+        if reads:
+            what = ", ".join(sorted(names[r] for r in reads))
+            message = (f"'{s.name}' can call itself here without changing {what}, which its "
+                       f"selection reads: this cycle never terminates (group operands with "
+                       f"parentheses, e.g. '{{...}} (A ∪ B)', if a calculation block should "
+                       f"apply to all of them)")
+        else:
+            # no block can end it, so grouping is no help: an endless IFS, deliberate or not
+            message = (f"'{s.name}' can call itself here and its selection reads no parameter: "
+                       f"this cycle never terminates, a graftal: `render` refines it to pixel "
+                       f"size, `export` needs --max-depth N")
+        out.append(_diag(graph, "warning", message, spans[0], "endless", notes))
     return out
 
 
