@@ -16,6 +16,7 @@ from pathlib import Path
 
 IMPORTS_BEGAN = time.perf_counter()     # for --timings: the imports start here
 
+from . import __version__  # noqa: E402
 from .distributed.sweep import sweep_set  # noqa: E402
 from .interrupt import redeliver_in_finalizers, release_compiler_lock  # noqa: E402
 from .language.errors import PcsgError  # noqa: E402
@@ -49,6 +50,7 @@ def _parser() -> argparse.ArgumentParser:
 
     p = argparse.ArgumentParser(prog="pcsg", description="Compile and inspect PCSG grammars: "
                                 "parametric CSG rewriting systems as cyclic CSG graphs.")
+    p.add_argument("--version", action="version", version=f"pcsg {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
 

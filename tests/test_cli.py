@@ -25,6 +25,14 @@ def sierpinski(tmp_path):
     return p
 
 
+def test_version_is_the_installed_distribution(capsys):
+    from importlib.metadata import version
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0
+    assert capsys.readouterr().out == f"pcsg {version('pcsg')}\n"
+
+
 def test_check_ok_and_errors(capsys, tmp_path, sierpinski):
     bad = tmp_path / "bad.pcsg"
     bad.write_text("{c = 1} S\n1: S → foo\n", encoding="utf-8")
