@@ -91,10 +91,10 @@ def test_the_clips_are_what_makes_the_fern_agree():
 
 
 def _without_clips(cut):
-    """The cut with its clipping left out: Cut.clips keeps none."""
+    """The cut with its clipping left out: Cut.clips_of keeps none."""
     class Whole(type(cut)):
-        def clips(self, leaf, above):
-            return ()
+        def clips_of(self, leaves, aboves):
+            return [() for _ in leaves]
     return Whole(**vars(cut))
 
 

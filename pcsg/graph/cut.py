@@ -43,44 +43,73 @@ class Cut:
         with np.errstate(invalid="ignore", over="ignore"):
             return VOLUME_NAMES[kind], world @ self.volume[node]
 
-    def clips(self, leaf: tuple[str, np.ndarray], above: tuple) -> tuple:
-        """The volumes of `above` ((name, world map) each) that do not hold the leaf's
-        volume, which the tracer clips it by. A graftal's box bounds its attractor, not
-        the boxes of its cut instances, and those can poke out of the boxes above."""
-        if not above:
-            return ()
-        box = np.array([name == "cube" for name, _ in above])
+    def clips_of(self, leaves: list, aboves: list) -> list[tuple]:
+        """For each leaf ((name, world map) of a cut graftal instance's volume), the
+        volumes of its `above` ((name, world map) each) that do not hold it, which the
+        tracer clips it by: a graftal's box bounds its attractor, not the boxes of its cut
+        instances, and those can poke out of the boxes above. In one batch of linear
+        algebra: a cut fern is thousands of leaves, each below a dozen volumes that its
+        siblings share (the same objects, so each is converted once)."""
+        index: dict[int, int] = {}
+        volumes, owner, which = [], [], []
+        for j, above in enumerate(aboves):
+            for v in above:
+                k = index.setdefault(id(v), len(volumes))
+                if k == len(volumes):
+                    volumes.append(v)
+                owner.append(j)
+                which.append(k)
+        if not owner:
+            return [() for _ in leaves]
+        owner, which = np.array(owner), np.array(which)
+        box = np.array([v[0] == "cube" for v in volumes])[which]
+        cube_leaf = np.array([leaf[0] == "cube" for leaf in leaves])[owner]
         with np.errstate(all="ignore"):
-            rel = _relative(np.array([m for _, m in above]), leaf[1])
+            rel = _relative(np.array([v[1] for v in volumes]), which,
+                            np.array([leaf[1] for leaf in leaves])[owner])
             a, c = rel[:, :3, :3], rel[:, :3, 3]
-            if leaf[0] == "cube":
-                in_box = (np.abs(c) + np.abs(a).sum(axis=2) <= 1.0).all(axis=1)
-                points = c[:, None] + _CORNERS @ a.transpose(0, 2, 1)
-                in_ball = (np.linalg.norm(points, axis=2) <= 1.0).all(axis=1)
-            else:
-                in_box = (np.abs(c) + np.linalg.norm(a, axis=2) <= 1.0).all(axis=1)
-                # |a| (Frobenius) bounds the ball's largest radius: at worst a clip that
-                # holds it is kept, and changes nothing
-                in_ball = np.linalg.norm(c, axis=1) + np.sqrt((a * a).sum(axis=(1, 2))) <= 1.0
-        held = np.where(box, in_box, in_ball).tolist()
-        return tuple(v for v, h in zip(above, held) if not h)
+            held = np.zeros(len(owner), dtype=bool)
+            for in_box, in_cube in ((True, True), (True, False), (False, True), (False, False)):
+                sel = (box == in_box) & (cube_leaf == in_cube)
+                held[sel] = _holds(in_box, in_cube, a[sel], c[sel])
+        out: list[list] = [[] for _ in leaves]
+        for j, k, h in zip(owner.tolist(), which.tolist(), held.tolist()):
+            if not h:
+                out[j].append(volumes[k])
+        return [tuple(o) for o in out]
 
 
-def _relative(outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
-    """outer^-1 inner for each of the maps outer (k, 4, 4); nan where one is singular (a
-    singular transform above: then the instance is empty too, and the export leaves it
-    out), which holds nothing."""
+def _holds(box: bool, cube: bool, a: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Whether the unit box (box) or ball holds the unit cube (cube) or ball mapped by
+    x -> a x + c, for each (a, c); nan (a singular volume) holds nothing."""
+    if box:
+        reach = np.abs(a).sum(axis=2) if cube else np.linalg.norm(a, axis=2)
+        return (np.abs(c) + reach <= 1.0).all(axis=1)
+    if cube:
+        points = c[:, None] + _CORNERS @ a.transpose(0, 2, 1)
+        return (np.linalg.norm(points, axis=2) <= 1.0).all(axis=1)
+    # |a| (Frobenius) bounds the ball's largest radius: at worst a clip that holds it is
+    # kept, and changes nothing
+    return np.linalg.norm(c, axis=1) + np.sqrt((a * a).sum(axis=(1, 2))) <= 1.0
+
+
+def _relative(maps: np.ndarray, which: np.ndarray, inner: np.ndarray) -> np.ndarray:
+    """maps[which]^-1 inner, pair by pair (solved: the leaves can be far thinner than
+    the volumes above them); nan where the map is singular (a singular transform above:
+    then the instance is empty too, and the export leaves it out), which holds nothing."""
+    rel = np.full(inner.shape, np.nan)
+    ok = np.isfinite(maps).all(axis=(1, 2))
+    ok[ok] = np.linalg.det(maps[ok, :3, :3]) != 0.0
+    pairs = np.flatnonzero(ok[which])
     try:
-        return np.linalg.solve(outer, np.broadcast_to(inner, outer.shape))
-    except np.linalg.LinAlgError:
-        ok = np.isfinite(outer).all(axis=(1, 2)) & (np.linalg.det(outer[:, :3, :3]) != 0.0)
-        rel = np.full(outer.shape, np.nan)
-        for j in np.flatnonzero(ok):
+        rel[pairs] = np.linalg.solve(maps[which[pairs]], inner[pairs])
+    except np.linalg.LinAlgError:      # an exact zero pivot that the 3x3 det missed
+        for j in pairs:
             try:
-                rel[j] = np.linalg.solve(outer[j], inner)
+                rel[j] = np.linalg.solve(maps[which[j]], inner[j])
             except np.linalg.LinAlgError:
                 pass
-        return rel
+    return rel
 
 
 _CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)

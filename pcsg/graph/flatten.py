@@ -71,16 +71,43 @@ def flatten(graph: Graph, max_primitives: int = 1_000_000, cut: Cut | None = Non
     return out
 
 
+CLIP_BATCH = 4096       # cut graftal instances whose clips are found at once
+
+
 def instances(graph: Graph, cut: Cut | None = None) -> Iterator[Instance]:
     """The primitives of the derivation one by one, in derivation order (left operand
     first), holding only the open branches: the form for streaming exports. With a cut
     (graph/cut.py), S-node instances deeper than its depth end as the tracer ends them."""
+    held: list[tuple[Instance, tuple | None]] = []
+    for inst, above in _derived(graph, cut):
+        held.append((inst, above))
+        if above is None and len(held) == 1:
+            yield held.pop()[0]         # no cut graftal instance waiting: straight through
+        elif len(held) >= CLIP_BATCH:
+            yield from _clipped(cut, held)
+            held = []
+    yield from _clipped(cut, held)
+
+
+def _clipped(cut: Cut | None, held: list) -> Iterator[Instance]:
+    if not held:
+        return
+    leaves = [(inst.primitive, inst.matrix) for inst, above in held if above is not None]
+    clips = iter(cut.clips_of(leaves, [above for _, above in held if above is not None]))
+    for inst, above in held:
+        if above is not None:
+            inst.clip = next(clips)
+        yield inst
+
+
+def _derived(graph: Graph, cut: Cut | None) -> Iterator[tuple[Instance, tuple | None]]:
+    """instances(), each cut graftal instance with the volumes above it (its clips to be)."""
     d = Deriver(graph)
     nodes = graph.nodes
     clipping = cut is not None and cut.graftal
 
     def entered(above: tuple, node: int, m: np.ndarray, parent: int = -1) -> tuple:
-        # the volumes that a cut graftal instance's is clipped by (Cut.clips): the box or
+        # the volumes that a cut graftal instance's is clipped by (Cut.clips_of): the box or
         # sphere of every node above it, in the frame it is entered in, as the tracer's
         # windows narrow; a T-node below a T-node is entered with it, one map (graph/flat.py)
         if not clipping or (parent >= 0 and nodes[parent].kind == TRANSFORM
@@ -96,7 +123,7 @@ def instances(graph: Graph, cut: Cut | None = None) -> Iterator[Instance]:
         i, state, h, m, paint, material, path, level, above = stack.pop()
         n = nodes[i]
         if n.kind == PRIMITIVE:
-            yield Instance(n.name, m, paint, material, path, graph.constant_args(i))
+            yield Instance(n.name, m, paint, material, path, graph.constant_args(i)), None
             continue
         if n.kind == SELECT:
             if level >= MAX_LEVELS:
@@ -106,8 +133,7 @@ def instances(graph: Graph, cut: Cut | None = None) -> Iterator[Instance]:
                 if r < 0:
                     leaf = cut.leaf(i, m)
                     if leaf is not None:            # above[-1] is its own volume
-                        yield Instance(*leaf, paint, material, path,
-                                       clip=cut.clips(leaf, above[:-1]))
+                        yield Instance(*leaf, paint, material, path), above[:-1]
                     continue
                 if level + 1 > 4 * cut.depth + 64:     # a terminating rule that recurses
                     continue
