@@ -211,6 +211,22 @@ def test_enclose_holds_every_ball_and_is_the_smallest_for_two():
     assert enclose(np.zeros((0, 4))) is None
 
 
+def test_enclose_from_a_nearby_centre_at_any_scale_and_strided():
+    """The compiled centre search (trace/enclose.py) from a warm start, on balls whose
+    coordinates are near the square root of the largest double, and on balls that are a
+    view into a bigger array."""
+    rng = np.random.default_rng(11)
+    balls = np.hstack([rng.normal(size=(40, 3)), rng.uniform(0, 0.3, (40, 1))])
+    cold = enclose(balls)
+    warm = enclose(balls, cold + np.array([1e-3, -2e-3, 1e-3, 0.0]))
+    assert abs(warm[3] - cold[3]) <= 1e-9 * cold[3]
+    huge = enclose(balls * 1e150)
+    assert np.allclose(huge / 1e150, cold, rtol=1e-8, atol=1e-8)
+    wide = np.zeros((40, 8))
+    wide[:, ::2] = balls
+    assert np.array_equal(enclose(wide[:, ::2]), cold)
+
+
 def test_the_sphere_points_span_a_hull_that_holds_the_ball():
     """How a sphere enters the box walk: the hull of ball_points must hold the ball; its
     inradius is the smallest distance of a face, checked here against many directions."""

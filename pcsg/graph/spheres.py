@@ -86,58 +86,16 @@ def enclose(balls: np.ndarray, near: np.ndarray | None = None) -> np.ndarray | N
     # the radius function max_j |x - c_j| + r_j is convex but has kinks; its smooth
     # stand-in, a log-sum-exp at sharpness t, is minimised by Newton's method as t grows
     # (each minimum starts the next); at the last t it is within log(k) / t of the max
+    from ..trace.enclose import centre_search
     t = 4.0 if near is None else WARM            # in units of 1 / size
-    while t <= SHARPEST:
-        centre = _newton(balls, centre, t / size, size)
-        t *= 10
+    centre = centre_search(np.ascontiguousarray(balls, dtype=np.float64),
+                           np.ascontiguousarray(centre, dtype=np.float64), t, SHARPEST,
+                           float(size))
     return np.append(centre, reach(balls, centre[None])[0])
 
 
 SHARPEST = 1e10         # the last sharpness, in units of 1 / size: radius within 1e-9
 WARM = 1e3              # the first sharpness from a nearby centre (the last round's)
-
-
-def _smooth(balls, x, t):
-    v = x - balls[:, :3]
-    d = np.maximum(np.linalg.norm(v, axis=1), 1e-300)
-    z = t * (d + balls[:, 3])
-    top = z.max()
-    e = np.exp(z - top)
-    return (top + math.log(e.sum())) / t, v / d[:, None], d, e / e.sum()
-
-
-def _newton(balls, x, t, size):
-    # with balls far apart at a high sharpness the Hessian overflows: the step is then
-    # not finite, no step length passes the line search, and x is the answer (numpy's
-    # warnings about it reached the user of `pcsg` as noise)
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        return _newton_steps(balls, x, t, size)
-
-
-def _newton_steps(balls, x, t, size):
-    f, u, d, w = _smooth(balls, x, t)
-    for _ in range(50):
-        g = w @ u
-        wu = u * w[:, None]
-        # Hessian: sum w (I - u u^T) / d + t (sum w u u^T - g g^T)
-        h = np.eye(3) * (w / d).sum() - (wu / d[:, None]).T @ u + t * (wu.T @ u - np.outer(g, g))
-        try:
-            step = np.linalg.solve(h + np.eye(3) * (1e-12 * np.trace(h) + 1e-300), g)
-        except np.linalg.LinAlgError:
-            step = g * size
-        a = 1.0
-        while a > 1e-9:
-            fy, uy, dy, wy = _smooth(balls, x - a * step, t)
-            if fy <= f - 1e-4 * a * float(g @ step):
-                break
-            a /= 2
-        else:
-            return x
-        x = x - a * step
-        f, u, d, w = fy, uy, dy, wy
-        if a * np.linalg.norm(step) < 1e-14 * size:
-            break
-    return x
 
 
 @functools.cache
