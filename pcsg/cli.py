@@ -19,7 +19,7 @@ IMPORTS_BEGAN = time.perf_counter()     # for --timings: the imports start here
 from . import __version__  # noqa: E402
 from .distributed.sweep import sweep_set  # noqa: E402
 from .interrupt import redeliver_in_finalizers, release_compiler_lock  # noqa: E402
-from .language.errors import PcsgError  # noqa: E402
+from .language.errors import PcsgError, labelled  # noqa: E402
 from .limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES,  # noqa: E402
                      bounces_problem)
 from .timings import Timings, note_startup  # noqa: E402
@@ -444,7 +444,7 @@ def cmd_render(args) -> int:
             failed.append(path)
             continue
         for note in notes:
-            print(f"{path}: {note}", file=sys.stderr)
+            print(labelled(path, note), file=sys.stderr)
         print(summary)
         if args.timings:
             print(timings.report(str(path)), file=sys.stderr, flush=True)

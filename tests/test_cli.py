@@ -57,6 +57,20 @@ def test_check_warnings_and_werror(capsys, tmp_path):
     assert code == 1
 
 
+def test_render_names_the_file_of_a_warning_once(capsys, tmp_path):
+    """A compile warning names its file:line:col itself; the render's other notes are
+    put after the file's name (they once both were: 'fern.pcsg: fern.pcsg:24:16: ...')."""
+    p = tmp_path / "fern.pcsg"
+    shutil.copy(GRAMMARS / "barnsley_fern.pcsg", p)
+    code, out, err = run(capsys, "render", str(p), "--size", "32x24", "-q",
+                         "-o", str(tmp_path / "fern.png"))
+    assert code == 0
+    lines = err.splitlines()
+    assert f"{p}:24:16: warning: 'FERN' can call itself here" in lines[0]
+    assert not [x for x in lines if x.startswith(f"{p}: {p}")]
+    assert [x for x in lines if x.startswith(f"{p}: level of detail: ")]
+
+
 def test_expand(capsys, sierpinski, tmp_path):
     code, out, err = run(capsys, "expand", str(sierpinski), "-n", "2", "--set", "c=2")
     assert code == 0, err

@@ -8,7 +8,7 @@ import time
 from collections import Counter
 from pathlib import Path
 
-from ..language.errors import PcsgError
+from ..language.errors import PcsgError, labelled
 from ..language.parser import read_source_text
 from ..output import write_atomic
 from ..render.job import Options, check_options, strict_failure, summary_line
@@ -159,7 +159,7 @@ class Batch:
         if self.manifest and job.opts.depth is None:
             self._manifest(job.out).record(job.out, key)
         for note in notes:
-            print(f"{job.label}: {note}", file=sys.stderr)
+            print(labelled(job.label, note), file=sys.stderr)
         print(summary_line(job.out, job.opts, seconds, rays) + extra)
         self.done += 1
 

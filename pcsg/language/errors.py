@@ -58,6 +58,12 @@ class Diagnostic:
         return self.format(show_source=False)
 
 
+def labelled(label, note: str) -> str:
+    """A note about a render as its line: after the file or frame it is about, unless it
+    starts with that already (a formatted Diagnostic names its own file)."""
+    return note if note.startswith(f"{label}:") else f"{label}: {note}"
+
+
 def _excerpt(src: Source, span, original=None) -> list[str]:
     """The source line with a caret run under the span (under the use, for macro text)."""
     if original is not None:

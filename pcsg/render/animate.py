@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..interrupt import release_compiler_lock
-from ..language.errors import PcsgError
+from ..language.errors import PcsgError, labelled
 from .job import Options, RenderFailed, render_file, traced_for
 from .path import bezier
 from ..resume import Manifest, output_key
@@ -204,7 +204,7 @@ class _Reporter:
             kind = re.sub(r"\d[\d,.]*", "#", note)    # the same note with other counts
             if kind not in self.seen:
                 self.seen.add(kind)
-                print(f"{job.png}: {note}", file=sys.stderr)
+                print(labelled(job.png, note), file=sys.stderr)
         if not self.anim.opts.quiet:
             elapsed = time.perf_counter() - self.start
             eta = elapsed / self.rendered * (self.todo - self.rendered)
