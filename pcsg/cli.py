@@ -598,12 +598,11 @@ def _export_progress(args, graph, cut):
     """A progress line for the export (a derivation of half a million primitives takes a
     minute), out of the primitives stats counts without expanding; none with -q, where
     they cannot be counted in a few thousand states (a system whose rules are drawn at
-    random would be derived twice), or where a cut ends the derivation (the count is of
-    the whole)."""
+    random would be derived twice). A cut (--max-depth) is counted as it derives."""
     from .graph.stats import count_primitives
     from .render.image import Progress
     try:
-        total = 0 if cut is not None else count_primitives(graph, max_states=PROGRESS_STATES)
+        total = count_primitives(graph, max_states=PROGRESS_STATES, cut=cut)
     except PcsgError:
         total = 0
     return Progress(f"{Path(args.file).name} export", total,

@@ -11,6 +11,8 @@ import pytest
 from pcsg.cli import main
 from pcsg.compiler import compile_file, compile_text
 from pcsg.graph.cut import cut_of
+from pcsg.graph.flatten import instances
+from pcsg.graph.stats import count_by_primitive, count_primitives
 from pcsg.graph.leaves import leaf_chunks
 from pcsg.trace.nodes import EV_DEPTH
 from pcsg.trace.reference import CLIP, Reference
@@ -96,6 +98,24 @@ def _without_clips(cut):
         def clips_of(self, leaves, aboves):
             return [() for _ in leaves]
     return Whole(**vars(cut))
+
+
+@pytest.mark.parametrize("name,depth", CASES + [("graftal_tree", 5), ("table_tower", 3),
+                                                ("carpenter_terrain", 3)])
+def test_the_cut_is_counted_as_it_derives(name, depth):
+    """What the export's progress line counts out of (stats.count_primitives with the
+    cut), without deriving, against the derivation, cut volumes and empty leaves too."""
+    if name in TEXTS:
+        graph = compile_text(TEXTS[name]())
+    else:
+        path = FERN if name == "fern" else GRAMMARS / f"{name}.pcsg"
+        graph = compile_file(path, {"cnt": 4.0} if name == "carpenter_terrain" else {})
+    cut = cut_of(Traced(graph, max_depth=depth))
+    derived = [inst.primitive for inst in instances(graph, cut)]
+    counted = count_by_primitive(graph, cut=cut)
+    assert counted == {k: derived.count(k) for k in set(derived)}
+    if not cut.graftal:         # and it is not the whole derivation's count
+        assert count_primitives(graph, cut=cut) < count_primitives(graph)
 
 
 @pytest.mark.parametrize("name,depth", [("sympodial_tree", 5), ("sierpinski", 3),

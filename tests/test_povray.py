@@ -154,8 +154,10 @@ def test_export_progress_is_out_of_the_counted_primitives_and_off_with_quiet(mon
     args = argparse.Namespace(file=str(TERRAIN), quiet=False)
     shown = _export_progress(args, graph, None)
     assert shown.enabled and shown.total == 129         # 128 triangles and the sea
-    # cut at a depth, the derivation is not what stats counts
-    assert not _export_progress(args, graph, cut_of(Traced(graph, max_depth=2))).enabled
+    # cut at a depth: the derivation as the cut ends it (MNT, then T1 and T2 divided
+    # once: 8 triangles and the sea)
+    cut = _export_progress(args, graph, cut_of(Traced(graph, max_depth=2)))
+    assert cut.enabled and cut.total == 9
     args.quiet = True
     assert not _export_progress(args, graph, None).enabled
 

@@ -6,6 +6,7 @@ from collections import Counter
 
 from ..language.errors import Diagnostic, PcsgError
 from ..recursion import recursion_limit
+from .cut import NO_VOLUME, VOLUME_NAMES, Cut
 from .dependence import StateKey
 from .derive import Deriver, format_value
 from .model import CALC, KIND_NAMES, OPERATORS, PRIMITIVE, SELECT, Graph
@@ -19,17 +20,20 @@ class Endless(Exception):
         self.diagnostic = diagnostic
 
 
-def count_primitives(graph: Graph, max_states: int = MAX_STATES) -> int:
-    """Primitives in the complete derivation of the axiom."""
-    return sum(count_by_primitive(graph, max_states).values())
+def count_primitives(graph: Graph, max_states: int = MAX_STATES, cut: Cut | None = None) -> int:
+    """Primitives in the complete derivation of the axiom (cut where `cut` says)."""
+    return sum(count_by_primitive(graph, max_states, cut).values())
 
 
-def count_by_primitive(graph: Graph, max_states: int = MAX_STATES) -> dict[str, int]:
+def count_by_primitive(graph: Graph, max_states: int = MAX_STATES,
+                       cut: Cut | None = None) -> dict[str, int]:
     """Primitives of each kind in the complete derivation of the axiom (memoised on node
     and the parameters that can change its derivation). PcsgError if it never ends, or
     passes max_states distinct states (a system that draws its rules at random has one
-    per instance: counting it costs about what deriving it does)."""
-    counter = _Counter(graph, max_states)
+    per instance: counting it costs about what deriving it does). With a cut
+    (graph/cut.py), the derivation flatten.instances writes: S-node instances deeper than
+    its depth end as the tracer ends them, a cut graftal instance as its volume."""
+    counter = _Counter(graph, max_states, cut)
     try:
         with recursion_limit(12 * MAX_LEVELS + 1000):
             state, h = counter.d.initial()
@@ -40,13 +44,16 @@ def count_by_primitive(graph: Graph, max_states: int = MAX_STATES) -> dict[str, 
 
 
 class _Counter:
-    def __init__(self, graph: Graph, max_states: int = MAX_STATES):
+    def __init__(self, graph: Graph, max_states: int = MAX_STATES, cut: Cut | None = None):
         self.g = graph
         self.max_states = max_states
+        self.cut = cut
         self.d = Deriver(graph)
         self.key = StateKey(graph)
-        self.kinds = sorted({n.name for n in graph.nodes if n.kind == PRIMITIVE})
+        kinds = {n.name for n in graph.nodes if n.kind == PRIMITIVE}
+        self.kinds = sorted(kinds | (set(VOLUME_NAMES.values()) if cut is not None else set()))
         self.unit = {k: tuple(int(k == j) for j in self.kinds) for k in self.kinds}
+        self.none = (0,) * len(self.kinds)
         self.memo: dict = {}
         self.active: set = set()
 
@@ -56,6 +63,8 @@ class _Counter:
         if node.kind == PRIMITIVE:
             return self.unit[node.name]
         key = self.key(node_id, state, h)
+        if self.cut is not None:        # the levels down to the cut derive differently
+            key = (key, min(level, self.cut.depth + 1))
         hit = self.memo.get(key)
         if hit is not None:
             return hit
@@ -66,8 +75,15 @@ class _Counter:
                                                         f"{min(level, MAX_LEVELS)} levels"))
         self.active.add(key)
         if node.kind == SELECT:
-            r = self.d.select(node_id, state, h)
-            total = self.count(node.children[r], state, self.d.edge(h, node_id, r), level + 1)
+            cut = self.cut is not None and level + 1 > self.cut.depth
+            r = int(self.cut.term[node_id]) if cut else self.d.select(node_id, state, h)
+            if r >= 0:
+                total = self.count(node.children[r], state, self.d.edge(h, node_id, r),
+                                   level + 1)
+            elif self.cut.kind[node_id] == NO_VOLUME:
+                total = self.none
+            else:
+                total = self.unit[VOLUME_NAMES[int(self.cut.kind[node_id])]]
         elif node.kind == CALC:
             total = self.count(node.children[0], self.d.calc(node_id, state, h), h, level)
         elif node.kind in OPERATORS.values():
