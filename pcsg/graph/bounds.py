@@ -268,7 +268,11 @@ def _attractor_boxes(w: _Walker, round_) -> tuple[np.ndarray, dict]:
         raise TooManyStates         # it does not contract
     # Each estimate's convex hull holds its attractor; the maps are affine, so a round's
     # corner points span hulls that hold it too, and these hulls (not their boxes) shrink
-    # towards the attractor, past what boxes turned by the maps could reach.
+    # towards the attractor, past what boxes turned by the maps could reach. Every
+    # round's boxes hold what they bound, so each node keeps the intersection of its
+    # boxes: the rounds themselves need not settle (the fern's hulls, cut back to their
+    # boxes' corners where they gather too many points, pass that slack around its three
+    # states without end, and a node's box of the last round was up to a third wider).
     boxes, used = w.boxes.copy(), est
     hulls = {k: _corners(b) for k, b in new.items()}
     for _ in range(TIGHTEN_ROUNDS):
@@ -276,11 +280,19 @@ def _attractor_boxes(w: _Walker, round_) -> tuple[np.ndarray, dict]:
         tighter = round_()
         if not all(k in hulls for k in tighter):
             break           # a state the invariant round did not meet: keep that round
-        boxes, used = w.boxes.copy(), hulls
-        if all(_same(as_box(v), as_box(hulls[k]), 1e-9) for k, v in tighter.items()):
+        used = hulls
+        shrunk = _intersect(boxes, w.boxes)
+        if _same(shrunk, boxes, 1e-9):
+            boxes = shrunk
             break
-        hulls = tighter
+        boxes, hulls = shrunk, tighter
     return boxes, used
+
+
+def _intersect(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The boxes (n, 6) that both a and b hold, row by row."""
+    return np.concatenate([np.maximum(a[:, :3], b[:, :3]), np.minimum(a[:, 3:], b[:, 3:])],
+                          axis=1)
 
 
 GROWTH = 1e-9           # relative widening per growing round: makes containment strict
