@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 import pcsg
+from pcsg.compiler import compile_file, compile_text
+from pcsg.graph import bounds
 from pcsg.trace.nodes import EV_LOD, N_EVENTS
 
 from .conftest import GRAMMARS
@@ -95,6 +97,39 @@ def test_the_fern_keeps_the_tightest_box_any_round_found(fern):
     real = np.isfinite(b).all(axis=1) & (b[:, 0] <= b[:, 3])
     assert real.sum() > 30
     assert np.prod(b[real, 3:] - b[real, :3], axis=1).sum() < 5300
+
+
+def test_the_attractor_boxes_start_from_invariant_balls_or_grow_from_a_point(monkeypatch):
+    """Two starts of the tightening rounds: balls that one round keeps inside themselves
+    (153 box rounds on the fern), and boxes grown from a point (405): both hold the
+    attractor, and the rounds take them to the same boxes."""
+    graph = compile_file(GRAMMARS / "barnsley_fern.pcsg", {})
+    found = []
+    real_balls = bounds._invariant_balls
+    monkeypatch.setattr(bounds, "_invariant_balls",
+                        lambda g, first: found.append(real_balls(g, first)) or found[-1])
+    from_balls = bounds.bound(graph)[0]
+    assert found and found[0] is not None
+    monkeypatch.setattr(bounds, "_invariant_balls", lambda g, first: None)
+    grown = bounds.bound(graph)[0]
+    real = np.isfinite(grown).all(axis=1) & (grown[:, 0] <= grown[:, 3])
+    assert np.abs(from_balls[real] - grown[real]).max() <= 1e-8 * np.abs(grown[real]).max()
+
+
+def test_maps_that_grow_balls_on_the_way_round_a_cycle_grow_a_box_instead(monkeypatch):
+    """scale(2, 0.25, 0.25) scale(0.25, 2, 0.25) contracts, but the ball walk scales a
+    ball by each map's largest singular value, 2 and 2: no ball is kept inside itself,
+    and the box grows from a point. The attractor is the segment from (0,0,0) (the first
+    map's fixed point) to (2,0,0) (the second's)."""
+    graph = compile_text("S ∪ move(0, 0, -3) plane\nS 1\n1: S → scale(2, 0.25, 0.25) "
+                         "scale(0.25, 2, 0.25) S ∪ move(1, 0, 0) uscale(0.5) S\n")
+    found = []
+    real_balls = bounds._invariant_balls
+    monkeypatch.setattr(bounds, "_invariant_balls",
+                        lambda g, first: found.append(real_balls(g, first)) or found[-1])
+    box = bounds.bound(graph)[0][graph.modules["S"]]
+    assert found == [None]
+    assert np.allclose(box, [0, 0, 0, 2, 0, 0], atol=1e-8)
 
 
 def test_finer_pixels_refine_the_fern_deeper(fern):

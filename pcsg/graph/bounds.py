@@ -251,12 +251,22 @@ def _memoised(graph: Graph) -> tuple[np.ndarray, dict, StateTable | None]:
 
 def _attractor_boxes(w: _Walker, round_) -> tuple[np.ndarray, dict]:
     """Boxes of a system whose cycles carry no primitive, by Hutchinson's theorem: a
-    set that the system's maps take into itself holds the attractor. Each re-entered
-    state's box grows from a point (and a hair each round) until a round from the
-    boxes stays inside them; from there, each further round still holds the attractor
-    and shrinks the boxes towards it, dropping the starting point."""
-    est: dict = {}
+    set that the system's maps take into itself holds the attractor. Such a set is a
+    ball about each re-entered state, doubled until one round of the maps keeps the balls
+    inside themselves; where doubling finds none (a cycle whose maps' singular values
+    multiply to 1 or more, though the cycle's own map contracts), each state's box grows
+    from a point (and a hair each round) until a round from the boxes stays inside them.
+    From there, each further round still holds the attractor and shrinks the boxes
+    towards it."""
     w.seed = SEED
+    w.estimate = {}
+    first = {k: as_box(v) for k, v in round_().items()}
+    held = _invariant_balls(w.g, first)
+    if held is not None:
+        found = _tighten(w, round_, held, None)
+        if found is not None:
+            return found
+    est: dict = {}
     for _ in range(MAX_ROUNDS):
         w.estimate = est
         new = {k: as_box(v) for k, v in round_().items()}
@@ -266,27 +276,58 @@ def _attractor_boxes(w: _Walker, round_) -> tuple[np.ndarray, dict]:
                for k, b in new.items()}
     else:
         raise TooManyStates         # it does not contract
-    # Each estimate's convex hull holds its attractor; the maps are affine, so a round's
-    # corner points span hulls that hold it too, and these hulls (not their boxes) shrink
-    # towards the attractor, past what boxes turned by the maps could reach. Every
-    # round's boxes hold what they bound, so each node keeps the intersection of its
-    # boxes: the rounds themselves need not settle (the fern's hulls, cut back to their
-    # boxes' corners where they gather too many points, pass that slack around its three
-    # states without end, and a node's box of the last round was up to a third wider).
-    boxes, used = w.boxes.copy(), est
-    hulls = {k: _corners(b) for k, b in new.items()}
+    return _tighten(w, round_, {k: _corners(b) for k, b in new.items()}, w.boxes.copy(), est)
+
+
+def _invariant_balls(graph: Graph, first: dict) -> dict | None:
+    """Corner points of the box about a ball per re-entered state, the balls such that
+    one round of the maps (graph/spheres.py's ball walk) takes them into themselves:
+    they hold the attractors. About the centres of the first round's boxes, the radius
+    doubled from their size; None if no radius up to 2^60 times that will do."""
+    from .spheres import _BallWalker, reach
+    walker = _BallWalker(graph)
+    boxes = [b for b in first.values() if b[0] <= b[3]]
+    if len(boxes) != len(first) or not np.all(np.isfinite(boxes)):
+        return None
+    centres = {k: (b[:3] + b[3:]) / 2 for k, b in first.items()}
+    radius = max(float(np.abs(b).max()) for b in boxes) + 1.0
+    for _ in range(60):
+        balls = {k: np.append(c, radius) for k, c in centres.items()}
+        out = walker.round(balls)
+        if out is None or out.keys() != balls.keys():
+            return None
+        if all(len(v) == 0 or reach(v, balls[k][None, :3])[0] <= radius
+               for k, v in out.items()):
+            return {k: _corners(np.concatenate([c - radius, c + radius]))
+                    for k, c in centres.items()}
+        radius *= 2
+    return None
+
+
+def _tighten(w: _Walker, round_, hulls: dict, boxes: np.ndarray | None,
+             used: dict | None = None) -> tuple[np.ndarray, dict] | None:
+    """From hulls that hold the re-entered states' attractors, the boxes each node keeps
+    and the hulls of the last round used; None if the first round meets a state the
+    hulls do not bound (with no boxes given).
+    Each estimate's convex hull holds its attractor; the maps are affine, so a round's
+    corner points span hulls that hold it too, and these hulls (not their boxes) shrink
+    towards the attractor, past what boxes turned by the maps could reach. Every round's
+    boxes hold what they bound, so each node keeps the intersection of its boxes: the
+    rounds themselves need not settle (the fern's hulls, cut back to their boxes'
+    corners where they gather too many points, pass that slack around its three states
+    without end, and a node's box of the last round was up to a third wider)."""
     for _ in range(TIGHTEN_ROUNDS):
         w.estimate = hulls
         tighter = round_()
         if not all(k in hulls for k in tighter):
-            break           # a state the invariant round did not meet: keep that round
+            break           # a state the hulls do not bound: keep the rounds before
         used = hulls
-        shrunk = _intersect(boxes, w.boxes)
-        if _same(shrunk, boxes, 1e-9):
+        shrunk = w.boxes.copy() if boxes is None else _intersect(boxes, w.boxes)
+        if boxes is not None and _same(shrunk, boxes, 1e-9):
             boxes = shrunk
             break
         boxes, hulls = shrunk, tighter
-    return boxes, used
+    return None if boxes is None else (boxes, used)
 
 
 def _intersect(a: np.ndarray, b: np.ndarray) -> np.ndarray:
