@@ -99,15 +99,21 @@ def test_the_fern_keeps_the_tightest_box_any_round_found(fern):
     assert np.prod(b[real, 3:] - b[real, :3], axis=1).sum() < 5300
 
 
+def _watch_invariant_balls(monkeypatch) -> list:
+    """What each call of bounds._invariant_balls returns, in a list that fills as it runs."""
+    found = []
+    real = bounds._invariant_balls
+    monkeypatch.setattr(bounds, "_invariant_balls",
+                        lambda g, first: found.append(real(g, first)) or found[-1])
+    return found
+
+
 def test_the_attractor_boxes_start_from_invariant_balls_or_grow_from_a_point(monkeypatch):
     """Two starts of the tightening rounds: balls that one round keeps inside themselves
     (153 box rounds on the fern), and boxes grown from a point (405): both hold the
     attractor, and the rounds take them to the same boxes."""
     graph = compile_file(GRAMMARS / "barnsley_fern.pcsg", {})
-    found = []
-    real_balls = bounds._invariant_balls
-    monkeypatch.setattr(bounds, "_invariant_balls",
-                        lambda g, first: found.append(real_balls(g, first)) or found[-1])
+    found = _watch_invariant_balls(monkeypatch)
     from_balls = bounds.bound(graph)[0]
     assert found and found[0] is not None
     monkeypatch.setattr(bounds, "_invariant_balls", lambda g, first: None)
@@ -123,10 +129,7 @@ def test_maps_that_grow_balls_on_the_way_round_a_cycle_grow_a_box_instead(monkey
     map's fixed point) to (2,0,0) (the second's)."""
     graph = compile_text("S ∪ move(0, 0, -3) plane\nS 1\n1: S → scale(2, 0.25, 0.25) "
                          "scale(0.25, 2, 0.25) S ∪ move(1, 0, 0) uscale(0.5) S\n")
-    found = []
-    real_balls = bounds._invariant_balls
-    monkeypatch.setattr(bounds, "_invariant_balls",
-                        lambda g, first: found.append(real_balls(g, first)) or found[-1])
+    found = _watch_invariant_balls(monkeypatch)
     box = bounds.bound(graph)[0][graph.modules["S"]]
     assert found == [None]
     assert np.allclose(box, [0, 0, 0, 2, 0, 0], atol=1e-8)

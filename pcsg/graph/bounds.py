@@ -68,8 +68,15 @@ def union_box(a, b):
 
 
 def intersect_box(a, b):
-    out = np.concatenate([np.maximum(a[:3], b[:3]), np.minimum(a[3:], b[3:])])
+    out = intersect_rows(a, b)
     return out if np.all(out[:3] <= out[3:]) else EMPTY.copy()
+
+
+def intersect_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The box (6,), or the boxes (n, 6) row by row, that both a and b hold; an empty
+    one as it comes (lo above hi)."""
+    return np.concatenate([np.maximum(a[..., :3], b[..., :3]),
+                           np.minimum(a[..., 3:], b[..., 3:])], axis=-1)
 
 
 MAX_POINTS = 256       # corner points kept per instance before they are merged into a box
@@ -322,18 +329,12 @@ def _tighten(w: _Walker, round_, hulls: dict, boxes: np.ndarray | None,
         if not all(k in hulls for k in tighter):
             break           # a state the hulls do not bound: keep the rounds before
         used = hulls
-        shrunk = w.boxes.copy() if boxes is None else _intersect(boxes, w.boxes)
+        shrunk = w.boxes.copy() if boxes is None else intersect_rows(boxes, w.boxes)
         if boxes is not None and _same(shrunk, boxes, 1e-9):
             boxes = shrunk
             break
         boxes, hulls = shrunk, tighter
     return None if boxes is None else (boxes, used)
-
-
-def _intersect(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The boxes (n, 6) that both a and b hold, row by row."""
-    return np.concatenate([np.maximum(a[:, :3], b[:, :3]), np.minimum(a[:, 3:], b[:, 3:])],
-                          axis=1)
 
 
 GROWTH = 1e-9           # relative widening per growing round: makes containment strict

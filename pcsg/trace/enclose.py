@@ -85,10 +85,11 @@ def centre_search(balls, centre, t, sharpest, size):
             wd = 0.0
             for j in range(k):
                 wd += w[j] / d[j]
+                bend = s - 1.0 / d[j]
                 for a in range(3):
                     g[a] += w[j] * u[j, a]
                     for b in range(3):
-                        h[a, b] += w[j] * u[j, a] * u[j, b] * (s - 1.0 / d[j])
+                        h[a, b] += w[j] * u[j, a] * u[j, b] * bend
             trace = 0.0
             for a in range(3):
                 for b in range(3):
