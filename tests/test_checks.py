@@ -1,7 +1,7 @@
 """Static checks: definite assignment over the cyclic graph, termination and contraction."""
-from pcsg.compiler import compile_text
+from pcsg.compiler import compile_file, compile_text
 
-from .conftest import FIG3A_AS_PRINTED, SIERPINSKI, errors_of
+from .conftest import FIG3A_AS_PRINTED, GRAMMARS, SIERPINSKI, errors_of
 
 
 def warnings_of(text):
@@ -73,6 +73,22 @@ class TestContraction:
         # the tree's leaf segments: a rotation, repeated `segments` times
         assert warnings_of("{n = 2} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
                            "2: S → sphere ∪ {n = n-1} move(0,0,1) rotz(-90) S") == []
+
+    def test_growth_is_reported(self):
+        w = warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
+                        "2: S → sphere ∪ {n = n-1} move(2,0,0) uscale(1.1) S")
+        assert [x.code for x in w] == ["non-contracting"]
+
+    def test_a_cycle_that_shrinks_along_some_axes_is_not_reported(self):
+        assert warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
+                           "2: S → sphere ∪ {n = n-1} move(2,0,0) scale(0.5,0.5,1) S") == []
+
+    def test_the_terrain_is_clean_at_every_order(self):
+        # its cycles halve x and y and keep z: it was reported at cnt 12 and not at 8 to
+        # 11, as deep as the probe's walk happened to go
+        for cnt in (8, 12, 16):
+            result = compile_file(GRAMMARS / "carpenter_terrain.pcsg", overrides={"cnt": cnt})
+            assert result.warnings == [], cnt
 
     def test_contracting_cycle_is_clean(self):
         assert warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
