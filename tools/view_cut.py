@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcsg.cli import _set_value
+from pcsg.arguments import set_value
 from pcsg.compiler import compile_file
 from pcsg.graph.bounds import EMPTY, _corners, as_box, transform_bound, union_box
 from pcsg.graph.derive import Deriver
@@ -114,7 +114,7 @@ class ViewCut:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("file")
-    ap.add_argument("--set", action="append", default=[], type=_set_value, metavar="NAME=VALUE")
+    ap.add_argument("--set", action="append", default=[], type=set_value, metavar="NAME=VALUE")
     ap.add_argument("--size", default="640x480")
     args = ap.parse_args()
     w, h = (int(v) for v in args.size.split("x"))
