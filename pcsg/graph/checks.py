@@ -252,12 +252,12 @@ def _probe(graph: Graph) -> list[Diagnostic]:
                 repeats = 0
                 if prev is not None:
                     rel = np.linalg.solve(prev[0], lin) if np.linalg.det(prev[0]) != 0 else lin
-                    norm = _least_scale(rel)
-                    repeats = prev[1] + 1 if not norm < 1 - 1e-9 else 0
+                    least = _least_scale(rel)
+                    repeats = prev[1] + 1 if not least < 1 - 1e-9 else 0
                     if repeats >= PROBE_REPEATS and i not in reported and edge is not None:
                         reported[i] = _diag(graph, "warning", f"'{n.name}' calls itself here "
                                             f"{repeats} times in a row through transformations "
-                                            f"that shrink it in no direction (scale {norm:.3g} "
+                                            f"that shrink it in no direction (scale {least:.3g} "
                                             f"per cycle at least): bounding boxes and the level "
                                             f"of detail cannot stop it", edge, "non-contracting")
                 seen = {**seen, i: (lin, repeats)}
