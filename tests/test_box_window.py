@@ -1,4 +1,4 @@
-"""The slab test every box test of both walks makes (nodes.box_window, nodes.slabs, and
+"""The slab test every box test of both walks makes (windows.box_window, windows.slabs, and
 simd.quad_windows for four boxes at once), against the textbook definition: a ray
 parallel to a slab is inside it for all t or for none, decided by its origin, sides
 included. The kernel reads no direction, only 1/d, and has no branch for d = 0 or -0:
@@ -9,8 +9,8 @@ import numpy as np
 from hypothesis import assume, given, settings, strategies as st
 from numba import njit
 
-from pcsg.trace.nodes import (DX, F_WIDTH, FAR, INV, OX, box_window, map_ray_scaled,
-                              set_inverse, slabs)
+from pcsg.trace.nodes import DX, F_WIDTH, INV, OX, map_ray_scaled, set_inverse
+from pcsg.trace.windows import FAR, box_window, slabs
 from pcsg.trace.simd import quad_windows
 
 # few distinct values, so that origins fall on side planes and sides coincide often

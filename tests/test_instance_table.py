@@ -11,7 +11,8 @@ from pcsg.graph.model import DIFFERENCE, INTERSECTION, SELECT, UNION
 from pcsg.graph.regroup import regroup
 from pcsg.trace.boxwalk import walk_boxes
 from pcsg.trace.instance_table import OWNER, clip_to_owners, drop_level, empty_table, record
-from pcsg.trace.nodes import DX, F_WIDTH, OX, box_window, set_inverse, table_slot
+from pcsg.trace.nodes import DX, F_WIDTH, OX, set_inverse
+from pcsg.trace.windows import box_window, table_slot
 
 from .conftest import GRAMMARS
 from .oracle import camera_rays

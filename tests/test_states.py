@@ -10,7 +10,8 @@ from pcsg.graph import bounds, states
 from pcsg.graph.model import CALC, SELECT, TRANSFORM, UNION
 from pcsg.render.camera import finite_bounds
 from pcsg.trace.instance_table import OWNER
-from pcsg.trace.nodes import EV_VISITS, table_slot
+from pcsg.trace.nodes import EV_VISITS
+from pcsg.trace.windows import table_slot
 
 from .conftest import GRAMMARS
 from .oracle import camera_rays

@@ -5,7 +5,7 @@ memoised walk could bound a system, every instance of an S-node with the same
 values of the parameters its derivation depends on (a state) has the same box, and
 the states are few: the sympodial tree's TR has 17, one per remaining order and trunk
 segment. A deep branch's own box is then a hundredth of the hyper box's volume, which
-holds the whole tree. The tracer keys the instance table by the state (trace/nodes.py
+holds the whole tree. The tracer keys the instance table by the state (trace/windows.py
 state_slot) instead of by the instance's path, and narrows the window of a ray that
 refines the instance to that box.
 
@@ -45,7 +45,7 @@ class StateTable:
 
 def state_hash(node: int, values) -> int:
     """The key of S-node `node` entered with these values of its key's slots; the
-    tracer computes the same bits (trace/nodes.py state_slot)."""
+    tracer computes the same bits (trace/windows.py state_slot)."""
     h = int(splitmix64(node))
     for v in values:
         h = int(mix(h, float_bits(float(v))))

@@ -6,7 +6,7 @@ tracer refines it until an instance is smaller than a pixel and hits that instan
 bounding volume. Each such node gets the volume with the smaller average projected
 area, which for a convex body is a quarter of its surface area (Cauchy): a box of
 sides a, b, c has 2(ab + bc + ca) / 4, a sphere of radius r has pi r^2. Where the sphere
-wins, the tracer culls the node's instances by it and hits it (trace/nodes.py
+wins, the tracer culls the node's instances by it and hits it (trace/windows.py
 node_window, volume_normal), and the boxes above are computed from the sphere, so that
 they hold it and a sub-pixel instance's surface is its sphere."""
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The bounding walk's instance table: the boxes of the S-node instances and operator
 operands of the top derivation levels, keyed by instance hash, for the tracer to cull
-by (nodes.instance_window). It keeps as many whole levels as fit: when it would pass
+by (windows.instance_window). It keeps as many whole levels as fit: when it would pass
 its entry limit it drops its deepest level.
 
 A walk split over threads (trace/boxsplit.py) cannot share one open-addressing table,
@@ -14,7 +14,7 @@ from numba import njit
 
 from . import vm
 from .jit import copy_into, inline, kernel
-from .nodes import table_slot
+from .windows import table_slot
 from .pad import pad_row
 
 TABLE_SLOTS = 1 << 19      # instance boxes kept: ~30 MB at most, whatever the order

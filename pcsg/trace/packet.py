@@ -32,10 +32,11 @@ from .deferred import defer_step
 from .nodes import (BOXED, CUT, DCALC, DPAINT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, INV, LEVEL, M0, MAT,
                     N_EVENTS, NAVG, NODE, OX, PAINT, PHASE, RAY_WIDTH, SLOT, T0, T1, axis_aligned,
-                    child_hash, copy_frame, culprit, instance_slot, map_matrix, map_ray,
-                    map_ray_scaled, note, operand_entry, operand_slot, packet_box, pick_rule,
-                    powers_of_two, set_inverse, slabs, state_slot, transform_map, volume_window,
-                    world_size)
+                    child_hash, copy_frame, culprit, map_matrix, map_ray, map_ray_scaled, note,
+                    pick_rule, powers_of_two, set_inverse, transform_map)
+from .normals import world_size
+from .windows import (instance_slot, operand_entry, operand_slot, packet_box, slabs, state_slot,
+                      volume_window)
 from .simd import LANES, quad_windows
 from .walk import finish, hit_primitive, hit_volume, step_unary, walk
 

@@ -5,7 +5,7 @@ its box; the packets test every ray of a frame against all four (packet.split_qu
 which took about a third of the terrain's camera rays' time as four scalar tests. numba compiles the four slab tests
 written out in Python to scalar code, even side by side (LLVM's SLP vectoriser leaves
 them: the boxes are read through array strides), so this writes them as vector IR: the
-same comparisons and selects as nodes._slab and Python's max and min as numba lowers
+same comparisons and selects as windows._slab and Python's max and min as numba lowers
 them (ordered compares, then select), so the windows are the same to the bit."""
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-from .nodes import FAR
+from .windows import FAR
 
 LANES = 4
 
@@ -23,7 +23,7 @@ def quad_windows(typingctx, boxes, ox, oy, oz, ix, iy, iz, w0, w1):
     """(entry 0..3, exit 0..3): the window [w0, w1] of the ray at (ox, oy, oz) with
     inverse direction (ix, iy, iz) narrowed to each of the four boxes whose rows x0, y0,
     z0, x1, y1, z1 are the rows of `boxes` (a C-contiguous (6, 4) float64 array), as
-    max(w0, t0), min(w1, t1) of nodes.slabs; the window is empty where entry > exit."""
+    max(w0, t0), min(w1, t1) of windows.slabs; the window is empty where entry > exit."""
     if not (isinstance(boxes, types.Array) and boxes.ndim == 2 and boxes.layout == "C"
             and boxes.dtype == types.float64):
         return None
@@ -56,7 +56,7 @@ def quad_windows(typingctx, boxes, ox, oy, oz, ix, iy, iz, w0, w1):
         inv = [splat(v) for v in scalars[3:6]]
         t0 = splat(ir.Constant(double, -FAR))
         t1 = splat(ir.Constant(double, FAR))
-        for axis in range(3):               # nodes._slab
+        for axis in range(3):               # windows._slab
             ta = builder.fmul(builder.fsub(row(axis), o[axis]), inv[axis])
             tb = builder.fmul(builder.fsub(row(axis + 3), o[axis]), inv[axis])
             swap = builder.fcmp_ordered(">", ta, tb)

@@ -13,13 +13,13 @@ from ..graph.model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, PAINT as PA
                            PRIMITIVE, SELECT, TRANSFORM, UNION)
 from . import vm
 from .jit import copy_into, inline, kernel
-from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE,
-                    EV_SELECTION, EV_SINGULAR, EV_STACK, EV_VISITS, INSIDE,
-                    DPAINT, LEVEL, MAT, NODE, OX, PAINT, PHASE, SLOT, T0, T1, axis_aligned,
-                    child_hash, copy_frame, culprit, enter_paint, entry_window, instance_slot,
-                    operand_entry, node_window, enter_transform, instance_window, note,
-                    operand_slot, pick_rule, cached_calc, state_window, volume_window,
-                    world_diameter, world_normal, world_size, average_box_normal, volume_normal)
+from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
+                    EV_SINGULAR, EV_STACK, EV_VISITS, INSIDE, DPAINT, LEVEL, MAT, NODE, OX, PAINT,
+                    PHASE, SLOT, T0, T1, axis_aligned, child_hash, copy_frame, culprit,
+                    enter_paint, enter_transform, note, pick_rule, cached_calc)
+from .normals import world_diameter, world_normal, world_size, average_box_normal
+from .windows import (entry_window, instance_slot, operand_entry, node_window, instance_window,
+                      operand_slot, state_window, volume_window, volume_normal)
 from .deferred import defer_step, deferred_paint
 from .fractals import march
 from .primitives import FRACTAL_MIN, JULIA, intersect
