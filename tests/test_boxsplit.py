@@ -12,8 +12,7 @@ from pcsg.trace.instance_table import TABLE_SLOTS, new_book
 from tests.conftest import GRAMMARS
 
 
-def split_walk(graph, depth, workers, budget=10**9, most=TABLE_SLOTS // 2, slots=TABLE_SLOTS,
-               watch=None):
+def split_walk(graph, depth, workers, budget=10**9, most=TABLE_SLOTS // 2, watch=None):
     n = len(graph.nodes)
     empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
     flat = flatten_graph(graph, empty, runs=False)     # as walk_boxes: runs map by map
@@ -22,8 +21,8 @@ def split_walk(graph, depth, workers, budget=10**9, most=TABLE_SLOTS // 2, slots
     per_level = np.zeros(depth + 2, dtype=np.int64)
     changed = np.zeros(1, dtype=np.int64)
     capacity = (depth + 2) * (n + 2) + 16
-    visits, table = walk_split(flat, depth, budget, capacity, boxes, book, slots, per_level,
-                               changed, workers, watch)
+    visits, table = walk_split(flat, depth, budget, capacity, boxes, book, per_level, changed,
+                               workers, watch)
     if table is None:
         return visits, boxes, int(changed[0]), per_level.tolist(), int(book[0]), None, flat
     keys, used, vals = table
@@ -57,11 +56,11 @@ def test_split_walk_keeps_the_levels_that_fit():
     """With room for 300 entries the table keeps the levels whose instances, counted
     over every thread, fit; the threads' buffers drop their own deepest levels on the way."""
     graph = compile_file(GRAMMARS / "carpenter_terrain.pcsg", {"cnt": 6})
-    one = split_walk(graph, 64, 1, most=300, slots=1024)
+    one = split_walk(graph, 64, 1, most=300)
     assert 0 < one[4] < 6
     assert sum(one[3][:one[4] + 1]) <= 300 < sum(one[3][:one[4] + 2])
     assert len(one[5]) == sum(one[3][:one[4] + 1])
-    two = split_walk(graph, 64, 2, most=300, slots=1024)
+    two = split_walk(graph, 64, 2, most=300)
     assert two[0] == one[0] and np.array_equal(two[1], one[1]) and two[2:6] == one[2:6]
 
 
@@ -81,7 +80,7 @@ def test_a_table_of_fewer_levels_holds_the_same_entries():
     graph = compile_file(GRAMMARS / "carpenter_terrain.pcsg", {"cnt": 6})
     full = split_walk(graph, 64, 1)
     for workers in (1, 2):
-        few = split_walk(graph, 64, workers, most=300, slots=1024)
+        few = split_walk(graph, 64, workers, most=300)
         assert 0 < few[4] < full[4]
         kept = [e for e in full[5] if e[1] <= few[4] + 1]
         assert few[5] == kept and np.array_equal(few[1], full[1])
@@ -101,7 +100,7 @@ def test_a_system_that_draws_from_hashes_is_bounded_alike_whatever_its_table_kee
     graph = compile_text(DRAWS)
     full = split_walk(graph, 64, 1)
     for workers in (1, 2):
-        few = split_walk(graph, 64, workers, most=20, slots=64)
+        few = split_walk(graph, 64, workers, most=20)
         assert 0 <= few[4] < full[4]
         assert np.array_equal(few[1], full[1]) and few[0] == full[0]
 

@@ -10,12 +10,22 @@ from pcsg.compiler import compile_file
 from pcsg.graph.model import DIFFERENCE, INTERSECTION, SELECT, UNION
 from pcsg.graph.regroup import regroup
 from pcsg.trace.boxwalk import walk_boxes
-from pcsg.trace.instance_table import OWNER, clip_to_owners, drop_level, empty_table, record
+from pcsg.trace.instance_table import (OWNER, clip_to_owners, drop_level, empty_table, record,
+                                       tracer_rows)
 from pcsg.trace.nodes import DX, F_WIDTH, OX, set_inverse
 from pcsg.trace.windows import box_window, table_slot
 
 from .conftest import GRAMMARS
 from .oracle import camera_rays
+
+
+def outwards32(boxes):
+    """(boxes' lower sides, their upper sides) rounded outwards to float32."""
+    b = np.asarray(boxes, dtype=np.float64)
+    f = b.astype(np.float32)
+    low = np.where(f > b, np.nextafter(f, np.float32(-np.inf)), f)
+    high = np.where(f < b, np.nextafter(f, np.float32(np.inf)), f)
+    return low, high
 
 
 def find(keys, used, key):
@@ -61,14 +71,16 @@ def test_record_keeps_the_most_levels_that_fit():
 def test_every_entry_lies_in_its_owners_box():
     """The walk names each entry's owner: the S-node of an S-node instance, the operand
     node of an operand. The owner's box is the union of its instances' boxes, so the
-    entry lies inside it exactly (before padding)."""
+    entry lies inside it (before padding) but for its rounding outwards to float32, which
+    is monotone: inside the owner's box rounded the same way."""
     graph = compile_file(GRAMMARS / "carpenter_terrain.pcsg", {"cnt": 4})
     boxes, complete, (keys, used, vals), depth = walk_boxes(graph, instances=True)
-    assert complete
+    assert complete and vals.dtype == np.float32
     kept = used > 0
     owner = vals[kept, OWNER].astype(np.int64)
     box = vals[kept, :OWNER]
-    assert np.all(box[:, :3] >= boxes[owner, :3]) and np.all(box[:, 3:] <= boxes[owner, 3:])
+    low, high = outwards32(boxes)
+    assert np.all(box[:, :3] >= low[owner, :3]) and np.all(box[:, 3:] <= high[owner, 3:])
     selects = {i for i, n in enumerate(graph.nodes) if n.kind == SELECT}
     operands = {c for n in graph.nodes if n.kind in (UNION, INTERSECTION, DIFFERENCE)
                 for c in n.children}
@@ -140,19 +152,20 @@ def test_disjoint_boxes_whose_rounded_windows_touch_give_an_empty_entry():
     assert c0 > c1
 
 
-def test_the_tracer_reads_the_table_in_rows_of_one_cache_line():
-    """Flat's inst_keys, inst_used and inst_boxes are views of one array of 64-byte rows,
-    aligned, so a probe and the box it finds share a line; every entry is found at its
-    own slot, with the level it was kept at."""
-    obj = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=4)
+def test_the_tracer_reads_the_table_in_rows_of_half_a_cache_line():
+    """Flat's inst_keys and inst_boxes are views of one array of 32-byte rows (the box as
+    float32, the key), aligned, so a probe and the box it finds share a line; a probe
+    reads the keys alone (0: an empty slot), and every entry is found at its own slot.
+    inst_used, apart, holds the level each was kept at."""
+    obj = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=5)
     flat = obj.flat
     rows = flat.inst_boxes
-    assert rows.shape[1] == 8 and rows.ctypes.data % 64 == 0
-    assert np.shares_memory(flat.inst_keys, rows) and np.shares_memory(flat.inst_used, rows)
-    kept = np.flatnonzero(flat.inst_used)
-    assert len(kept) > 300
+    assert rows.dtype == np.float32 and rows.shape[1] == 8 and rows.ctypes.data % 64 == 0
+    assert np.shares_memory(flat.inst_keys, rows) and not np.shares_memory(flat.inst_used, rows)
+    kept = np.flatnonzero(flat.inst_keys)
+    assert len(kept) > 300 and np.array_equal(kept, np.flatnonzero(flat.inst_used))
     for i in kept:
-        assert table_slot(flat.inst_keys, flat.inst_used, flat.inst_keys[i]) == i
+        assert table_slot(flat.inst_keys, flat.inst_keys, flat.inst_keys[i]) == i
     assert flat.inst_deepest == flat.inst_used.max() - 1
 
 
@@ -161,18 +174,21 @@ def test_the_operands_of_an_instance_lie_side_by_side():
     neighbouring slots (vm.operand_key): in the terrain's table each of a subdividing
     instance's four operands but the last has the next one's key, one slot on but where
     probing moved it. (The walks read these entries, or the test below would fail.)"""
-    graph = regroup(compile_file(GRAMMARS / "carpenter_terrain.pcsg", {"cnt": 4}))
-    _, _, (keys, used, vals), _ = walk_boxes(graph, instances=True)
+    graph = regroup(compile_file(GRAMMARS / "carpenter_terrain.pcsg", {"cnt": 5}))
+    boxes, _, (keys, used, vals), _ = walk_boxes(graph, instances=True)
     kinds = np.array([n.kind for n in graph.nodes])
     kept = np.flatnonzero(used)
-    operands = kept[kinds[vals[kept, OWNER].astype(np.int64)] != SELECT]
-    slot = {int(keys[i]): i for i in operands}
+    operand_keys = keys[kept[kinds[vals[kept, OWNER].astype(np.int64)] != SELECT]]
+    rows = tracer_rows(keys, used, vals, boxes)
+    keys = rows["inst_keys"]
+    at = {int(k): i for i, k in enumerate(keys) if k}
+    slot = {int(k): at[int(k)] for k in operand_keys}
     pairs = [(i, slot[k + 1]) for k, i in slot.items() if k + 1 in slot]
     # the T1 and T2 instances that subdivide, each into four operands, and the three
     # operands that are no S-node above them: the two of MNT, and the sea (whose
     # neighbour, MNT, is one)
     subdividing = 2 * (1 + 4 + 16 + 64)
-    assert len(operands) == 4 * subdividing + 3 and len(pairs) == 3 * subdividing + 1
+    assert len(operand_keys) == 4 * subdividing + 3 and len(pairs) == 3 * subdividing + 1
     apart = np.array([(j - i) % len(keys) for i, j in pairs])
     assert np.median(apart) == 1 and np.mean(apart <= 4) > 0.9
 
@@ -208,11 +224,13 @@ def test_the_walks_probe_the_table_down_to_its_deepest_level_and_no_further(pack
     assert np.array_equal(emptied(last, last - 1), whole)
 
 
-def test_a_row_table_is_laid_out_in_place_as_a_copied_table_is():
-    """A table merged into row_table's arrays becomes the tracer's rows in place (no copy),
-    with the same rows as a plain table copied into them: each entry padded and cut to its
-    owner, `used` where the owner was, and a slot whose entry was dropped empty."""
-    from pcsg.trace.instance_table import row_table, tracer_rows
+def test_the_tracer_lays_out_a_hashed_table_as_its_list_of_entries():
+    """tracer_rows hashes the entries of a table (a walk's list of them, or a hashed
+    table with empty slots and dropped ones) into its rows: the same rows either way,
+    each entry padded, cut to its owner and rounded outwards to float32, found by its key
+    alone, with its level beside; a dropped entry is not there."""
+    from pcsg.trace.instance_table import compact
+    from pcsg.trace.vm import mix
     from pcsg.trace.pad import pad_boxes
     rng = np.random.default_rng(3)
     boxes = np.array([[0.0, 0, 0, 1, 1, 1], [-2.0, -2, -2, 2, 2, 2]])
@@ -220,22 +238,29 @@ def test_a_row_table_is_laid_out_in_place_as_a_copied_table_is():
     pad_boxes(padded)
     lows = rng.uniform(-1.5, 0.5, (40, 3))
     entries = np.c_[lows, lows + rng.uniform(0, 1.5, (40, 3))]
-    rows_table, plain = row_table(64), empty_table(64)
-    for table in (rows_table, plain):
-        for k, box in enumerate(entries):
-            record(k % 3, np.uint64(1000 + 7 * k), 5, -1, k % 2, box,
-                   np.array([2, 64, 0, 0, 0, 0], dtype=np.int64), *table, np.zeros(4, dtype=np.int64))
-        drop_level(2, *table)               # leaves stale keys and owners in its slots
-    assert (rows_table[1] == 0).sum() > 24 and not np.array_equal(rows_table[2][:, OWNER], 0)
-    data = rows_table[2].ctypes.data
-    fields = tracer_rows(*rows_table, padded)
-    assert fields["inst_boxes"].ctypes.data == data            # finished where it lay
-    want = tracer_rows(*plain, padded)
-    assert fields["inst_boxes"].ctypes.data % 64 == 0
-    assert np.array_equal(fields["inst_used"], want["inst_used"])
-    live = want["inst_used"] > 0
-    assert np.array_equal(fields["inst_keys"][live], want["inst_keys"][live])
-    assert np.array_equal(fields["inst_boxes"][live, :6], want["inst_boxes"][live, :6])
-    assert fields["inst_deepest"] == want["inst_deepest"] == 1
-    inside = (want["inst_boxes"][live, :3] >= padded[plain[2][live, OWNER].astype(int), :3])
-    assert inside.all()
+    table = empty_table(64)
+    for k, box in enumerate(entries):
+        record(k % 3, np.uint64(1000 + 7 * k), 5, -1, k % 2, box,
+               np.array([2, 64, 0, 0, 0, 0], dtype=np.int64), *table, np.zeros(4, dtype=np.int64))
+    drop_level(2, *table)               # leaves stale keys and owners in its slots
+    hashed = tracer_rows(*table, padded)
+    listed = tracer_rows(*compact(table)[:3], padded)
+    for name in ("inst_keys", "inst_used", "inst_boxes"):
+        assert np.array_equal(hashed[name], listed[name])
+    assert hashed["inst_deepest"] == 1 and hashed["inst_boxes"].ctypes.data % 64 == 0
+    rows, keys, levels = hashed["inst_boxes"], hashed["inst_keys"], hashed["inst_used"]
+    low, high = outwards32(padded)
+    for k, box in enumerate(entries):
+        slot = find(keys, keys, mix(np.uint64(1000 + 7 * k), 5))     # instance_table.entry_key
+        if k % 3 == 2:
+            assert slot is None
+            continue
+        assert slot is not None and levels[slot] == k % 3 + 1
+        owner = k % 2
+        want = np.r_[np.maximum(box[:3], padded[owner, :3]), np.minimum(box[3:], padded[owner, 3:])]
+        got = rows[slot, :6].astype(np.float64)
+        if (want[:3] > want[3:]).any():         # beside its owner: empty
+            assert got[0] > got[3]
+            continue
+        assert np.all(got[:3] <= want[:3]) and np.all(got[3:] >= want[3:])     # outwards
+        assert np.all(got[:3] >= low[owner, :3]) and np.all(got[3:] <= high[owner, 3:])

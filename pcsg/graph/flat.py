@@ -43,10 +43,10 @@ Flat = namedtuple("Flat", [
                      #              box where that is smaller (radius < 0: the box); [0,4]
                      #              when no node has one (graph/volumes.py)
     "fractal",       # float64[n,5] fractal primitives: arguments, bounding radius
-    "inst_keys",     # uint64[s]    instance table: S-node instance hash ->
-    "inst_used",     # float64[s]   0: empty, else the entry's level + 1
-    "inst_boxes",    # float64[s,8]   that instance's own box (top levels only); the
-                     #              three are views of one array (instance_table.tracer_rows)
+    "inst_keys",     # uint64[s]    instance table: S-node instance hash (0: empty) ->
+    "inst_used",     # int16[s]     0: empty, else the entry's level + 1 (not probed)
+    "inst_boxes",    # float32[s,8] that instance's own box (top levels only); keys and
+                     #              boxes are views of one array (instance_table.tracer_rows)
     "inst_deepest",  # int64        the deepest level the table keeps (-1: none)
     "by_state",      # int64        1: the table is a memoised system's, keyed by state
                      #              (graph/states.py), not by instance hash

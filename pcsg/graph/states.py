@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..trace.instance_table import expand
+from ..trace.instance_table import hashed
 from ..trace.vm import float_bits, mix, splitmix64
 from .model import SELECT, UNION, Graph
 
@@ -78,7 +78,7 @@ def state_table(graph: Graph, memo: dict, key, terminating: dict) -> StateTable 
     hashes = np.array([h for states in kept.values() for h in states], dtype=np.uint64)
     boxes = np.array([[*b, node] for node, states in kept.items() for b in states.values()])
     size = 1 << max(2, (4 * len(hashes) - 1).bit_length())     # at most a quarter full
-    keys, used, boxes = expand((hashes, np.ones(len(hashes), dtype=np.int16), boxes, size))
+    keys, used, boxes = hashed((hashes, np.ones(len(hashes), dtype=np.int16), boxes, size))
     slots = [key.slots[i] if i in kept else None for i in range(len(graph.nodes))]
     return StateTable(keys, used, boxes, slots)
 

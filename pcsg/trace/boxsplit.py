@@ -10,7 +10,7 @@ import numpy as np
 
 from . import vm
 from .boxwalk import COLLECT, CONSUME, STOPPED, walk, walk_in, walk_scratch
-from .instance_table import ENTRY, empty_table, levels_kept, merge, row_table
+from .instance_table import ENTRY, empty_table, gather
 from .jit import share, watched
 
 MAX_ITEMS = 8192            # instances one split level may have
@@ -24,20 +24,20 @@ def items_for(flat, count: int):
             np.zeros((count, flat.n_params)), np.zeros((count, 6)))
 
 
-def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, slots: int,
-               per_level, changed, workers: int, watch=None, tick=None):
+def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, per_level,
+               changed, workers: int, watch=None, tick=None):
     """walk from the root into the given boxes and counts, the subtrees below the split
     level on `workers` threads; returns the visits (-1: over budget or stack, STOPPED:
-    watch[0] was set) and the table of at most `slots` slots that `book` keeps (None
-    unless the walk ended). The long walks run on helper threads (jit.watched): watch
+    watch[0] was set) and the entries of the levels that `book` keeps, as a list (keys,
+    used, vals; None unless the walk ended). The long walks run on helper threads (jit.watched): watch
     (int64, 1 + workers) is their stop flag and their visits by worker, tick() is called
     while they run.
 
     Every walk appends its entries to a buffer of its own, the top walk too (the root as
-    its instance), and the table is made once they are all known, with twice as many
-    slots as entries: the walks that only measure how the instances grow keep a few
-    hundred, and a table of every slot, touched all over by hashing, made each of them
-    fault in 30 MiB (and any system with few instances keep it resident)."""
+    its instance), and the entries of the levels kept are listed once they are all known:
+    a hashed table of every slot, touched all over, made each of the walks that only
+    measure how the instances grow fault in 30 MiB. The tracer hashes the list into its
+    own rows (tracer_rows)."""
     if watch is None:
         watch = np.zeros(1 + workers, dtype=np.int64)
     level, count, items = _split_level(flat, depth, budget, capacity, workers, watch)
@@ -47,7 +47,7 @@ def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, slots:
     room = int(book[1]) if book[0] >= 0 else 0
     bkeys = np.zeros((shares + 1, room), dtype=np.uint64)
     bused = np.zeros((shares + 1, room), dtype=np.int16)
-    bvals = np.zeros((shares + 1, room, ENTRY))
+    bvals = np.zeros((shares + 1, room, ENTRY), dtype=np.float32)
     bbook = np.zeros((shares + 1, book.shape[0]), dtype=np.int64)
     bbook[:, :2] = book[:2]
     items = _with_root(flat, items)
@@ -78,19 +78,10 @@ def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, slots:
         return STOPPED, None
     if top < 0 or (wvisits < 0).any() or top + wvisits.sum() > budget:
         return -1, None
-    # as many entries as the instances of the levels kept, whatever the thread count
-    entries = int(levels_kept(per_level, book)[1]) if book[0] >= 0 else 0
-    table = row_table(table_slots(entries, slots))
-    if book[0] >= 0:
-        merge(per_level, book, *table, bkeys, bused, bvals, bbook)
+    # the instances of the levels kept, whatever the thread count
+    table = gather(per_level, book, bkeys, bused, bvals, bbook) if book[0] >= 0 else \
+        empty_table(0)
     return int(top + wvisits.sum()), table
-
-
-def table_slots(entries: int, most: int) -> int:
-    """The slots of a table for `entries` entries: a power of two, at least twice as
-    many (a probe ends at an empty slot), at most `most` (no more entries are kept than
-    half of that)."""
-    return min(most, max(2, 1 << (2 * entries - 1).bit_length()))
 
 
 def _with_root(flat, items):

@@ -434,6 +434,6 @@ def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bo
     workers = threads()
     watch = np.zeros(1 + workers, dtype=np.int64)
     tick = None if poll is None else lambda: poll(int(watch[1:].sum()), expected)
-    visits, table = walk_split(flat, depth, budget, capacity, boxes, book, TABLE_SLOTS,
-                               per_level, changed, workers, watch, tick)
+    visits, table = walk_split(flat, depth, budget, capacity, boxes, book, per_level,
+                               changed, workers, watch, tick)
     return boxes, visits, int(changed[0]), table

@@ -5,8 +5,14 @@ its entry limit it drops its deepest level.
 
 A walk split over threads (trace/boxsplit.py) cannot share one open-addressing table,
 so each thread appends its entries to a buffer of its own under the same rule, and
-`merge` adds them to the table afterwards: a thread sees at most the instances the
-whole walk sees, so its buffer holds every level the table can keep."""
+`gather` lists the entries of the levels kept afterwards: a thread sees at most the
+instances the whole walk sees, so its buffer holds every level the table can keep. The
+tracer's table is hashed from that list (tracer_rows).
+
+Boxes are kept as float32, rounded outwards: the tracer's rows are 32 bytes, half the
+memory and cache lines of float64 ones. (2^21 slots, which hold one level more of the
+terrain at 10 to 12, rendered it a third faster at 12 but cost its bounds more than they
+saved at 9 and 10: tools/performance_notes.md.)"""
 from __future__ import annotations
 
 import numpy as np
@@ -17,63 +23,56 @@ from .jit import copy_into, inline, kernel
 from .windows import table_slot
 from .pad import pad_row
 
-TABLE_SLOTS = 1 << 19      # instance boxes kept: ~30 MB at most, whatever the order
+TABLE_SLOTS = 1 << 19      # instance boxes kept: 16 MB of rows at most, whatever the order
 # an entry's values: its box (xmin, ymin, zmin, xmax, ymax, zmax) and its owner, the
 # node whose hyper box holds it (an S-node, or an operator's operand)
 OWNER = 6
 ENTRY = 7
-ROW = 8                    # a slot as the tracer reads it: box (6), used, key
+ROW = 8                    # a slot as the tracer reads it: box (6 float32), key (2 columns)
+KEY = 3                    # the key's column in the row's uint64 view
 
 
 def empty_table(slots: int = 2, width: int = ENTRY):
-    """A table of plain arrays, for the walks' own small ones (a kernel's argument types
-    stay those it was compiled for)."""
+    """A table of plain arrays, for the walks' own small ones and their buffers (a
+    kernel's argument types stay those it was compiled for)."""
     return (np.zeros(slots, dtype=np.uint64), np.zeros(slots, dtype=np.int16),
-            np.zeros((slots, width)))
+            np.zeros((slots, width), dtype=np.float32))
 
 
-def row_table(slots: int):
-    """An empty table laid out as the tracer will read it, so that tracer_rows need not
-    copy it: keys and values are views of one (slots, 8) array aligned to 64 bytes, each
-    slot one cache line, the key in column 7 and the values (box, owner) in 0 to 6;
-    `used` is apart until then. The copy into new rows took 16 ms of the terrain at 9's
-    bounds phase (merging into these views takes as long as into three arrays did: the
-    time is the first writes into fresh pages)."""
-    rows = _aligned_rows(slots)
-    return rows.view(np.uint64)[:, ROW - 1], np.zeros(slots, dtype=np.int16), rows[:, :ENTRY]
+def table_slots(entries: int) -> int:
+    """The slots of a table for `entries` entries: a power of two, at least twice as
+    many (a probe ends at an empty slot)."""
+    return max(2, 1 << (2 * entries - 1).bit_length())
 
 
 def _aligned_rows(slots: int) -> np.ndarray:
-    buf = np.zeros(slots * ROW + ROW)          # zero pages: only what is written is faulted in
-    start = (-buf.ctypes.data % 64) // 8
+    buf = np.zeros(slots * ROW + 16, dtype=np.float32)    # zero pages: faulted in as written
+    start = (-buf.ctypes.data % 64) // 4
     return buf[start:start + slots * ROW].reshape(slots, ROW)
-
-
-def _rows_of(keys, vals) -> np.ndarray | None:
-    """The (slots, 8) array that a row_table's keys and values view, or None."""
-    if (vals.ndim == 2 and vals.shape[1] == ENTRY and vals.strides == (ROW * 8, 8)
-            and keys.strides == (ROW * 8,) and len(keys) == len(vals)
-            and vals.ctypes.data % 64 == 0
-            and keys.ctypes.data == vals.ctypes.data + (ROW - 1) * 8):
-        return np.lib.stride_tricks.as_strided(vals, (len(vals), ROW), (ROW * 8, 8))
-    return None
 
 
 def compact(table):
     """The table's entries without its empty slots, and its slot count. A table kept in
     case the next walk fails would otherwise stay resident while that walk fills a table
-    of its own, and hashing touches a page every few slots: even a table of few entries is
-    resident in full (26 MiB at the terrain's depth 5)."""
+    of its own."""
     keys, used, vals = table
     kept = np.flatnonzero(used)
     return keys[kept], used[kept], vals[kept], len(keys)
 
 
 def expand(entries):
-    """The table again from compact's entries (the same entries; their slots may differ,
-    which no lookup sees)."""
+    """The table again from compact's entries, as the list of them that gather makes (the
+    tracer hashes it, tracer_rows)."""
+    keys, used, vals, _ = entries
+    return keys, used, vals
+
+
+def hashed(entries):
+    """A hashed table (keys, used, vals) of compact's entries in their own number of slots,
+    the values' type kept: for tables probed outside the tracer (graph/states.py)."""
     keys, used, vals, slots = entries
-    table = row_table(slots)
+    table = (np.zeros(slots, dtype=np.uint64), np.zeros(slots, dtype=np.int16),
+             np.zeros((slots, vals.shape[1]), dtype=vals.dtype))
     _insert(keys, used, vals, *table)
     return table
 
@@ -88,45 +87,73 @@ def _insert(keys, used, vals, tkeys, tused, tvals):
 
 
 def tracer_rows(keys, used, vals, boxes) -> dict:
-    """The table as the tracer reads it (Flat's inst_* fields): one 64-byte row per slot,
-    [box (6) | used | key], aligned to a cache line, so that a probe and the box it finds
-    load one line, not one from each of three arrays (the table is 32 MiB at the
-    terrain's orders, far more than the caches; its probes were the walk's hottest loads,
-    though the time this layout saves measured within the noise, see
-    tools/performance_notes.md). Each entry's box is padded (trace/pad.py) and cut to its
-    owner's box in `boxes`, the nodes' padded boxes (clip_to_owners).
-    A row_table is finished in place, its owner column becoming `used`: from then on it
-    is the tracer's. Any other table is copied.
+    """The table as the tracer reads it (Flat's inst_* fields): the entries of (keys,
+    used, vals), a list or a hashed table, hashed into 32-byte rows [box (6 float32) |
+    key], aligned to a cache line, twice as many as the entries, key 0 marking an empty
+    slot (an entry whose key is 0 is left out: the tracer then culls by its node's box).
+    Each entry's box is padded (trace/pad.py) and cut to its owner's box in `boxes`, the
+    nodes' padded boxes, in float64, then rounded outwards. inst_used holds each slot's
+    level + 1 apart from the rows: the tracer probes by key alone.
     inst_deepest lets a walk skip the probes past the deepest level kept, which could only
-    miss (the terrain at order 9 keeps 10 of its 11 levels)."""
-    rows = _rows_of(keys, vals)
-    if rows is None:
-        rows = _aligned_rows(len(keys))
-    _finish_rows(keys, used, vals, boxes, rows, rows.view(np.uint64))
-    return row_fields(rows, int(used.max(initial=0)) - 1)
+    miss (the terrain at order 9 keeps 10 of its 12 levels)."""
+    rows = _aligned_rows(table_slots(int(np.count_nonzero(used))))
+    levels = np.zeros(rows.shape[0], dtype=np.int16)
+    _fill_rows(keys, used, vals, boxes, rows, rows.view(np.uint64)[:, KEY], levels)
+    return row_fields(rows, levels, int(levels.max(initial=0)) - 1)
 
 
-def row_fields(rows: np.ndarray | None = None, deepest: int = -1) -> dict:
-    """Flat's inst_* fields: views of `rows`; without arguments, a table of no entries."""
+def row_fields(rows: np.ndarray | None = None, levels: np.ndarray | None = None,
+               deepest: int = -1) -> dict:
+    """Flat's inst_* fields: views of `rows`, and `levels`; without arguments, a table of
+    no entries."""
     if rows is None:
-        rows = _aligned_rows(2)
-    return dict(inst_keys=rows.view(np.uint64)[:, ROW - 1], inst_used=rows[:, ROW - 2],
+        rows, levels = _aligned_rows(2), np.zeros(2, dtype=np.int16)
+    return dict(inst_keys=rows.view(np.uint64)[:, KEY], inst_used=levels,
                 inst_boxes=rows, inst_deepest=np.int64(deepest))
 
 
 @njit(cache=True, error_model="numpy")
-def _finish_rows(keys, used, vals, boxes, rows, bits):
-    """tracer_rows's pass; rows may be the memory vals views (a row's owner is read before
-    its column becomes `used`)."""
+def _fill_rows(keys, used, vals, boxes, rows, row_keys, levels):
+    """tracer_rows's pass: each live entry padded, cut to its owner and rounded outwards
+    into the slot its key hashes to (the same key twice: the later one)."""
+    box = np.empty((1, ENTRY))
     for i in range(keys.shape[0]):
-        if used[i]:
-            for a in range(6):
-                rows[i, a] = vals[i, a]
-            o = np.int64(vals[i, OWNER])
-            pad_row(rows, i)
-            clip_row(rows, i, boxes, o)
-            bits[i, ROW - 1] = keys[i]
-        rows[i, ROW - 2] = used[i]      # also where an entry was dropped: 0, not its owner
+        if used[i] == 0 or keys[i] == 0:
+            continue
+        for a in range(6):
+            box[0, a] = vals[i, a]
+        pad_row(box, 0)
+        clip_row(box, 0, boxes, np.int64(vals[i, OWNER]))
+        slot = table_slot(row_keys, row_keys, keys[i])
+        store_box(rows, slot, box[0])
+        row_keys[slot] = keys[i]
+        levels[slot] = used[i]
+
+
+@inline
+def down32(x):
+    """The largest float32 at most x."""
+    v = np.float32(x)
+    if v > x:
+        v = np.nextafter(v, np.float32(-np.inf))
+    return v
+
+
+@inline
+def up32(x):
+    """The smallest float32 at least x."""
+    v = np.float32(x)
+    if v < x:
+        v = np.nextafter(v, np.float32(np.inf))
+    return v
+
+
+@inline
+def store_box(vals, i, box):
+    """vals[i, :6] = box rounded outwards to float32, which holds it whatever vals' type."""
+    for a in range(3):
+        vals[i, a] = down32(box[a])
+        vals[i, a + 3] = up32(box[a + 3])
 
 
 def new_book(deepest: int, most: int) -> np.ndarray:
@@ -172,7 +199,7 @@ def record(level, h, node, k, owner, box, table, keys, used, vals, per_level):
         table[3 + level] += 1
     used[slot] = 1 + level          # 0: empty; else the entry's level + 1
     keys[slot] = key
-    copy_into(vals[slot, :OWNER], box)
+    store_box(vals, slot, box)
     vals[slot, OWNER] = owner
 
 
@@ -227,7 +254,7 @@ def append(level, h, node, k, owner, box, book, keys, used, vals, per_level):
     i = book[2]
     keys[i] = entry_key(h, node, k)
     used[i] = 1 + level
-    copy_into(vals[i, :OWNER], box)
+    store_box(vals, i, box)
     vals[i, OWNER] = owner
     book[2] += 1
     book[3 + level] += 1
@@ -237,13 +264,17 @@ def append(level, h, node, k, owner, box, book, keys, used, vals, per_level):
 def levels_kept(per_level, book):
     """The deepest level a table keeps, and its entries: the levels down to book[0] whose
     instances, counted by per_level over the whole walk, fit book[1] entries together, as
-    record would have kept them."""
+    record would have kept them, and that have instances two levels below them. The last
+    two levels are the instances that end (the terrain's final triangles) and their
+    parents, whose operand entries are the boxes of those: a ray tests a final triangle as
+    cheaply as its box, and at order 9 those 655 360 entries cost the bounding walk time
+    and memory and brought the render nothing (tools/performance_notes.md)."""
     deepest = -1
     total = 0
     kept = 0
     for level in range(min(book[0] + 1, per_level.shape[0])):
         total += per_level[level]
-        if total > book[1]:
+        if total > book[1] or level + 2 >= per_level.shape[0] or per_level[level + 2] == 0:
             break
         deepest = level
         kept = total
@@ -251,27 +282,28 @@ def levels_kept(per_level, book):
 
 
 @njit(cache=True, error_model="numpy")
-def merge(per_level, book, keys, used, vals, bkeys, bused, bvals, bbook):
-    """Add the entries of the buffers (one per row of bkeys, bused, bvals, bbook) to the
-    table, keeping the levels levels_kept keeps."""
-    deepest = levels_kept(per_level, book)[0]
-    while book[0] > deepest:
-        drop_level(book[0], keys, used, vals)
-        book[2] -= book[3 + book[0]]
-        book[3 + book[0]] = 0
-        book[0] -= 1
+def gather(per_level, book, bkeys, bused, bvals, bbook):
+    """The entries of the buffers (one per row of bkeys, bused, bvals, bbook) at the
+    levels levels_kept keeps, as one list (keys, used, vals); book then keeps those
+    levels and counts those entries."""
+    deepest, count = levels_kept(per_level, book)
+    keys = np.zeros(count, dtype=np.uint64)
+    used = np.zeros(count, dtype=np.int16)
+    vals = np.zeros((count, bvals.shape[2]), dtype=bvals.dtype)
+    n = 0
     for b in range(bkeys.shape[0]):
         for i in range(bbook[b, 2]):
-            level = bused[b, i] - 1
-            if level > deepest:
-                continue
-            slot = table_slot(keys, used, bkeys[b, i])
-            if not used[slot]:
-                book[2] += 1
-                book[3 + level] += 1
-            used[slot] = bused[b, i]
-            keys[slot] = bkeys[b, i]
-            vals[slot, :] = bvals[b, i]
+            if bused[b, i] - 1 <= deepest and n < count:
+                keys[n] = bkeys[b, i]
+                used[n] = bused[b, i]
+                copy_into(vals[n], bvals[b, i])
+                n += 1
+    book[0] = deepest
+    book[2] = n
+    book[3:] = 0
+    for i in range(n):
+        book[3 + used[i] - 1] += 1
+    return keys[:n], used[:n], vals[:n]
 
 
 @njit(cache=True, error_model="numpy")

@@ -72,14 +72,16 @@ def packet_box(flat, node, slot, test):
         return 2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     if test and flat.sphere.shape[0] > 0 and flat.sphere[node, 3] >= 0.0:
         return 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    boxes = flat.box
-    b = node
-    if slot >= 0:
-        boxes = flat.inst_boxes
-        b = slot
-    if boxes[b, 0] > boxes[b, 3]:
+    if slot >= 0:       # the table's rows are float32 (instance_table.tracer_rows)
+        r = flat.inst_boxes
+        if r[slot, 0] > r[slot, 3]:
+            return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        return (1, np.float64(r[slot, 0]), np.float64(r[slot, 1]), np.float64(r[slot, 2]),
+                np.float64(r[slot, 3]), np.float64(r[slot, 4]), np.float64(r[slot, 5]))
+    b = flat.box
+    if b[node, 0] > b[node, 3]:
         return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    return 1, boxes[b, 0], boxes[b, 1], boxes[b, 2], boxes[b, 3], boxes[b, 4], boxes[b, 5]
+    return 1, b[node, 0], b[node, 1], b[node, 2], b[node, 3], b[node, 4], b[node, 5]
 
 
 @inline
@@ -163,13 +165,21 @@ def table_slot(keys, used, h):
 
 
 @inline
+def row_slot(flat, key):
+    """The tracer's table slot of `key`, -1 where it has none. The rows hold the keys, an
+    empty slot key 0 (instance_table.tracer_rows), so a probe reads one row per step."""
+    keys = flat.inst_keys
+    slot = table_slot(keys, keys, key)
+    return slot if keys[slot] != 0 else -1
+
+
+@inline
 def entry_slot(flat, key, level):
     """The instance table's slot for `key`, -1 where it has none. `level` is the one the
     entry would have: an S-node instance's own, an operand's the operator's."""
     if level > flat.inst_deepest:
         return -1
-    slot = table_slot(flat.inst_keys, flat.inst_used, key)
-    return slot if flat.inst_used[slot] else -1
+    return row_slot(flat, key)
 
 
 @inline
@@ -235,8 +245,7 @@ def state_slot(flat, node, params, row):
     s = flat.state_start[node]
     for j in range(c):
         h = vm.mix(h, vm.float_bits(params[row, flat.state_slots[s + j]]))
-    slot = table_slot(flat.inst_keys, flat.inst_used, h)
-    return slot if flat.inst_used[slot] else -1
+    return row_slot(flat, h)
 
 
 @inline
