@@ -29,9 +29,9 @@ def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, per_le
     """walk from the root into the given boxes and counts, the subtrees below the split
     level on `workers` threads; returns the visits (-1: over budget or stack, STOPPED:
     watch[0] was set) and the entries of the levels that `book` keeps, as a list (keys,
-    used, vals; None unless the walk ended). The long walks run on helper threads (jit.watched): watch
-    (int64, 1 + workers) is their stop flag and their visits by worker, tick() is called
-    while they run.
+    used, vals; None unless the walk ended). The long walks run on helper threads
+    (jit.watched): watch (int64, 1 + workers) is their stop flag and their visits by
+    worker, tick() is called while they run.
 
     Every walk appends its entries to a buffer of its own, the top walk too (the root as
     its instance), and the entries of the levels kept are listed once they are all known:
