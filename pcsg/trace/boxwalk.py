@@ -16,8 +16,7 @@ from ..graph.model import (CALC, INTERSECTION, MATERIAL, PAINT, PRIMITIVE, SELEC
 from ..graph import boxcache
 from . import vm
 from .jit import copy_into, inline, kernel, threads
-from .instance_table import (TABLE_SLOTS, append, compact, empty_table, expand, new_book,
-                             record)
+from .instance_table import TABLE_SLOTS, append, empty_table, new_book, record
 from .nodes import node_affine, pick_rule, run_calc
 from .fractals import A_R
 from .primitives import BOXES, FRACTAL_MIN
@@ -409,15 +408,15 @@ def _walk_depths(flat, empty, max_depth: int, budget: int, instances: bool, poll
                 return (boxes, True, table, depth), spent   # the next depth would not fit
             expected = int(cost)
         if not graftal:
-            # kept compact, so that its slots are free while the next walk fills its own
-            best = boxes, compact(table), depth
+            # a list of its entries (boxsplit.walk_split), no slots to free: kept as it is
+            best = boxes, table, depth
         table = None
         last = depth, visits
         depth = deeper
     if best is None:
         boxes = np.tile([-np.inf, -np.inf, -np.inf, np.inf, np.inf, np.inf], (n, 1))
         return (boxes, False, empty_table(), max_depth), spent
-    return (best[0], True, expand(best[1]), best[2]), spent
+    return (best[0], True, best[1], best[2]), spent
 
 
 def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bool,
