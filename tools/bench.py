@@ -10,6 +10,11 @@ peak RSS in MiB, and the ratio POV-Ray/pcsg of wall times) and writes it as JSON
 machine it came from. The deepest orders run with pcsg alone: POV-Ray cannot hold
 their expansion.
 
+Where tools/pov/ has a recursive macro for the object (MACROS), POV-Ray also renders that:
+the object built the way a POV-Ray user writes it, the peer the issue measured, with the
+exported scene's camera, lights and sky; the table gives its wall time, its ratio to pcsg's
+and its peak RSS beside.
+
 pcsg walks its bounds in every run of the table (PCSG_BOUNDS_CACHE=0). The workloads in
 KEPT are also run with the bounds an earlier render kept on disk (graph/boxcache.py), as a
 user's second render of the same system finds them: a row of their own, "bounds kept",
@@ -50,6 +55,11 @@ WORKLOADS = [
 COMMON = ["--shadow-samples", "1"]      # point lights: POV-Ray's light_source
 KEPT = [("carpenter_terrain", "cnt", 8), ("carpenter_terrain", "cnt", 9),
         ("carpenter_terrain", "cnt", 12)]
+# the objects written as POV-Ray recursive macros (tools/pov/), at the orders the issue's
+# table measured them
+MACROS = {("sierpinski", "c"): ("sierpinski.inc", (6, 8, 10)),
+          ("sympodial_tree", "cnt"): ("sympodial_tree.inc", (11, 14, 15)),
+          ("carpenter_terrain", "cnt"): ("carpenter_terrain.inc", (8, 9))}
 WALK = {**os.environ, "PCSG_BOUNDS_CACHE": "0"}
 KEEP = {**os.environ, "PCSG_BOUNDS_CACHE": "1"}
 
@@ -125,6 +135,30 @@ def export(grammar: str, param: str, order: int) -> Path:
     return pov
 
 
+def macro_scene(workload: tuple, exported: Path) -> Path | None:
+    """The scene of `workload` built by its recursive macro (MACROS) in WORK; None where
+    there is no macro for it."""
+    grammar, param, order = workload[:3]
+    inc, orders = MACROS.get((grammar, param), (None, ()))
+    if order not in orders or options(workload):
+        return None
+    return write_macro_scene(inc, order, exported, WORK / f"{grammar}-{param}{order}-macros.pov")
+
+
+def write_macro_scene(inc: str, order: int, exported: Path, out: Path) -> Path:
+    """A scene at `out`: the camera, lights and sky of the exported scene (its lines
+    before the first #declare), then tools/pov/`inc` at `order`."""
+    header = []
+    with open(exported) as f:
+        for line in f:
+            if line.startswith("#declare"):
+                break
+            header.append(line)
+    out.write_text("".join(header) + f"#declare Order = {order};\n"
+                   f'#include "{ROOT / "tools" / "pov" / inc}"\n')
+    return out
+
+
 def kernel_cache_state() -> str:
     """'warm' if kernels compiled from the sources as they are now are cached."""
     # importing pcsg.trace drops kernels compiled from older sources (trace/__init__.py)
@@ -156,13 +190,14 @@ def main():
     WORK.mkdir(exist_ok=True)
     loads = [w for w in WORKLOADS if args.only is None or args.only in w[0]]
     povs = {w: export(*w[:3]) for w in loads if w[3]}
+    macros = {w: m for w in povs if (m := macro_scene(w, povs[w])) is not None}
 
     # pcsg's modules as bytecode, as an installed package has them (tools/venv.sh)
     subprocess.run([sys.executable, "-m", "compileall", "-q", str(ROOT / "pcsg")], check=True)
     # the first pcsg start may compile the kernels: measured once, reported apart
     state = kernel_cache_state()
     first = run(pcsg_cmd(loads[0], WORK / "first.png"), args.timeout, WALK)
-    results = {w: {"pcsg": [], "pov": [], "kept": []} for w in loads}
+    results = {w: {"pcsg": [], "pov": [], "kept": [], "macros": []} for w in loads}
     kept = [w for w in loads if w[:3] in KEPT and not options(w)]
     for w in kept:
         print(f"filling the bounds cache: {w[0]} {w[1]}={w[2]}", flush=True)
@@ -178,10 +213,11 @@ def main():
             if w in kept:
                 results[w]["kept"].append(
                     pcsg_result(run(pcsg_cmd(w, WORK / "pcsg.png"), args.timeout, KEEP)))
-            if w[3] and not (results[w]["pov"] and results[w]["pov"][-1]["wall"] is None):
-                results[w]["pov"].append(pov_result(run(
-                    [povray, f"+I{povs[w]}", f"+O{WORK / 'pov.png'}", f"+W{SIZE[0]}",
-                     f"+H{SIZE[1]}", "-D", "-A", "+WT2"], args.timeout)))
+            for kind, scene in (("pov", povs.get(w)), ("macros", macros.get(w))):
+                if scene and not (results[w][kind] and results[w][kind][-1]["wall"] is None):
+                    results[w][kind].append(pov_result(run(
+                        [povray, f"+I{scene}", f"+O{WORK / 'pov.png'}", f"+W{SIZE[0]}",
+                         f"+H{SIZE[1]}", "-D", "-A", "+WT2"], args.timeout)))
 
     rows = []
     for w, runs, label in [(w, results[w]["pcsg"], "") for w in loads] + [
@@ -198,6 +234,12 @@ def main():
             row["wall_ratio"] = row["pov_wall"] / row["pcsg_wall"] if both else None
             row["rays_ratio"] = (row["pcsg_rays_per_s"] / row["pov_rays_per_s"]
                                  if row["pov_rays_per_s"] and row["pcsg_rays_per_s"] else None)
+        m = results[w]["macros"]
+        if m:
+            row.update({f"macros_{k}": median(m, k)
+                        for k in ("wall", "parse_s", "trace_s", "rss_mb")})
+            both = row["macros_wall"] and row["pcsg_wall"]
+            row["macros_ratio"] = row["macros_wall"] / row["pcsg_wall"] if both else None
         rows.append(row)
     report = {
         "machine": f"{platform.machine()}, {os.cpu_count()} cores, "
@@ -226,8 +268,9 @@ def table(report: dict) -> str:
              f"runs; kernel cache {report['kernel_cache_before_first_start']} at the first "
              f"start ({report['first_start_wall_s']:.1f} s)", "",
              "| object | order | pcsg wall | POV-Ray wall | POV/pcsg | pcsg rays/s | "
-             "POV-Ray rays/s | pcsg RSS | POV-Ray RSS |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "POV-Ray rays/s | pcsg RSS | POV-Ray RSS | POV-Ray macros wall | macros/pcsg | "
+             "macros RSS |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in report["rows"]:
         def mega(x):
             return x and x / 1e6
@@ -238,7 +281,9 @@ def table(report: dict) -> str:
             f"{f(r.get('pov_wall'), '.2f', ' s')} | {f(r.get('wall_ratio'), '.1f', 'x')} | "
             f"{f(mega(r['pcsg_rays_per_s']), '.2f', ' M')} | "
             f"{f(mega(r.get('pov_rays_per_s')), '.2f', ' M')} | "
-            f"{f(r['pcsg_rss_mb'], '.0f', ' MiB')} | {f(r.get('pov_rss_mb'), '.0f', ' MiB')} |")
+            f"{f(r['pcsg_rss_mb'], '.0f', ' MiB')} | {f(r.get('pov_rss_mb'), '.0f', ' MiB')} | "
+            f"{f(r.get('macros_wall'), '.2f', ' s')} | {f(r.get('macros_ratio'), '.1f', 'x')} | "
+            f"{f(r.get('macros_rss_mb'), '.0f', ' MiB')} |")
     lines.append("")
     lines.append(f"— : not run, or past the {report['timeout_s']:.0f} s timeout; (depth N): "
                  f"too many instances to bound, refined to derivation depth N only")
