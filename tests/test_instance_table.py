@@ -1,6 +1,5 @@
-"""The bounding walk's instance table: dropping its deepest level when it fills keeps
-every other entry findable (linear-probing deletion), the levels kept are the most
-that fit, and each entry knows the node whose box holds it."""
+"""The bounding walk's instance table: the levels kept are the most that fit, and each
+entry knows the node whose box holds it."""
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
@@ -10,7 +9,7 @@ from pcsg.compiler import compile_file
 from pcsg.graph.model import DIFFERENCE, INTERSECTION, SELECT, UNION
 from pcsg.graph.regroup import regroup
 from pcsg.trace.boxwalk import walk_boxes
-from pcsg.trace.instance_table import (OWNER, clip_to_owners, drop_level, empty_table, record,
+from pcsg.trace.instance_table import (OWNER, append, clip_to_owners, empty_table, hashed,
                                        tracer_rows)
 from pcsg.trace.nodes import DX, F_WIDTH, OX, set_inverse
 from pcsg.trace.windows import box_window, table_slot
@@ -33,24 +32,7 @@ def find(keys, used, key):
     return slot if used[slot] else None
 
 
-@settings(max_examples=60, deadline=None)
-@given(st.lists(st.tuples(st.integers(0, 2**64 - 1), st.integers(0, 5)), min_size=1,
-                max_size=60, unique_by=lambda e: e[0]), st.integers(0, 5))
-def test_dropping_a_level_keeps_the_others_reachable(entries, drop):
-    keys, used, vals = empty_table(128)
-    for key, level in entries:
-        slot = table_slot(keys, used, np.uint64(key))
-        keys[slot], used[slot], vals[slot] = key, level + 1, key % 1000
-    drop_level(drop, keys, used, vals)
-    for key, level in entries:
-        slot = find(keys, used, key)
-        if level == drop:
-            assert slot is None
-        else:
-            assert slot is not None and vals[slot, 0] == key % 1000
-
-
-def test_record_keeps_the_most_levels_that_fit():
+def test_a_buffer_keeps_the_most_levels_that_fit():
     keys, used, vals = empty_table(64)
     book = np.zeros(3 + 8, dtype=np.int64)
     book[0], book[1] = 7, 20                 # levels 0..7 wanted, at most 20 entries
@@ -61,11 +43,12 @@ def test_record_keeps_the_most_levels_that_fit():
     for level in reversed(range(len(sizes))):
         for _ in range(sizes[level]):
             n += 1
-            record(level, np.uint64(n), 1, -1, 1, box, book, keys, used, vals, per_level)
+            append(level, np.uint64(n), 1, -1, 1, box, book, keys, used, vals, per_level)
     assert list(per_level[:6]) == sizes
     assert book[0] == 3                      # 1 + 2 + 4 + 8 = 15 fit, + 16 would not
-    assert book[2] == 15 == (used > 0).sum()
-    assert sorted(np.bincount(used)[1:]) == [1, 2, 4, 8]
+    kept = used[:book[2]]                    # the buffer's entries; past them, dropped ones
+    assert book[2] == 15 == (kept > 0).sum()
+    assert sorted(np.bincount(kept)[1:]) == [1, 2, 4, 8]
 
 
 def test_every_entry_lies_in_its_owners_box():
@@ -226,10 +209,9 @@ def test_the_walks_probe_the_table_down_to_its_deepest_level_and_no_further(pack
 
 def test_the_tracer_lays_out_a_hashed_table_as_its_list_of_entries():
     """tracer_rows hashes the entries of a table (a walk's list of them, or a hashed
-    table with empty slots and dropped ones) into its rows: the same rows either way,
+    table with empty slots and unused ones) into its rows: the same rows either way,
     each entry padded, cut to its owner and rounded outwards to float32, found by its key
     alone, with its level beside; a dropped entry is not there."""
-    from pcsg.trace.instance_table import compact
     from pcsg.trace.vm import mix
     from pcsg.trace.pad import pad_boxes
     rng = np.random.default_rng(3)
@@ -238,17 +220,22 @@ def test_the_tracer_lays_out_a_hashed_table_as_its_list_of_entries():
     pad_boxes(padded)
     lows = rng.uniform(-1.5, 0.5, (40, 3))
     entries = np.c_[lows, lows + rng.uniform(0, 1.5, (40, 3))]
-    table = empty_table(64)
-    for k, box in enumerate(entries):
-        record(k % 3, np.uint64(1000 + 7 * k), 5, -1, k % 2, box,
-               np.array([2, 64, 0, 0, 0, 0], dtype=np.int64), *table, np.zeros(4, dtype=np.int64))
-    drop_level(2, *table)               # leaves stale keys and owners in its slots
-    hashed = tracer_rows(*table, padded)
-    listed = tracer_rows(*compact(table)[:3], padded)
+    # the entries as the walk leaves them (instance_table.entry_key, store_box), at levels
+    # 0 to 2, owned by node 0 or 1
+    low, high = outwards32(entries)
+    keys = np.array([mix(np.uint64(1000 + 7 * k), 5) for k in range(40)], dtype=np.uint64)
+    used = np.array([k % 3 + 1 for k in range(40)], dtype=np.int16)
+    vals = np.c_[low[:, :3], high[:, 3:], np.arange(40) % 2].astype(np.float32)
+    table = hashed((keys, used, vals, 128))
+    table[1][table[1] == 3] = 0         # level 2 unused: stale keys and owners in its slots
+    live = np.flatnonzero(table[1])     # its entries listed in the order of their slots
+    hashed_rows = tracer_rows(*table, padded)
+    listed = tracer_rows(*(column[live] for column in table), padded)
     for name in ("inst_keys", "inst_used", "inst_boxes"):
-        assert np.array_equal(hashed[name], listed[name])
-    assert hashed["inst_deepest"] == 1 and hashed["inst_boxes"].ctypes.data % 64 == 0
-    rows, keys, levels = hashed["inst_boxes"], hashed["inst_keys"], hashed["inst_used"]
+        assert np.array_equal(hashed_rows[name], listed[name])
+    assert hashed_rows["inst_deepest"] == 1 and hashed_rows["inst_boxes"].ctypes.data % 64 == 0
+    rows, keys, levels = (hashed_rows["inst_boxes"], hashed_rows["inst_keys"],
+                          hashed_rows["inst_used"])
     low, high = outwards32(padded)
     for k, box in enumerate(entries):
         slot = find(keys, keys, mix(np.uint64(1000 + 7 * k), 5))     # instance_table.entry_key

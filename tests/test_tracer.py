@@ -305,9 +305,9 @@ def table_entries(table):
 
 
 def test_a_deeper_walk_over_budget_falls_back_to_the_last_walks_table(monkeypatch):
-    """While a deeper walk runs, the last walk's table is kept compact (its entries
-    only); when the deeper walk goes over budget, the table is built again from them:
-    the same entries as a walk to that depth makes."""
+    """While a deeper walk runs, the last walk's table (the list of its entries) is kept;
+    when the deeper walk goes over budget, that table is the result: the same entries as
+    a walk to that depth makes."""
     monkeypatch.setattr(bounds, "MAX_STATES", 0)
     g = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=6).graph
     real = boxwalk._walk_to

@@ -25,7 +25,6 @@ from pathlib import Path
 import numpy as np
 
 from ..trace import kernel_digest
-from ..trace.instance_table import compact, expand
 from ..caches import cache_dir
 
 FORMAT = 1
@@ -65,19 +64,19 @@ def load(k: str):
     try:
         with np.load(path) as z:
             boxes, depth, complete = z["boxes"], int(z["depth"]), bool(z["complete"])
-            entries = z["keys"], z["used"], z["vals"], int(z["slots"])
+            table = z["keys"], z["used"], z["vals"]
         os.utime(path)          # read recently: removed last
     except Exception:       # noqa: BLE001 -- missing, cut short, another format: walk
         return None
     hits += 1
-    return boxes, complete, expand(entries), depth
+    return boxes, complete, table, depth
 
 
 def store(k: str, result) -> None:
     """Keeps walk_boxes's result under key k; a folder that cannot be written keeps
     nothing (the cache is only ever a speed-up)."""
     boxes, complete, table, depth = result
-    keys, used, vals, slots = compact(table)
+    keys, used, vals = table          # the entries as a list (instance_table.gather)
     where = folder()
     tmp = None
     try:
@@ -85,7 +84,7 @@ def store(k: str, result) -> None:
         fd, tmp = tempfile.mkstemp(dir=where, suffix=".tmp")
         with os.fdopen(fd, "wb") as f:
             np.savez(f, boxes=boxes, depth=depth, complete=complete, keys=keys, used=used,
-                     vals=vals, slots=slots)
+                     vals=vals)
         os.replace(tmp, where / f"{k}.npz")
         _trim(where)
     except Exception:       # noqa: BLE001 -- a full disk, a read-only folder: keep nothing

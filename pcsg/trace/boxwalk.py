@@ -16,7 +16,7 @@ from ..graph.model import (CALC, INTERSECTION, MATERIAL, PAINT, PRIMITIVE, SELEC
 from ..graph import boxcache
 from . import vm
 from .jit import copy_into, inline, kernel, threads
-from .instance_table import TABLE_SLOTS, append, empty_table, new_book, record
+from .instance_table import TABLE_SLOTS, append, empty_table, new_book
 from .nodes import node_affine, pick_rule, run_calc
 from .fractals import A_R
 from .primitives import BOXES, FRACTAL_MIN
@@ -115,14 +115,6 @@ def draws_hashes(flat):
     return False
 
 
-@inline
-def _keep(buffered, level, h, node, k, owner, box, book, keys, used, vals, per_level):
-    if buffered:
-        append(level, h, node, k, owner, box, book, keys, used, vals, per_level)
-    else:
-        record(level, h, node, k, owner, box, book, keys, used, vals, per_level)
-
-
 @njit(cache=True, error_model="numpy")
 def walk_scratch(flat, capacity):
     """A walk's frames (fr), their hashes (hs), parameter rows, instance boxes (acc) and
@@ -147,18 +139,17 @@ def walk(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, per_l
 def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, per_level,
             changed, split, items, item_hash, item_params, item_boxes, first, fr, hs, params,
             acc, tmp, stack, args, m34, watch, tell):
-    """Fill boxes[n] (pre-set to empty) with the union of node n's instance boxes, and the
-    table (keys, used, vals) with the box of every S-node instance and operator operand
-    of the top derivation levels that fit (see instance_table.record; `book` is its
-    bookkeeping), keyed by its instance hash; per_level counts them by level, changed[0]
+    """Fill boxes[n] (pre-set to empty) with the union of node n's instance boxes, and
+    append to the buffer (keys, used, vals) the box of every S-node instance and operator
+    operand of the top derivation levels that fit (see instance_table.append; `book` is
+    its bookkeeping), keyed by its instance hash; per_level counts them by level, changed[0]
     the instances that the depth bound finished otherwise than their own selection would
     have. Returns the node visits made, or -1 if the visit budget or the stack capacity
     ran out.
 
     The walk starts at the root when `first` is -1, else at the S-node instance
-    items[first] (node, level above it, cut; its hash and parameters beside), leaves its
-    box in item_boxes[first] and appends its table entries to a buffer (`book`, `keys`,
-    ... as instance_table.append). split = [mode, level, count]: mode COLLECT stores the
+    items[first] (node, level above it, cut; its hash and parameters beside) and leaves
+    its box in item_boxes[first]. split = [mode, level, count]: mode COLLECT stores the
     instances that reach `level` in the items arrays instead of entering them (returns -2
     when they are more than the arrays hold), CONSUME takes their boxes from item_boxes,
     in the same order (trace/boxsplit.py).
@@ -173,9 +164,9 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
     tracer's walks are, jit.py): with it, the atomic counts of the arrays its steps pass
     around were two thirds of this walk's time on two threads."""
     fr[0, :] = 0
-    buffered = first >= 0
+    from_item = first >= 0
     draws = draws_hashes(flat)
-    if buffered:
+    if from_item:
         fr[0, NODE] = items[first, 0]
         fr[0, LEVEL] = items[first, 1]
         fr[0, CUT] = items[first, 2]
@@ -254,8 +245,8 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
                         fr[f, PHASE] = 1 + r
             else:
                 _unite(acc[f], acc[f + 1])
-                _keep(buffered, fr[f, LEVEL], hs[f], node, -1, node, acc[f], book, keys, used,
-                      vals, per_level)
+                append(fr[f, LEVEL], hs[f], node, -1, node, acc[f], book, keys, used, vals,
+                       per_level)
         elif kind == TRANSFORM or kind == CALC or kind == PAINT or kind == MATERIAL:
             child = 0           # met at phase 0 only: the loop after the pop finishes them
             fr[f, PHASE] = 1
@@ -263,8 +254,8 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
             if phase > 0:
                 b = acc[f + 1]
                 # the operand's own box, in this operator's frame, for culling it unexpanded
-                _keep(buffered, fr[f, LEVEL], hs[f], node, phase - 1, fr[f + 1, NODE], b,
-                      book, keys, used, vals, per_level)
+                append(fr[f, LEVEL], hs[f], node, phase - 1, fr[f + 1, NODE], b, book, keys,
+                       used, vals, per_level)
                 if phase == 1 or kind == UNION:
                     _unite(acc[f], b)
                 elif kind == INTERSECTION:
@@ -317,7 +308,7 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
                 break
             _close(boxes, up, acc[p])
             sp -= 1
-    if buffered:
+    if from_item:
         copy_into(item_boxes[first], acc[0])
     watch[tell] += visits - told
     return visits

@@ -3,11 +3,11 @@ operands of the top derivation levels, keyed by instance hash, for the tracer to
 by (windows.instance_window). It keeps as many whole levels as fit: when it would pass
 its entry limit it drops its deepest level.
 
-A walk split over threads (trace/boxsplit.py) cannot share one open-addressing table,
-so each thread appends its entries to a buffer of its own under the same rule, and
-`gather` lists the entries of the levels kept afterwards: a thread sees at most the
-instances the whole walk sees, so its buffer holds every level the table can keep. The
-tracer's table is hashed from that list (tracer_rows).
+Every walk appends its entries to a buffer of its own (a walk split over threads,
+trace/boxsplit.py, cannot share one open-addressing table), and `gather` lists the
+entries of the levels kept afterwards: a thread sees at most the instances the whole
+walk sees, so its buffer holds every level the table can keep. The tracer's table is
+hashed from that list (tracer_rows).
 
 Boxes are kept as float32, rounded outwards: the tracer's rows are 32 bytes, half the
 memory and cache lines of float64 ones. (2^21 slots, which hold one level more of the
@@ -51,25 +51,10 @@ def _aligned_rows(slots: int) -> np.ndarray:
     return buf[start:start + slots * ROW].reshape(slots, ROW)
 
 
-def compact(table):
-    """The table's entries without its empty slots, and its slot count. A table kept in
-    case the next walk fails would otherwise stay resident while that walk fills a table
-    of its own."""
-    keys, used, vals = table
-    kept = np.flatnonzero(used)
-    return keys[kept], used[kept], vals[kept], len(keys)
-
-
-def expand(entries):
-    """The table again from compact's entries, as the list of them that gather makes (the
-    tracer hashes it, tracer_rows)."""
-    keys, used, vals, _ = entries
-    return keys, used, vals
-
-
 def hashed(entries):
-    """A hashed table (keys, used, vals) of compact's entries in their own number of slots,
-    the values' type kept: for tables probed outside the tracer (graph/states.py)."""
+    """A hashed table (keys, used, vals) of the entries (keys, used, vals, slots) in that
+    number of slots, the values' type kept: for tables probed outside the tracer
+    (graph/states.py)."""
     keys, used, vals, slots = entries
     table = (np.zeros(slots, dtype=np.uint64), np.zeros(slots, dtype=np.int16),
              np.zeros((slots, vals.shape[1]), dtype=vals.dtype))
@@ -176,64 +161,12 @@ def entry_key(h, node, k):
 
 
 @kernel
-def record(level, h, node, k, owner, box, table, keys, used, vals, per_level):
-    """Count the instance at its level; keep its box under entry_key(h, node, k) if its
-    level is within table[0], the deepest level kept. When the table would pass table[1]
-    entries, its deepest level is dropped (table[0] lowered): the levels kept in the end
-    are the most that fit, all of them complete, as if they had been known in advance."""
-    if level < per_level.shape[0]:
-        per_level[level] += 1
-    if level > table[0]:
-        return
-    while table[2] + 1 > table[1] and table[0] >= 0:
-        drop_level(table[0], keys, used, vals)
-        table[2] -= table[3 + table[0]]
-        table[3 + table[0]] = 0
-        table[0] -= 1
-    if level > table[0]:
-        return
-    key = entry_key(h, node, k)
-    slot = table_slot(keys, used, key)
-    if not used[slot]:
-        table[2] += 1
-        table[3 + level] += 1
-    used[slot] = 1 + level          # 0: empty; else the entry's level + 1
-    keys[slot] = key
-    store_box(vals, slot, box)
-    vals[slot, OWNER] = owner
-
-
-@kernel
-def drop_level(level, keys, used, vals):
-    """Delete every entry of `level` (used == level + 1), keeping every other entry
-    reachable: linear-probing deletion that moves later entries of a run back (Knuth's
-    Algorithm R)."""
-    mask = keys.shape[0] - 1
-    for i in range(keys.shape[0]):
-        while used[i] == level + 1:
-            hole = i
-            j = i
-            while True:
-                j = (j + 1) & mask
-                if not used[j]:
-                    break
-                home = np.int64(keys[j] & np.uint64(mask))
-                # the entry at j may move into the hole unless its home lies cyclically
-                # in (hole, j]
-                if (hole <= j and (home <= hole or home > j)) or \
-                        (hole > j and home <= hole and home > j):
-                    keys[hole] = keys[j]
-                    used[hole] = used[j]
-                    copy_into(vals[hole], vals[j])
-                    hole = j
-            used[hole] = 0
-
-
-@kernel
 def append(level, h, node, k, owner, box, book, keys, used, vals, per_level):
-    """record's rule on a buffer (entries in order, not hashed): count the instance at its
-    level and keep its entry while its level fits, dropping the deepest level when the
-    buffer would pass book[1] entries."""
+    """Count the instance at its level; append its box under entry_key(h, node, k) to the
+    buffer if its level is within book[0], the deepest level kept. When the buffer would
+    pass book[1] entries, its deepest level is dropped (book[0] lowered): the levels kept
+    in the end are the most that fit, all of them complete, as if they had been known in
+    advance. (A walk that only collects instances has book[0] = -1: it counts.)"""
     if level < per_level.shape[0]:
         per_level[level] += 1
     if level > book[0]:
@@ -264,7 +197,7 @@ def append(level, h, node, k, owner, box, book, keys, used, vals, per_level):
 def levels_kept(per_level, book):
     """The deepest level a table keeps, and its entries: the levels down to book[0] whose
     instances, counted by per_level over the whole walk, fit book[1] entries together, as
-    record would have kept them, and that have instances two levels below them. The last
+    append would have kept them, and that have instances two levels below them. The last
     two levels are the instances that end (the terrain's final triangles) and their
     parents, whose operand entries are the boxes of those: a ray tests a final triangle as
     cheaply as its box, and at order 9 those 655 360 entries cost the bounding walk time

@@ -178,7 +178,7 @@ def operand_key(h, node, k):
     """The instance table's key of operand k of the instance h of operator `node`: the
     keys of one instance's operands are consecutive, so their entries lie in
     neighbouring slots and a ray that tests them all loads them from one run of memory
-    rather than from one random place each (instance_table.record, windows.operand_entry)."""
+    rather than from one random place each (instance_table.append, windows.operand_entry)."""
     return mix(h, node) + np.uint64(k)
 
 
