@@ -93,6 +93,8 @@ LINK = """
 import numpy as np
 from numba import njit
 from pcsg.trace import vm
+assert vm.hash_to_unit.signatures == []          # declared, loaded at its first use
+vm.hash_to_unit(np.uint64(1))
 library = vm.hash_to_unit.overloads[vm.hash_to_unit.signatures[0]].library
 assert "_pcsg_bitcode" in library.__dict__      # loaded, its bitcode not parsed
 

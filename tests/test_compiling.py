@@ -15,6 +15,7 @@ from numba.core.dispatcher import Dispatcher
 
 import pcsg
 from pcsg.trace import compilestack, inlinecopy, packet
+from pcsg.trace.dispatch import cached
 from pcsg.trace.jit import kernel
 from pcsg.render.camera import make_camera
 from pcsg.render.shade import make_lighting, shade
@@ -75,7 +76,7 @@ def test_a_shaded_render_compiles_the_packet_trace_without_literal_arguments():
     o, d = cam.rays(8, 6, xs.ravel() + 0.5, ys.ravel() + 0.5)
     rgb, _, hits = shade(obj, light, o, d)
     assert hits.hit.any()
-    index = packet.trace._cache._cache_file._load_index()
+    index = cached(packet.trace)._cache._cache_file._load_index()
     signatures = [key[0] for key in index]
     assert signatures
     literal = [sig for sig in signatures if any(isinstance(t, types.Literal) for t in sig)]

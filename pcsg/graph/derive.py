@@ -11,6 +11,7 @@ from ..language.errors import Diagnostic, PcsgError
 from ..language.names import PIXELS
 from ..trace import vm
 from ..trace.transforms import matrix
+from . import hashes
 from .flat import calc_programs
 from .model import Graph, SELECT
 
@@ -62,7 +63,7 @@ def names_in(node) -> set[str]:
 
 
 def _salt(h: int, slot: int) -> int:
-    return int(vm.salt(np.uint64(h), slot))
+    return hashes.salt(h, slot)
 
 
 class Deriver:
@@ -99,7 +100,7 @@ class Deriver:
         """The 0-based rule index an S-node picks, or PcsgError naming module and parameters."""
         node = self.g.nodes[node_id]
         x = self._draw(node.exprs[0], state, h, 0)
-        rule = int(vm.select_rule(x, len(node.children)))
+        rule = hashes.select_rule(x, len(node.children))
         if rule == 0:
             raise PcsgError([self.selection_error(node_id, state, x)])
         return rule - 1
@@ -151,7 +152,7 @@ class Deriver:
 
     @staticmethod
     def edge(h: int, node_id: int, child: int) -> int:
-        return int(vm.edge_hash(np.uint64(h), node_id, child))
+        return hashes.edge_hash(h, node_id, child)
 
     def is_select(self, node_id: int) -> bool:
         return self.g.nodes[node_id].kind == SELECT

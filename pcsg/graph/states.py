@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..trace.instance_table import hashed
-from ..trace.vm import float_bits, mix, splitmix64
+from .hashes import float_bits, mix, splitmix64
 from .model import SELECT, UNION, Graph
 
 SMALLER = 0.9       # a state's box counts as smaller below this share of a side
@@ -46,9 +46,9 @@ class StateTable:
 def state_hash(node: int, values) -> int:
     """The key of S-node `node` entered with these values of its key's slots; the
     tracer computes the same bits (trace/windows.py state_slot)."""
-    h = int(splitmix64(node))
+    h = splitmix64(node)
     for v in values:
-        h = int(mix(h, float_bits(float(v))))
+        h = mix(h, float_bits(float(v)))
     return h
 
 

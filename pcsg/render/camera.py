@@ -6,8 +6,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
+from ..trace.dispatch import cached_jit
 from ..graph.model import CALC, MATERIAL, PAINT, UNION
 from ..scene import DEFAULT_UP, camera_degenerate
 
@@ -64,7 +64,7 @@ class Camera:
         return math.radians(self.fov) / height
 
 
-@njit(cache=True, error_model="numpy", nogil=True)
+@cached_jit(error_model="numpy", nogil=True)
 def _rays(eye, fwd, right, up, half, width, height, sx, sy, o, d):
     """Camera.rays in one pass: numpy's temporaries took 2 ms of every 30,000 rays. The
     same operations in the same order as the numpy it replaced (the squares summed

@@ -31,8 +31,9 @@ def load() -> None:
 def cached_signatures(kernel) -> list:
     """The signatures numba's cache index holds for `kernel`: none without a cache (or
     under NUMBA_DISABLE_JIT), or with a numba whose cache reads its index otherwise."""
+    from ..trace.dispatch import cached
     try:
-        return [key[0] for key in kernel._cache._cache_file._load_index()]
+        return [key[0] for key in cached(kernel)._cache._cache_file._load_index()]
     except AttributeError:
         return []
 
@@ -52,8 +53,9 @@ def cached() -> bool:
     guard in trace/__init__.py empties both whenever a kernel source changes). True
     under NUMBA_DISABLE_JIT: nothing is compiled."""
     from pathlib import Path
+    from ..trace.dispatch import cached
     from ..trace.shading import shade_share
-    cache = getattr(shade_share, "_cache", None)
+    cache = getattr(cached(shade_share), "_cache", None)
     if cache is None:
         return True
     return any(Path(cache.cache_path).glob("shading.shade_share-*.nbi"))

@@ -8,8 +8,8 @@ runs on every core, split below the first level with enough instances
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from .dispatch import cached_jit
 from ..limits import BOUNDS_BUDGET
 from ..graph.model import (CALC, INTERSECTION, MATERIAL, PAINT, PRIMITIVE, SELECT,
                            TRANSFORM, UNION)
@@ -115,7 +115,7 @@ def draws_hashes(flat):
     return False
 
 
-@njit(cache=True, error_model="numpy")
+@cached_jit(error_model="numpy")
 def walk_scratch(flat, capacity):
     """A walk's frames (fr), their hashes (hs), parameter rows, instance boxes (acc) and
     the small arrays of its steps, for walk_in: allocated once per thread, not per
@@ -125,7 +125,7 @@ def walk_scratch(flat, capacity):
             np.empty(6), np.empty(flat.max_stack), np.empty(12), np.empty((3, 4)))
 
 
-@njit(cache=True, error_model="numpy", nogil=True)
+@cached_jit(error_model="numpy", nogil=True)
 def walk(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, per_level, changed,
          split, items, item_hash, item_params, item_boxes, first, watch, tell):
     """walk_in with scratch of its own."""

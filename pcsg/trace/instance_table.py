@@ -16,8 +16,8 @@ saved at 9 and 10: tools/performance_notes.md.)"""
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from .dispatch import cached_jit
 from . import vm
 from .jit import copy_into, inline, kernel
 from .windows import table_slot
@@ -62,7 +62,7 @@ def hashed(entries):
     return table
 
 
-@njit(cache=True, error_model="numpy")
+@cached_jit(error_model="numpy")
 def _insert(keys, used, vals, tkeys, tused, tvals):
     for i in range(keys.shape[0]):
         slot = table_slot(tkeys, tused, keys[i])
@@ -97,7 +97,7 @@ def row_fields(rows: np.ndarray | None = None, levels: np.ndarray | None = None,
                 inst_boxes=rows, inst_deepest=np.int64(deepest))
 
 
-@njit(cache=True, error_model="numpy")
+@cached_jit(error_model="numpy")
 def _fill_rows(keys, used, vals, boxes, rows, row_keys, levels):
     """tracer_rows's pass: each live entry padded, cut to its owner and rounded outwards
     into the slot its key hashes to (the same key twice: the later one)."""
@@ -193,7 +193,7 @@ def append(level, h, node, k, owner, box, book, keys, used, vals, per_level):
     book[3 + level] += 1
 
 
-@njit(cache=True, error_model="numpy")
+@cached_jit(error_model="numpy")
 def levels_kept(per_level, book):
     """The deepest level a table keeps, and its entries: the levels down to book[0] whose
     instances, counted by per_level over the whole walk, fit book[1] entries together, as
@@ -214,7 +214,7 @@ def levels_kept(per_level, book):
     return deepest, kept
 
 
-@njit(cache=True, error_model="numpy")
+@cached_jit(error_model="numpy")
 def gather(per_level, book, bkeys, bused, bvals, bbook):
     """The entries of the buffers (one per row of bkeys, bused, bvals, bbook) at the
     levels levels_kept keeps, as one list (keys, used, vals); book then keeps those
@@ -239,7 +239,7 @@ def gather(per_level, book, bkeys, bused, bvals, bbook):
     return keys[:n], used[:n], vals[:n]
 
 
-@njit(cache=True, error_model="numpy")
+@cached_jit(error_model="numpy")
 def clip_to_owners(used, vals, boxes):
     """Every entry's box cut down to its owner's box in `boxes`. The walk makes a node's
     box the union of its instances' boxes, but padding (trace/pad.py) moves each by its

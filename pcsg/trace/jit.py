@@ -9,12 +9,14 @@ import os
 import threading
 from concurrent.futures import ThreadPoolExecutor, wait
 
-from numba import config, njit
+from numba import config
 
-kernel = njit(cache=True, error_model="numpy", nogil=True, _nrt=False)
-inline = njit(cache=True, error_model="numpy", nogil=True, _nrt=False, inline="always")
+from .dispatch import cached_jit
+
+kernel = cached_jit(error_model="numpy", nogil=True, _nrt=False)
+inline = cached_jit(error_model="numpy", nogil=True, _nrt=False, inline="always")
 # a worker's share of a batch: it allocates its scratch, so it keeps reference counting
-share = njit(cache=True, error_model="numpy", nogil=True)
+share = cached_jit(error_model="numpy", nogil=True)
 
 
 @inline

@@ -23,8 +23,8 @@ from collections import namedtuple
 import math
 
 import numpy as np
-from numba import njit
 
+from .dispatch import cached_jit
 from ..graph.model import DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, UNION
 from . import vm
 from .jit import copy_into, inline, kernel
@@ -73,7 +73,7 @@ Packet = namedtuple("Packet", [
 ])
 
 
-@njit(cache=True, error_model="numpy")
+@cached_jit(error_model="numpy")
 def make_packet(flat):
     c = max(flat.max_children, QUAD)
     return Packet(

@@ -45,8 +45,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from .dispatch import cached_jit
 from ..graph.cut import Cut
 from ..graph.flatten import flatten, leaf_inverse
 from ..graph.model import DIFFERENCE, INTERSECTION, UNION, Graph
@@ -85,14 +85,14 @@ class Op:
         return _OPNAMES[self.kind]
 
 
-@njit(cache=True, error_model='numpy')
+@cached_jit(error_model='numpy')
 def _intersect_many(code, O, D, out, hit):
     for k in range(O.shape[0]):
         hit[k] = primitives.intersect(code, O[k, 0], O[k, 1], O[k, 2],
                                       D[k, 0], D[k, 1], D[k, 2], out[k])
 
 
-@njit(cache=True, error_model='numpy')
+@cached_jit(error_model='numpy')
 def _march_many(is_julia, args, O, D, tmin, tmax, out, hit):
     for k in range(O.shape[0]):
         hit[k] = fractals.march(is_julia, args, 0, O[k, 0], O[k, 1], O[k, 2],

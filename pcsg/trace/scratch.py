@@ -5,8 +5,8 @@ from __future__ import annotations
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
 
+from .dispatch import cached_jit
 from ..limits import LIM_INSTANCES, LIM_ROWS, LIM_STACK
 from .nodes import F_WIDTH, I_WIDTH
 
@@ -31,7 +31,7 @@ Scratch = namedtuple("Scratch", [
 ])
 
 
-@njit(cache=True, error_model="numpy")
+@cached_jit(error_model="numpy")
 def make_scratch(flat, limits):
     stack_depth = limits[LIM_STACK]
     slots = CALC_CACHE_SLOTS if flat.calc_cache.any() else 1

@@ -48,8 +48,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from .dispatch import cached_jit, declared
 from .jit import inline, kernel
 
 # ---- opcodes -------------------------------------------------------------
@@ -124,7 +124,7 @@ _DEG = 180.0 / math.pi
 _RAD = math.pi / 180.0
 _NAN = math.nan
 
-_jit = njit(cache=True, error_model='numpy', nogil=True)
+_jit = cached_jit(error_model='numpy', nogil=True)
 
 
 def _jit_sig(signature, inline="never"):
@@ -133,7 +133,7 @@ def _jit_sig(signature, inline="never"):
     # The hashes the walks take at every node are inlined by numba ("always"): left to
     # LLVM, whether they were depended on the size of the walk that called them, and
     # the packet walk called them once it had grown a little (tools/profile_trace.py)
-    return njit(signature, cache=True, error_model='numpy', nogil=True, inline=inline)
+    return declared(signature, error_model='numpy', nogil=True, inline=inline)
 
 
 # ---- hashing ---------------------------------------------------------------

@@ -1,0 +1,82 @@
+"""numba's dispatchers, set up at their first compile rather than at import.
+
+A render whose kernels load from numba's cache never compiles most of pcsg's ~140
+jitted functions: the per-node steps are inlined into the walks, and the small helpers
+are inside the cached kernels already. numba does two things for each of them at
+import that only a compile needs:
+- `cache=True` locates the cache directory and proves it writable by making and
+  removing a file there, about 60 µs a function;
+- a declared signature (`njit("uint64(uint64)")`) compiles it, or loads it from the
+  cache, there and then: the nine of vm.py took 8 ms of every `pcsg` command.
+Here both wait for the first compile: a call from Python, a kernel's compile typing a
+call to it, or `cached()` below. Under NUMBA_DISABLE_JIT the functions stay Python."""
+from __future__ import annotations
+
+from numba import njit
+from numba.core import typeinfer
+from numba.core.compiler_lock import global_compiler_lock
+from numba.core.registry import CPUDispatcher
+
+
+class CachedLater(CPUDispatcher):
+    """njit(cache=True)'s dispatcher, its on-disk cache made at the first compile."""
+
+    def compile(self, sig):
+        self.cached()
+        return super().compile(sig)
+
+    def cached(self) -> CachedLater:
+        """Itself, with numba's on-disk cache set up (its `_cache`)."""
+        with global_compiler_lock:      # threads: one sets it up, the others wait for it
+            if self.__dict__.pop("_cache_later", False):
+                self.enable_caching()
+        return self
+
+
+class Declared(CachedLater):
+    """njit(signature, cache=True)'s dispatcher, compiled for its signature at the first
+    use. That compiles the declared signature alone and then disables compiling, as
+    njit(signature) does, so that calls convert their arguments to it."""
+
+    def _declare(self):
+        with global_compiler_lock:
+            signature = self.__dict__.pop("_signature", None)
+            if signature is not None:
+                with typeinfer.register_dispatcher(self):
+                    self.compile(signature)
+                self.disable_compile()
+
+    def get_call_template(self, args, kws):
+        self._declare()
+        return super().get_call_template(args, kws)
+
+    def _compile_for_args(self, *args, **kws):
+        self._declare()
+        if self._can_compile:           # never declared (a copy unpickled without it)
+            return super()._compile_for_args(*args, **kws)
+        return self      # numba's dispatcher calls what this returns: itself, declared now
+
+
+def cached_jit(**options):
+    """njit(cache=True, **options), the cache set up at the first compile."""
+    return lambda f: _become(njit(**options)(f), CachedLater, _cache_later=True)
+
+
+def declared(signature: str, **options):
+    """njit(signature, cache=True, **options), compiled at the first use."""
+    return lambda f: _become(cached_jit(**options)(f), Declared, _signature=signature)
+
+
+def _become(dispatcher, cls, **state):
+    """The dispatcher made a `cls` with `state`; a plain function (NUMBA_DISABLE_JIT) as
+    it is."""
+    if isinstance(dispatcher, CPUDispatcher):
+        dispatcher.__class__ = cls
+        dispatcher.__dict__.update(state)
+    return dispatcher
+
+
+def cached(dispatcher):
+    """The dispatcher with its on-disk cache set up, for code that reads numba's cache
+    index; anything else (a plain function under NUMBA_DISABLE_JIT) as it is."""
+    return dispatcher.cached() if isinstance(dispatcher, CachedLater) else dispatcher

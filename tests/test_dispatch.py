@@ -1,0 +1,110 @@
+"""pcsg's numba dispatchers set themselves up at their first compile (trace/dispatch.py):
+importing pcsg compiles and caches nothing, and a declared signature still decides how
+every call converts its arguments, whether Python or a kernel calls first."""
+import subprocess
+import sys
+import threading
+
+import numpy as np
+from numba import njit
+
+from pcsg.trace.dispatch import cached_jit, declared
+
+
+@declared("uint64(uint64)")
+def _double(x):
+    return x + x
+
+
+@declared("uint64(uint64)")
+def _triple(x):
+    return x + x + x
+
+
+@declared("uint64(uint64)")
+def _shared(x):
+    return x * np.uint64(5)
+
+
+@cached_jit()
+def _negate(x):
+    return -x
+
+
+def test_a_declared_function_is_compiled_for_its_signature_at_its_first_call():
+    assert _double.signatures == []
+    assert _double(3) == 6
+    # the declared uint64, not the int64 a plain int would be typed as: it wraps
+    assert _double(2**63 + 1) == 2
+    assert [str(t) for sig in _double.signatures for t in sig] == ["uint64"]
+    # a kernel passing an int64 converts it to the declared signature, as with njit(sig)
+    assert njit(lambda v: _double(v))(np.int64(4)) == 8
+    assert [str(t) for sig in _double.signatures for t in sig] == ["uint64"]
+
+
+def test_a_declared_function_first_used_by_a_kernel_compile_takes_its_signature():
+    assert _triple.signatures == []
+    assert njit(lambda v: _triple(v))(np.int64(2)) == 6
+    assert [str(t) for sig in _triple.signatures for t in sig] == ["uint64"]
+
+
+def test_threads_calling_a_declared_function_first_get_its_one_signature():
+    start = threading.Barrier(6)
+    results = []
+
+    def call(i):
+        start.wait()
+        results.append((i, _shared(i)))
+
+    threads = [threading.Thread(target=call, args=(i,)) for i in range(6)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert sorted(results) == [(i, 5 * i) for i in range(6)]
+    assert [str(t) for sig in _shared.signatures for t in sig] == ["uint64"]
+
+
+def test_a_lazily_cached_function_sets_its_cache_up_when_it_compiles():
+    from numba.core.caching import FunctionCache, NullCache
+    assert isinstance(_negate._cache, NullCache)
+    assert _negate(2.5) == -2.5
+    assert isinstance(_negate._cache, FunctionCache)
+
+
+IMPORTS = """
+import gc
+from numba.core.caching import NullCache
+from numba.core.dispatcher import Dispatcher
+import pcsg.cli, pcsg.compiler, pcsg.render.job, pcsg.trace.kernel, pcsg.trace.reference
+ours = [d for d in gc.get_objects()
+        if isinstance(d, Dispatcher) and d.py_func.__module__.startswith("pcsg.")]
+print(len(ours), sum(len(d.signatures) > 0 for d in ours),
+      sum(not isinstance(d._cache, NullCache) for d in ours))
+"""
+
+
+def test_importing_pcsg_compiles_nothing_and_sets_no_cache_up():
+    out = subprocess.run([sys.executable, "-c", IMPORTS], capture_output=True, text=True,
+                         timeout=600)
+    assert out.returncode == 0, out.stderr
+    count, compiled, caches = map(int, out.stdout.split())
+    assert count > 100
+    assert (compiled, caches) == (0, 0)
+
+
+LOADS = """
+from pcsg.trace import vm
+vm.rand_seed(1.5)
+print(sum(vm.rand_seed.stats.cache_hits.values()))
+"""
+
+
+def test_a_declared_function_loads_from_numbas_cache_in_a_later_process():
+    hits = []
+    for _ in range(2):
+        out = subprocess.run([sys.executable, "-c", LOADS], capture_output=True, text=True,
+                             timeout=600)
+        assert out.returncode == 0, out.stderr
+        hits.append(int(out.stdout.split()[-1]))
+    assert hits[1] == 1
