@@ -237,9 +237,12 @@ def main():
         m = results[w]["macros"]
         if m:
             row.update({f"macros_{k}": median(m, k)
-                        for k in ("wall", "parse_s", "trace_s", "rss_mb")})
+                        for k in ("wall", "parse_s", "trace_s", "rays_per_s", "rss_mb")})
             both = row["macros_wall"] and row["pcsg_wall"]
             row["macros_ratio"] = row["macros_wall"] / row["pcsg_wall"] if both else None
+            row["macros_rays_ratio"] = (row["pcsg_rays_per_s"] / row["macros_rays_per_s"]
+                                        if row["macros_rays_per_s"] and row["pcsg_rays_per_s"]
+                                        else None)
         rows.append(row)
     report = {
         "machine": f"{platform.machine()}, {os.cpu_count()} cores, "
@@ -269,8 +272,8 @@ def table(report: dict) -> str:
              f"start ({report['first_start_wall_s']:.1f} s)", "",
              "| object | order | pcsg wall | POV-Ray wall | POV/pcsg | pcsg rays/s | "
              "POV-Ray rays/s | pcsg RSS | POV-Ray RSS | POV-Ray macros wall | macros/pcsg | "
-             "macros RSS |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "macros rays/s | macros RSS |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in report["rows"]:
         def mega(x):
             return x and x / 1e6
@@ -283,6 +286,7 @@ def table(report: dict) -> str:
             f"{f(mega(r.get('pov_rays_per_s')), '.2f', ' M')} | "
             f"{f(r['pcsg_rss_mb'], '.0f', ' MiB')} | {f(r.get('pov_rss_mb'), '.0f', ' MiB')} | "
             f"{f(r.get('macros_wall'), '.2f', ' s')} | {f(r.get('macros_ratio'), '.1f', 'x')} | "
+            f"{f(mega(r.get('macros_rays_per_s')), '.2f', ' M')} | "
             f"{f(r.get('macros_rss_mb'), '.0f', ' MiB')} |")
     lines.append("")
     lines.append(f"— : not run, or past the {report['timeout_s']:.0f} s timeout; (depth N): "
