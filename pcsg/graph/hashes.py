@@ -1,7 +1,7 @@
 """The instance hashes and the rule selection of trace/vm.py in Python integers, bit for
 bit the same (tests/test_hashes.py), for the Python that derives and bounds systems:
 the derivation, the checks' probe and the bounds' state keys. Calling vm's from Python
-loaded six compiled functions from numba's cache in every `pcsg` command, 5 ms,
+loaded six compiled functions from numba's cache in every `pcsg` command, 4 ms,
 for work of a few microseconds."""
 from __future__ import annotations
 

@@ -7,7 +7,8 @@ import that only a compile needs:
 - `cache=True` locates the cache directory and proves it writable by making and
   removing a file there, about 60 µs a function;
 - a declared signature (`njit("uint64(uint64)")`) compiles it, or loads it from the
-  cache, there and then: the nine of vm.py took 8 ms of every `pcsg` command.
+  cache, there and then: the nine of vm.py took 12 ms of every `pcsg` command (4 ms of
+  it numba's runtime set up for the first, which the first kernel's load does now).
 Here both wait for the first compile: a call from Python, a kernel's compile typing a
 call to it, or `cached()` below. Under NUMBA_DISABLE_JIT the functions stay Python."""
 from __future__ import annotations
