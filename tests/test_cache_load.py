@@ -76,7 +76,14 @@ print(json.dumps(out))
 
 
 def test_the_object_files_define_the_names_the_bitcode_does(tmp_path):
-    # the terrain: the walk, the instance table and the system's blocks besides the shading
+    # the terrain: the walk, the instance table and the system's blocks besides the shading.
+    # A render first compiles whatever is not cached yet (the blocks are cached per system
+    # and per version of vm.py), so that the second loads everything
+    warm = subprocess.run([sys.executable, "-m", "pcsg", "render",
+                           str(GRAMMARS / "carpenter_terrain.pcsg"), "--set", "cnt=3",
+                           "--size", "24x18", "-q", "-o", str(tmp_path / "w.png")],
+                          capture_output=True, text=True, timeout=900)
+    assert warm.returncode == 0, warm.stderr
     out = subprocess.run([sys.executable, "-c", SYMBOLS, str(GRAMMARS / "carpenter_terrain.pcsg"),
                           str(tmp_path / "t.png")], capture_output=True, text=True, timeout=900)
     assert out.returncode == 0, out.stderr
