@@ -1,6 +1,6 @@
 """Two versions of pcsg against each other: the render and bounds phases and the whole
-process (--timings' total) of fresh `pcsg render --timings` processes, alternating which
-goes first in every round (a fixed order biases in-process comparisons by several per
+process (--timings' total; with --phases every phase, start-up's too) of fresh `pcsg
+render --timings` processes, alternating which goes first in every round (a fixed order biases in-process comparisons by several per
 cent, see tools/performance_notes.md), medians, and whether the PNGs are the same bytes.
 
     git worktree add /tmp/before HEAD~1
@@ -25,9 +25,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def render(tree: Path, grammar: str, setting: str, png: Path) -> tuple[float, float, float, str]:
-    """(render s, bounds s, total s, PNG digest) of one fresh process of the pcsg in
-    `tree`."""
+def render(tree: Path, grammar: str, setting: str, png: Path) -> tuple[dict, str]:
+    """({phase: s} of --timings, PNG digest) of one fresh process of the pcsg in `tree`."""
     # the bounds walked in every process: kept ones would time a file read (graph/boxcache.py)
     env = dict(os.environ, PYTHONPATH=str(tree), PCSG_BOUNDS_CACHE="0")
     out = subprocess.run([sys.executable, "-m", "pcsg.cli", "render",
@@ -37,11 +36,9 @@ def render(tree: Path, grammar: str, setting: str, png: Path) -> tuple[float, fl
                          cwd=tempfile.gettempdir(), env=env, capture_output=True, text=True)
     if out.returncode != 0:
         raise SystemExit(f"{tree}: {grammar} {setting}: exit {out.returncode}\n{out.stderr}")
-
-    def phase(name):
-        return float(re.search(rf"^\s+{name}\s+([\d.]+) s", out.stderr, re.M).group(1))
-    return (phase("render"), phase("bounds"), phase("total"),
-            hashlib.sha256(png.read_bytes()).hexdigest())
+    phases = {name: float(s) for name, s in re.findall(r"^\s+(\w+)\s+([\d.]+) s", out.stderr,
+                                                        re.M)}
+    return phases, hashlib.sha256(png.read_bytes()).hexdigest()
 
 
 def main():
@@ -50,6 +47,8 @@ def main():
     ap.add_argument("b", type=Path, help="the source tree of version B (after)")
     ap.add_argument("loads", nargs="+", metavar="GRAMMAR:NAME=VALUE")
     ap.add_argument("--rounds", type=int, default=6)
+    ap.add_argument("--phases", action="store_true",
+                    help="also every phase of --timings (interpreter, imports, compile, ...)")
     args = ap.parse_args()
     trees = (args.a.resolve(), args.b.resolve())
     # both trees' modules as bytecode, as bench.py has them: where PYTHONDONTWRITEBYTECODE
@@ -60,25 +59,29 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         for load in args.loads:
             grammar, setting = load.split(":")
-            times = {t: [] for t in trees}
-            bounds = {t: [] for t in trees}
-            totals = {t: [] for t in trees}
+            phases = {t: {} for t in trees}
             digests = {}
             for i in range(args.rounds):
                 for t in (trees if i % 2 == 0 else trees[::-1]):
-                    r, b, w, d = render(t, grammar, setting, Path(tmp) / f"{trees.index(t)}.png")
-                    times[t].append(r)
-                    bounds[t].append(b)
-                    totals[t].append(w)
+                    times, d = render(t, grammar, setting, Path(tmp) / f"{trees.index(t)}.png")
+                    for name, seconds in times.items():
+                        phases[t].setdefault(name, []).append(seconds)
                     digests.setdefault(t, set()).add(d)
-            a, b = (statistics.median(times[t]) for t in trees)
-            ba, bb = (statistics.median(bounds[t]) for t in trees)
-            wa, wb = (statistics.median(totals[t]) for t in trees)
+
+            def median(t, name):
+                return statistics.median(phases[t].get(name, [0.0]))
+            a, b = (median(t, "render") for t in trees)
+            ba, bb = (median(t, "bounds") for t in trees)
+            wa, wb = (median(t, "total") for t in trees)
             same = len(digests[trees[0]] | digests[trees[1]]) == 1
             print(f"{grammar} {setting}: render A {a:.4f} s, B {b:.4f} s (B/A {b / a:.3f}); "
                   f"bounds A {ba:.3f} s, B {bb:.3f} s; total A {wa:.3f} s, B {wb:.3f} s "
                   f"(B/A {wb / wa:.3f}); same PNG bytes: {same}", flush=True)
-
+            if args.phases:
+                for name in phases[trees[0]]:
+                    pa, pb = median(trees[0], name), median(trees[1], name)
+                    print(f"  {name:12s} A {1000 * pa:8.1f} ms  B {1000 * pb:8.1f} ms  "
+                          f"B-A {1000 * (pb - pa):+7.1f} ms", flush=True)
 
 if __name__ == "__main__":
     main()
