@@ -149,3 +149,24 @@ def test_numbas_runtime_is_compiled_once_then_read_from_the_cache(tmp_path):
     assert start() == ["1", "10.0"]
     assert len(list(tmp_path.glob("nrt-*.bin"))) == 1
     assert start() == ["0", "10.0"]
+
+
+# a render whose kernels load from the cache, and the modules that load imported
+MODULES = """
+import sys
+from pcsg.cli import main
+assert main(["render", sys.argv[1], "--size", "16x12", "-q", "-o", sys.argv[2]]) == 0
+print(" ".join(m for m in ("numba.np.arraymath", "numba.np.linalg") if m in sys.modules))
+"""
+
+
+def test_loading_the_kernels_imports_no_numpy_maths_of_numbas(tmp_path):
+    """A cached kernel's environment imports the modules of the numba implementations it
+    was compiled from; `calc_cache.any()` in make_scratch made every render import
+    numba.np.arraymath (with numba.np.linalg and a probe for scipy), 9 ms."""
+    for run in range(2):      # the first may compile: a compile imports all of numba
+        out = subprocess.run([sys.executable, "-c", MODULES,
+                              str(GRAMMARS / "carpenter_terrain.pcsg"), str(tmp_path / "t.png")],
+                             capture_output=True, text=True, timeout=900)
+        assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines()[-1].split() == []

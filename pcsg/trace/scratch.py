@@ -34,7 +34,13 @@ Scratch = namedtuple("Scratch", [
 @cached_jit(error_model="numpy")
 def make_scratch(flat, limits):
     stack_depth = limits[LIM_STACK]
-    slots = CALC_CACHE_SLOTS if flat.calc_cache.any() else 1
+    # a loop, not calc_cache.any(): numba's any() is in numba.np.arraymath, which the cached
+    # kernel's environment then imported at every load, 9 ms of every render
+    slots = 1
+    for cached in flat.calc_cache:
+        if cached:
+            slots = CALC_CACHE_SLOTS
+            break
     return Scratch(
         np.full((2 * stack_depth + 1, flat.n_params), np.nan),    # + the spare (deferred.py)
         np.empty((stack_depth, F_WIDTH)), np.zeros((stack_depth, I_WIDTH), dtype=np.int64),
