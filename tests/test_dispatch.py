@@ -4,11 +4,13 @@ every call converts its arguments, whether Python or a kernel calls first."""
 import subprocess
 import sys
 import threading
+from collections import namedtuple
 
+import numba
 import numpy as np
 from numba import njit
 
-from pcsg.trace.dispatch import cached_jit, declared
+from pcsg.trace.dispatch import argument_type, cached_jit, declared
 
 
 @declared("uint64(uint64)")
@@ -108,3 +110,30 @@ def test_a_declared_function_loads_from_numbas_cache_in_a_later_process():
         assert out.returncode == 0, out.stderr
         hits.append(int(out.stdout.split()[-1]))
     assert hits[1] == 1
+
+
+def _arguments():
+    readonly = np.zeros(4)
+    readonly.flags.writeable = False
+    pair = namedtuple("pair", "a b")
+    arrays = [np.zeros(3), np.zeros((3, 4)), np.zeros((3, 4), order="F"),
+              np.zeros((3, 4))[:, ::2], np.zeros(0), np.zeros(()), readonly,
+              np.zeros((2, 2, 2), dtype=np.int16), np.zeros(3, dtype=np.uint64),
+              np.zeros(3, dtype=bool), np.zeros(2, dtype=np.complex64),
+              np.zeros(3, dtype=[("a", "f8"), ("b", "i4")]),
+              np.array(["2020-01-01"], dtype="datetime64[D]"), np.zeros(3, dtype=np.float32)]
+    scalars = [1, 2**63, -1, 1.5, True, np.uint64(7), np.int16(3), np.float32(2.0), None]
+    return (arrays + scalars + [tuple(arrays[:3]), (np.zeros(2), 3, (np.ones(1), 2.5)),
+                                pair(np.zeros(2), np.uint64(1)), pair(1, 2), ()])
+
+
+def test_arguments_are_typed_as_numba_types_them():
+    for value in _arguments():
+        assert argument_type(value) == numba.typeof(value), value
+
+
+def test_what_numba_must_decide_is_left_to_it():
+    masked = np.ma.masked_array([1.0, 2.0])
+    assert argument_type(masked) is None
+    assert argument_type((np.zeros(2), masked)) is None
+    assert argument_type(np.array([object()])) == numba.typeof(np.array([object()]))

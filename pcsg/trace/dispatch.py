@@ -10,13 +10,20 @@ import that only a compile needs:
   cache, there and then: the nine of vm.py took 12 ms of every `pcsg` command (4 ms of
   it numba's runtime set up for the first, which the first kernel's load does now).
 Here both wait for the first compile: a call from Python, a kernel's compile typing a
-call to it, or `cached()` below. Under NUMBA_DISABLE_JIT the functions stay Python."""
+call to it, or `cached()` below. Under NUMBA_DISABLE_JIT the functions stay Python.
+
+And an argument of plain arrays (an array, or tuples of arrays and scalars such as the
+Flat) is typed without numba's test for a masked array, which imported `numpy.ma`, 8 ms,
+the first time a process passed an array to any jitted function."""
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
-from numba.core import typeinfer
+from numba.core import errors, typeinfer, types
 from numba.core.compiler_lock import global_compiler_lock
 from numba.core.registry import CPUDispatcher
+from numba.core.typing.typeof import Purpose, typeof
+from numba.np import numpy_support
 
 
 class CachedLater(CPUDispatcher):
@@ -32,6 +39,45 @@ class CachedLater(CPUDispatcher):
             if self.__dict__.pop("_cache_later", False):
                 self.enable_caching()
         return self
+
+    def typeof_pyval(self, val):
+        # numba's dispatcher asks this the first time it meets an argument of a new kind
+        tp = argument_type(val)
+        if tp is None:
+            return super().typeof_pyval(val)
+        self._types_active_call.add(tp)
+        return tp
+
+
+def argument_type(val):
+    """numba's type of an argument, as `numba.typeof` gives it, for plain arrays and
+    tuples (named or not) of them and of what numba types without looking at an array;
+    None for anything else, and where numba's own typeof should decide (or fail)."""
+    if type(val) is np.ndarray:
+        return array_type(val)
+    if isinstance(val, np.ndarray):
+        return None                     # a subclass: a masked array among them
+    if isinstance(val, tuple):          # as typing/typeof.py's _typeof_tuple
+        tys = [argument_type(v) for v in val]
+        if any(t is None for t in tys):
+            return None
+        return types.BaseTuple.from_types(tys, type(val))
+    try:
+        return typeof(val, Purpose.argument)
+    except (errors.NumbaValueError, ValueError):
+        return None
+
+
+def array_type(val: np.ndarray):
+    """numba's type of a plain ndarray, as numba's typeof gives it (typing/typeof.py,
+    _typeof_ndarray) without its test for a masked array, which no plain ndarray is; None
+    for a dtype numba types otherwise, so that numba's own typeof decides (and fails)."""
+    try:
+        dtype = numpy_support.from_dtype(val.dtype)
+    except errors.NumbaNotImplementedError:
+        return None
+    return types.Array(dtype, val.ndim, numpy_support.map_layout(val),
+                       readonly=not val.flags.writeable)
 
 
 class Declared(CachedLater):
