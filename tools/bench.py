@@ -231,22 +231,8 @@ def main():
                **{f"pcsg_{k}": median(p, k) for k in ("wall", "trace_s", "rays_per_s", "rss_mb")},
                "pcsg_depth_bound": next((x.get("depth_bound") for x in p if x.get("depth_bound")),
                                         None)}
-        if v:
-            row.update({f"pov_{k}": median(v, k)
-                        for k in ("wall", "parse_s", "trace_s", "rays_per_s", "rss_mb")})
-            both = row["pov_wall"] and row["pcsg_wall"]
-            row["wall_ratio"] = row["pov_wall"] / row["pcsg_wall"] if both else None
-            row["rays_ratio"] = (row["pcsg_rays_per_s"] / row["pov_rays_per_s"]
-                                 if row["pov_rays_per_s"] and row["pcsg_rays_per_s"] else None)
-        m = results[w]["macros"]
-        if m:
-            row.update({f"macros_{k}": median(m, k)
-                        for k in ("wall", "parse_s", "trace_s", "rays_per_s", "rss_mb")})
-            both = row["macros_wall"] and row["pcsg_wall"]
-            row["macros_ratio"] = row["macros_wall"] / row["pcsg_wall"] if both else None
-            row["macros_rays_ratio"] = (row["pcsg_rays_per_s"] / row["macros_rays_per_s"]
-                                        if row["macros_rays_per_s"] and row["pcsg_rays_per_s"]
-                                        else None)
+        peer(row, "pov", v, ("wall_ratio", "rays_ratio"))
+        peer(row, "macros", results[w]["macros"], ("macros_ratio", "macros_rays_ratio"))
         rows.append(row)
     report = {
         "machine": f"{platform.machine()}, {os.cpu_count()} cores, "
@@ -266,6 +252,19 @@ def main():
     }
     Path(args.out).write_text(json.dumps(report, indent=1) + "\n")
     print(table(report))
+
+
+def peer(row: dict, name: str, runs: list, ratios: tuple[str, str]):
+    """One POV-Ray peer's medians into row (name_wall, ...), with its whole-process ratio
+    (POV-Ray over pcsg) and trace ratio (pcsg's rays/s over POV-Ray's) under `ratios`."""
+    if not runs:
+        return
+    row.update({f"{name}_{k}": median(runs, k)
+                for k in ("wall", "parse_s", "trace_s", "rays_per_s", "rss_mb")})
+    wall, rays = row[f"{name}_wall"], row[f"{name}_rays_per_s"]
+    row[ratios[0]] = wall / row["pcsg_wall"] if wall and row["pcsg_wall"] else None
+    row[ratios[1]] = (row["pcsg_rays_per_s"] / rays
+                      if rays and row["pcsg_rays_per_s"] else None)
 
 
 def table(report: dict) -> str:
