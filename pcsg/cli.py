@@ -17,6 +17,7 @@ IMPORTS_BEGAN = time.perf_counter()     # for --timings: the imports start here
 
 from .arguments import parser  # noqa: E402
 from .interrupt import redeliver_in_finalizers, release_compiler_lock  # noqa: E402
+from .language import prefetch  # noqa: E402
 from .language.errors import PcsgError, labelled  # noqa: E402
 from .limits import MAX_DEPTH, bounces_problem  # noqa: E402
 from .timings import Timings, note_startup  # noqa: E402
@@ -488,7 +489,12 @@ def run() -> None:
     as the process, and every full collection during the compile and the bounding walk
     walked them all again (0.1 to 0.25 s of a terrain render)."""
     redeliver_in_finalizers()
-    import_kernels()
+    try:
+        prefetch.first_file(sys.argv[1:])       # parsed on the other core meanwhile
+        import_kernels()
+    except KeyboardInterrupt:       # main reports one from then on
+        print("pcsg: interrupted", file=sys.stderr, flush=True)
+        os._exit(130)
     note_startup(IMPORTS_BEGAN)
     code = main()
     for stream in (sys.stdout, sys.stderr):

@@ -6,8 +6,9 @@ from pathlib import Path
 from .graph.build import build_graph
 from .graph.checks import run_checks
 from .graph.model import Graph
+from .language import prefetch
 from .language.errors import Diagnostic, PcsgError
-from .language.parser import parse, read_source_text
+from .language.files import read_source_text
 from .language.source import Source
 from .recursion import recursion_limit
 
@@ -17,7 +18,11 @@ def compile_text(text: str, file: str = "<string>", overrides: dict[str, float] 
     """Parse, build and check; raises PcsgError. Warnings are in graph.warnings."""
     try:
         with recursion_limit(60_000):       # the AST passes recurse with the nesting
-            program, source = parse(text, file)
+            parsed = prefetch.take(file, text)
+            if parsed is None:
+                from .language.parser import parse      # lark: only where it parses here
+                parsed = parse(text, file)
+            program, source = parsed
             graph = build_graph(program, source, overrides)
             run_checks(graph)
             return graph

@@ -9,7 +9,7 @@ from collections import Counter
 from pathlib import Path
 
 from ..language.errors import PcsgError, labelled
-from ..language.parser import read_source_text
+from ..language.files import read_source_text
 from ..output import write_atomic
 from ..render.job import Options, check_options, strict_failure, summary_line
 from .cluster import LOCAL, ClusterUnavailable, LocalRunner, connect, require_dask

@@ -90,6 +90,11 @@ class PcsgError(Exception):
         self.diagnostics = diagnostics
         super().__init__("\n".join(d.format() for d in diagnostics))
 
+    def __reduce__(self):
+        # as it was made, not from its message (language/prefetch.py sends it between
+        # processes)
+        return type(self), (self.diagnostics,)
+
     @property
     def first(self) -> Diagnostic:
         return self.diagnostics[0]

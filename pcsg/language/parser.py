@@ -11,6 +11,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 
 from . import ast
 from .errors import Diagnostic, PcsgError
+from .files import read_source_text
 from .names import RESERVED
 from .postlex import LineJoiner
 from .preprocess import preprocess
@@ -19,7 +20,6 @@ from .source import Source
 CSG_OPS = {"∪": "union", "|": "union", "∩": "intersection", "&": "intersection",
            "\\": "difference", "∖": "difference"}
 ARITH_OPS = {"and": "&&", "or": "||", "not": "!"}
-MAX_FILE_BYTES = 8 * 1024 * 1024     # lark parses ~100k tokens/s; a PCSG system is short
 
 
 def _span(x):
@@ -146,40 +146,6 @@ def _lark() -> tuple[Lark, LineJoiner]:
     parser = Lark(grammar, parser="lalr", lexer="contextual", postlex=joiner,
                   transformer=_ToAst(), maybe_placeholders=True, cache=True)
     return parser, joiner
-
-
-def read_source_text(path: str | Path) -> str:
-    """Read a .pcsg file as UTF-8 text; PcsgError (not OSError) for anything unreadable."""
-    name = str(path)
-    try:
-        p = Path(path)
-        if p.is_dir():
-            raise PcsgError([Diagnostic("error", "is a directory, not a .pcsg file", None,
-                                        Source(name, ""), code="io")])
-        size = p.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise PcsgError([Diagnostic("error", f"file is {size / 2**20:.1f} MiB; pcsg reads "
-                                        f"grammars of up to {MAX_FILE_BYTES // 2**20} MiB (an "
-                                        f"expanded derivation that large: use fewer steps)", None,
-                                        Source(name, ""), code="io")])
-        data = p.read_bytes()
-    except OSError as e:
-        raise PcsgError([Diagnostic("error", f"cannot read: {e.strerror or e}", None,
-                                    Source(name, ""), code="io")]) from None
-    return decode(data, name)
-
-
-def decode(data: bytes, name: str) -> str:
-    if b"\x00" in data:
-        raise PcsgError([Diagnostic("error", "this is a binary file, not PCSG text", None,
-                                    Source(name, ""), code="encoding")])
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as e:
-        text = data[:e.start].decode("utf-8", "replace")
-        src = Source(name, text)
-        raise PcsgError([Diagnostic("error", f"not UTF-8 text (byte 0x{data[e.start]:02x})", None,
-                                    src, code="encoding", original=len(text))]) from None
 
 
 def parse(text: str, file: str = "<string>") -> tuple[ast.Program, Source]:

@@ -62,7 +62,7 @@ def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
     Raises PcsgError for a file with errors, BadAnimation for a still animation or a
     camera that cannot look."""
     from ..compiler import compile_file
-    from ..language.parser import read_source_text
+    from ..language.files import read_source_text
     from .camera import Camera, CameraError, make_camera
     from .shade import default_light
     o = anim.opts
@@ -267,7 +267,7 @@ def animate(anim: Animation) -> int:
 def _run_on_cluster(todo, runner, manifest, report):
     """Each frame a task on the cluster's workers, its grammar text sent along (no shared
     file system needed); the PNG comes back and is written here as it arrives."""
-    from ..language.parser import read_source_text
+    from ..language.files import read_source_text
     from ..output import write_atomic
     from ..distributed.units import Unit, render_unit
     by_png = {job.png: job for job in todo}

@@ -1,0 +1,44 @@
+"""Reading a .pcsg file: UTF-8 text, or a PcsgError that says why not. Kept apart from
+the parser so that reading a file does not import lark."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from .errors import Diagnostic, PcsgError
+from .source import Source
+
+MAX_FILE_BYTES = 8 * 1024 * 1024     # lark parses ~100k tokens/s; a PCSG system is short
+
+
+def read_source_text(path: str | Path) -> str:
+    """Read a .pcsg file as UTF-8 text; PcsgError (not OSError) for anything unreadable."""
+    name = str(path)
+    try:
+        p = Path(path)
+        if p.is_dir():
+            raise PcsgError([Diagnostic("error", "is a directory, not a .pcsg file", None,
+                                        Source(name, ""), code="io")])
+        size = p.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise PcsgError([Diagnostic("error", f"file is {size / 2**20:.1f} MiB; pcsg reads "
+                                        f"grammars of up to {MAX_FILE_BYTES // 2**20} MiB (an "
+                                        f"expanded derivation that large: use fewer steps)", None,
+                                        Source(name, ""), code="io")])
+        data = p.read_bytes()
+    except OSError as e:
+        raise PcsgError([Diagnostic("error", f"cannot read: {e.strerror or e}", None,
+                                    Source(name, ""), code="io")]) from None
+    return decode(data, name)
+
+
+def decode(data: bytes, name: str) -> str:
+    if b"\x00" in data:
+        raise PcsgError([Diagnostic("error", "this is a binary file, not PCSG text", None,
+                                    Source(name, ""), code="encoding")])
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        text = data[:e.start].decode("utf-8", "replace")
+        src = Source(name, text)
+        raise PcsgError([Diagnostic("error", f"not UTF-8 text (byte 0x{data[e.start]:02x})", None,
+                                    src, code="encoding", original=len(text))]) from None
