@@ -147,3 +147,29 @@ def test_no_child_is_forked_beside_other_threads():
     finally:
         done.set()
         t.join()
+
+
+FORKED = """
+import os, sys
+from pcsg.language import prefetch
+path = sys.argv[1]
+prefetch.start(path)
+(pid, pipe), = prefetch._children.values()
+worker = os.fork()
+if worker == 0:         # as animate's and sweep's workers are made
+    try:
+        os.fstat(pipe)
+        os._exit(1)     # the pipe is still open here
+    except OSError:
+        os._exit(0 if prefetch._children == {} else 2)
+_, status = os.waitpid(worker, 0)
+text = open(path, encoding="utf-8").read()
+print(os.waitstatus_to_exitcode(status), type(prefetch.take(path, text)).__name__)
+"""
+
+
+def test_a_process_forked_later_lets_the_parent_take_the_childs_parse():
+    p = subprocess.run([sys.executable, "-c", FORKED, str(GRAMMARS / "carpenter_terrain.pcsg")],
+                       cwd=ROOT, env=ENV, capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split() == ["0", "tuple"]

@@ -19,8 +19,17 @@ import sys
 from .errors import PcsgError
 
 _children: dict[str, tuple[int, int]] = {}     # the file's real path -> (pid, pipe)
-# a process forked later (animate's and sweep's workers) has no child of its own to ask
-os.register_at_fork(after_in_child=_children.clear)
+
+
+def _forget() -> None:
+    """In a process forked later (animate's and sweep's workers): no child of its own to
+    ask, and no pipe held open that would keep a child writing to it waiting."""
+    for _, read in _children.values():
+        os.close(read)
+    _children.clear()
+
+
+os.register_at_fork(after_in_child=_forget)
 
 
 def first_file(argv: list[str]) -> None:
