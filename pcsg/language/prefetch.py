@@ -29,7 +29,8 @@ def _forget() -> None:
     _children.clear()
 
 
-os.register_at_fork(after_in_child=_forget)
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget)
 
 
 def first_file(argv: list[str]) -> None:
@@ -54,11 +55,26 @@ def start(path: str) -> None:
     # back into the command's own code before its handler says so
     held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
+        child = _fork_parse(path, held)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+    if child is not None:
+        _children[key] = child
+
+
+def _fork_parse(path: str, held) -> tuple[int, int] | None:
+    """(pid, pipe) of a child that parses `path`; None where none could be made (too many
+    processes, say): the compiler parses then. The child never returns from here."""
+    try:
         read, write = os.pipe()
+    except OSError:
+        return None
+    try:
         pid = os.fork()
     except OSError:
-        signal.pthread_sigmask(signal.SIG_SETMASK, held)
-        return
+        os.close(read)
+        os.close(write)
+        return None
     if pid == 0:
         try:
             signal.signal(signal.SIGINT, lambda *_: os._exit(1))
@@ -68,9 +84,8 @@ def start(path: str) -> None:
                 out.write(_parsed(path))
         finally:
             os._exit(0)       # never the parent's exit handlers, nor its buffered output
-    signal.pthread_sigmask(signal.SIG_SETMASK, held)
     os.close(write)
-    _children[key] = pid, read
+    return pid, read
 
 
 def _parsed(path: str) -> bytes:
