@@ -58,6 +58,20 @@ def test_the_command_that_took_the_childs_parse_never_imports_lark(tmp_path):
     assert p.stdout.splitlines()[-1] == "0 True True"
 
 
+def test_a_path_the_command_writes_otherwise_still_takes_the_childs_parse(tmp_path):
+    """`pcsg render ./x.pcsg` names the file `x.pcsg` in its messages, as it always did."""
+    f = tmp_path / "w.pcsg"
+    f.write_text("S\n1: S → sphere ∪ move(2,0,0) uscale(0.5) S\n", encoding="utf-8")
+    argv = ["render", "./w.pcsg", "--size", "32x24", "-q", "-o", str(tmp_path / "w.png")]
+    p = subprocess.run([sys.executable, "-c", STEPS, *argv], cwd=tmp_path, env=ENV,
+                       capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.splitlines()[-1] == "0 False False"
+    off = subprocess.run([sys.executable, "-m", "pcsg", *argv], cwd=tmp_path, env=OFF,
+                         capture_output=True, text=True, timeout=600)
+    assert "w.pcsg:2:" in off.stderr and p.stderr == off.stderr
+
+
 def test_errors_and_warnings_read_the_same_either_way(tmp_path):
     bad = tmp_path / "bad.pcsg"
     bad.write_text("{c = 1} S\n1: S → sphere ∪\n  move(1, 0 S\n", encoding="utf-8")

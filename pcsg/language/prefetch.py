@@ -123,8 +123,12 @@ def take(path: str, text: str):
         os.waitpid(pid, 0)
     except ChildProcessError:   # reaped already
         pass
-    if got is None or got[:2] != (path, text):     # the name is in every diagnostic
+    if got is None or got[1] != text:
         return None
     if isinstance(got[2], PcsgError):
+        if got[0] != path:      # the name is in every diagnostic
+            return None
         raise got[2]
-    return got[2]
+    program, source = got[2]
+    source.file = path          # the name the command gives it (`./x.pcsg` may come as `x.pcsg`)
+    return program, source
