@@ -10,14 +10,14 @@ from .language import prefetch
 from .language.errors import Diagnostic, PcsgError
 from .language.files import read_source_text
 from .language.source import Source
-from .recursion import recursion_limit
+from .recursion import SYNTAX_DEPTH, recursion_limit
 
 
 def compile_text(text: str, file: str = "<string>", overrides: dict[str, float] | None = None
                  ) -> Graph:
     """Parse, build and check; raises PcsgError. Warnings are in graph.warnings."""
     try:
-        with recursion_limit(60_000):       # the AST passes recurse with the nesting
+        with recursion_limit(SYNTAX_DEPTH):
             parsed = prefetch.take(file, text)
             if parsed is None:
                 from .language.parser import parse      # lark: only where it parses here

@@ -12,6 +12,7 @@ import sys
 import threading
 from contextlib import contextmanager
 
+SYNTAX_DEPTH = 60_000      # the parse and the AST passes recurse with the nesting
 _lock = threading.Lock()
 _asked: list[int] = []      # the limits of the passes inside
 _saved = 0                  # the limit before the first of them came in

@@ -91,13 +91,13 @@ def _fork_parse(path: str, held) -> tuple[int, int] | None:
 def _parsed(path: str) -> bytes:
     """The pickled (path, text, result): `result` the parse, or the PcsgError it raised;
     None for anything else, which the parent then meets itself."""
-    from ..recursion import recursion_limit
+    from ..recursion import SYNTAX_DEPTH, recursion_limit
     from .files import read_source_text
     from .parser import parse
     try:
         text = read_source_text(path)
         try:
-            with recursion_limit(60_000):       # as compiler.compile_text parses
+            with recursion_limit(SYNTAX_DEPTH):     # as compiler.compile_text parses
                 found = parse(text, path)
         except PcsgError as e:
             found = e
