@@ -75,3 +75,30 @@ def test_no_huge_pages_are_advised_inside_and_numpys_choice_is_back_after():
     if out[0] != "True":
         pytest.skip("this numpy or kernel advises no huge pages")
     assert out == ["True", "False", "True"]
+
+
+ZEROED = """
+import numpy as np
+from pcsg.memory import zeroed
+def rss():
+    with open("/proc/self/status") as f:
+        return next(int(l.split()[1]) for l in f if l.startswith("VmRSS")) // 1024
+before = rss()
+block = zeroed(64 << 20)
+mapped = rss() - before
+small = zeroed(1000)
+print(mapped, int(block.any()), int(small.any()), block.size, small.size,
+      int(block.flags.writeable), block.ctypes.data % 4096)
+"""
+
+
+@pytest.mark.skipif(platform.system() != "Linux", reason="MAP_POPULATE")
+def test_zeroed_blocks_come_with_their_pages():
+    """A large block of zeros is resident before anything touches it (its pages mapped
+    at once, not one fault per page as the instance table's random writes reach them),
+    writable and page-aligned; a small one is numpy's own."""
+    out = subprocess.run([sys.executable, "-c", ZEROED], capture_output=True, text=True,
+                         check=True)
+    mapped, big_any, small_any, big, small, writeable, offset = map(int, out.stdout.split())
+    assert mapped >= 60 and big_any == 0 and small_any == 0
+    assert (big, small, writeable, offset) == (64 << 20, 1000, 1, 0)

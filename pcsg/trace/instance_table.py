@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..memory import zeroed
 from .dispatch import cached_jit
 from . import vm
 from .jit import copy_into, inline, kernel
@@ -46,7 +47,7 @@ def table_slots(entries: int) -> int:
 
 
 def _aligned_rows(slots: int) -> np.ndarray:
-    buf = np.zeros(slots * ROW + 16, dtype=np.float32)    # zero pages: faulted in as written
+    buf = zeroed((slots * ROW + 16) * 4).view(np.float32)
     start = (-buf.ctypes.data % 64) // 4
     return buf[start:start + slots * ROW].reshape(slots, ROW)
 
@@ -82,7 +83,7 @@ def tracer_rows(keys, used, vals, boxes) -> dict:
     inst_deepest lets a walk skip the probes past the deepest level kept, which could only
     miss (the terrain at order 9 keeps 10 of its 12 levels)."""
     rows = _aligned_rows(table_slots(int(np.count_nonzero(used))))
-    levels = np.zeros(rows.shape[0], dtype=np.int16)
+    levels = zeroed(2 * rows.shape[0]).view(np.int16)
     _fill_rows(keys, used, vals, boxes, rows, rows.view(np.uint64)[:, KEY], levels)
     return row_fields(rows, levels, int(levels.max(initial=0)) - 1)
 
