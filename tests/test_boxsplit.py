@@ -133,3 +133,45 @@ def test_an_exception_from_the_poll_stops_the_walk_and_is_raised():
     assert len(calls) == 1
     small = compile_file(GRAMMARS / "carpenter_terrain.pcsg", {"cnt": 6})
     assert np.array_equal(walk_boxes(small)[0], split_walk(small, 64, 1)[1])
+
+
+@pytest.mark.parametrize("name, params, depth", [("carpenter_terrain", {"cnt": 5}, 64),
+                                                 ("sympodial_tree", {"cnt": 7}, 64),
+                                                 ("graftal_tree", {}, 6)])
+def test_the_walk_reads_no_scratch_row_it_has_not_written(name, params, depth):
+    """walk_scratch leaves its rows as the allocator gives them (boxwalk.walk_scratch):
+    a walk over rows that hold another walk's values, or anything else, makes the same
+    visits, boxes, counts and entries as over rows set to zeros and NaN."""
+    from pcsg.trace.boxsplit import items_for
+    from pcsg.trace.boxwalk import walk_in, walk_scratch
+    from pcsg.trace.instance_table import ENTRY
+    graph = compile_file(GRAMMARS / f"{name}.pcsg", params)
+    n = len(graph.nodes)
+    empty = np.tile([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf], (n, 1))
+    flat = flatten_graph(graph, empty, runs=False)
+    capacity = (depth + 2) * (n + 2) + 16
+
+    def walk(fill):
+        boxes = empty.copy()
+        book = new_book(depth + 1, 4096)
+        buffer = (np.empty(4096, np.uint64), np.empty(4096, np.int16),
+                  np.empty((4096, ENTRY), np.float32))
+        per_level = np.zeros(depth + 2, dtype=np.int64)
+        changed = np.zeros(1, dtype=np.int64)
+        scratch = walk_scratch(flat, capacity)
+        for array, value in zip(scratch[:4], fill):
+            array[:] = value
+        visits = walk_in(flat, depth, 10**9, capacity, boxes, book, *buffer, per_level,
+                         changed, np.zeros(3, np.int64), *items_for(flat, 1), -1, *scratch,
+                         np.zeros(2, np.int64), 1)
+        kept = book[2]
+        return (visits, boxes, per_level, int(changed[0]), buffer[0][:kept].tolist(),
+                buffer[2][:kept])
+
+    clean = walk((0, 0, np.nan, 0.0))
+    assert clean[0] > 0
+    for fill in [(3, 12345, 7.0, -1.0), (1, 2**63, -1e300, np.nan)]:
+        dirty = walk(fill)
+        assert dirty[0] == clean[0] and dirty[3:5] == clean[3:5]
+        for got, want in zip(dirty[1:3] + dirty[5:], clean[1:3] + clean[5:]):
+            assert np.array_equal(got, want)

@@ -119,9 +119,11 @@ def draws_hashes(flat):
 def walk_scratch(flat, capacity):
     """A walk's frames (fr), their hashes (hs), parameter rows, instance boxes (acc) and
     the small arrays of its steps, for walk_in: allocated once per thread, not per
-    subtree (a walk's rows of parameters alone are a megabyte)."""
-    return (np.zeros((capacity, 5), dtype=np.int64), np.zeros(capacity, dtype=np.uint64),
-            np.full((capacity, flat.n_params), np.nan), np.empty((capacity, 6)),
+    subtree (a walk's rows of parameters alone are a megabyte). Not initialised: walk_in
+    writes every row before it reads it, and filling them touched every page of rows
+    that a walk mostly never reaches (its stack is as deep as the graph is long)."""
+    return (np.empty((capacity, 5), dtype=np.int64), np.empty(capacity, dtype=np.uint64),
+            np.empty((capacity, flat.n_params)), np.empty((capacity, 6)),
             np.empty(6), np.empty(flat.max_stack), np.empty(12), np.empty((3, 4)))
 
 
