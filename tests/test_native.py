@@ -1,9 +1,12 @@
 """Compiled calculation blocks (trace/native.py) give the expression machine's bits,
 opcode by opcode and through the walks, and a second start loads them compiled."""
+import importlib.util
 import itertools
 import os
+import struct
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -219,7 +222,10 @@ print(len(blocks), module.run_blocks.cache_hits)
 
 
 def test_a_second_start_loads_the_compiled_blocks(tmp_path):
-    env = {**os.environ, "PCSG_CACHE_DIR": str(tmp_path)}
+    """The second process loads the blocks' callback from numba's cache, and their module
+    from its bytecode, written beside it though PYTHONDONTWRITEBYTECODE is set: a pyc that
+    records the source's size and time, which is what makes the import read it."""
+    env = {**os.environ, "PCSG_CACHE_DIR": str(tmp_path), "PYTHONDONTWRITEBYTECODE": "1"}
     counts = []
     for _ in range(2):
         r = subprocess.run([sys.executable, "-c", LOADS], cwd=ROOT, env=env,
@@ -229,4 +235,9 @@ def test_a_second_start_loads_the_compiled_blocks(tmp_path):
     (blocks, first_hits), (again, second_hits) = counts
     assert blocks == again >= 8
     assert first_hits == 0 and second_hits == 1        # one callback runs them all
-    assert list((tmp_path / "blocks").glob("pcsg_blocks_*.py"))
+    source, = (tmp_path / "blocks").glob("pcsg_blocks_*.py")
+    pyc = Path(importlib.util.cache_from_source(str(source))).read_bytes()
+    assert pyc[:4] == importlib.util.MAGIC_NUMBER
+    flags, mtime, size = struct.unpack("<3I", pyc[4:16])
+    stat = source.stat()
+    assert flags == 0 and mtime == int(stat.st_mtime) & 0xFFFFFFFF and size == stat.st_size

@@ -249,13 +249,15 @@ def _load(text: str, name: str):
     folder = cache_dir() / "blocks"
     path = folder / f"{name}.py"
     try:
-        if not path.exists() or path.read_text() != text:
+        written = not path.exists() or path.read_text() != text
+        if written:
             folder.mkdir(parents=True, exist_ok=True)
             # written whole, then renamed: another process may be importing it
             fd, tmp = tempfile.mkstemp(dir=folder, suffix=".tmp")
             with os.fdopen(fd, "w") as f:
                 f.write(text)
             os.replace(tmp, path)
+        _bytecode(path, written)
     except OSError:
         folder = Path(tempfile.mkdtemp(prefix="pcsg-blocks-"))
         path = folder / f"{name}.py"
@@ -269,3 +271,18 @@ def _load(text: str, name: str):
         del sys.modules[name]       # not half a module for the next flatten to find
         raise
     return module
+
+
+def _bytecode(path: Path, stale: bool) -> None:
+    """The module's bytecode in its __pycache__, for its import to read: written here
+    where it is missing (or `stale`) even where PYTHONDONTWRITEBYTECODE is set, as
+    containers often set it and this machine does, since the module is pcsg's own cache.
+    Compiled from source at every start, the terrain's 26 kB of blocks took 10 ms of each
+    render. py_compile writes it whole, then renames it."""
+    cached = importlib.util.cache_from_source(str(path))
+    if stale or not os.path.exists(cached):
+        import py_compile
+        try:
+            py_compile.compile(str(path), cfile=cached, doraise=True)
+        except (OSError, py_compile.PyCompileError):
+            pass        # the import compiles it (and reports an error) as it would have
