@@ -453,7 +453,7 @@ def import_kernels() -> None:
     collecting = gc.isenabled()
     gc.disable()
     try:
-        with _numba_without_yaml():
+        with _numba_without_yaml(), _numba_without_extensions():
             importlib.import_module(".tracer", __package__)
     finally:
         gc.freeze()
@@ -476,6 +476,33 @@ def _numba_without_yaml():
     finally:
         if "yaml" in sys.modules and sys.modules["yaml"] is None:
             del sys.modules["yaml"]
+
+
+@contextlib.contextmanager
+def _numba_without_extensions():
+    """numba loads the `numba_extensions` entry points of every installed distribution
+    the first time a kernel loads: it reads the metadata of each (2.5 ms here, more in a
+    larger environment), and imports importlib.metadata to do it (10 ms of every command).
+    They are plug-ins that teach numba other libraries' types (awkward, numba-scipy, ...),
+    which pcsg's kernels never use; loaded into its compiler, they would only make the
+    kernels depend on what else is installed. The command skips them, and imports
+    importlib.metadata where something uses it (importlib's LazyLoader)."""
+    name = "importlib.metadata"
+    if name not in sys.modules:
+        import importlib.util
+        spec = importlib.util.find_spec(name)
+        if spec is not None and spec.loader is not None:
+            spec.loader = importlib.util.LazyLoader(spec.loader)
+            module = importlib.util.module_from_spec(spec)
+            sys.modules[name] = module
+            # as an import sets it: `from importlib import metadata` then reads no
+            # attribute of the module, which would load it
+            importlib.metadata = module
+            spec.loader.exec_module(module)     # deferred to the first attribute read
+    yield
+    entrypoints = sys.modules.get("numba.core.entrypoints")
+    if entrypoints is not None and hasattr(entrypoints, "_already_initialized"):
+        entrypoints._already_initialized = True
 
 
 def run() -> None:

@@ -9,7 +9,7 @@ import pytest
 
 from pcsg.cli import main
 
-from .conftest import GRAMMARS, SIERPINSKI, expand_and_recheck
+from .conftest import GRAMMARS, ROOT, SIERPINSKI, expand_and_recheck
 
 
 def run(capsys, *argv):
@@ -259,6 +259,41 @@ def test_numba_reads_its_yaml_config_only_where_there_is_one(tmp_path):
     assert config(tmp_path) == ["False False 0", "{'a': 1}"]
     (tmp_path / ".numba_config.yaml").write_text("disable_performance_warnings: 1\n")
     assert config(tmp_path) == ["True True 1", "{'a': 1}"]
+
+
+EXTENSION = """
+import sys
+import numpy as np
+{setup}
+from numba import njit
+njit(lambda x: x + 1)(np.ones(2))     # a kernel compiled: numba loads its extensions first
+print(sorted(m for m in sys.modules if m.startswith("fake_numba_extension")),
+      type(sys.modules.get("importlib.metadata")).__name__)
+from importlib import metadata
+print(metadata.version("numpy") == np.__version__)
+"""
+
+
+def test_the_command_loads_no_numba_extension_and_imports_metadata_on_use(tmp_path):
+    """A distribution's `numba_extensions` entry point (a plug-in of numba's) is loaded by
+    numba, but not in the command's process, which does not import importlib.metadata
+    until something uses it: then it works as usual."""
+    (tmp_path / "fake_numba_extension.py").write_text("def init():\n    pass\n")
+    info = tmp_path / "fake_numba_extension-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: fake-numba-extension\n"
+                                   "Version: 1.0\n")
+    (info / "entry_points.txt").write_text("[numba_extensions]\ninit = "
+                                           "fake_numba_extension:init\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(ROOT)])}
+
+    def run_with(setup):
+        r = subprocess.run([sys.executable, "-c", EXTENSION.format(setup=setup)], env=env,
+                           capture_output=True, text=True, timeout=300, cwd=tmp_path)
+        assert r.returncode == 0, r.stderr
+        return r.stdout.split("\n")[:2]
+    assert run_with("") == ["['fake_numba_extension'] module", "True"]
+    assert run_with("import pcsg.cli; pcsg.cli.import_kernels()") == ["[] _LazyModule", "True"]
 
 
 def test_written_files_get_ordinary_permissions(capsys, sierpinski, tmp_path):
