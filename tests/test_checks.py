@@ -83,6 +83,16 @@ class TestContraction:
         assert warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
                            "2: S → sphere ∪ {n = n-1} move(2,0,0) scale(0.5,0.5,1) S") == []
 
+    def test_a_cycle_that_shrinks_along_no_axis_but_some_direction_is_not_reported(self):
+        # scale after a turn: every axis keeps a length of 1 or more (1.12, 1.12, 1), and
+        # the map still halves one direction; its least singular value (an SVD) says so
+        assert warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
+                           "2: S → sphere ∪ {n = n-1} move(2,0,0) scale(0.5,1.5,1) rotz(45) S"
+                           ) == []
+        w = warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
+                        "2: S → sphere ∪ {n = n-1} move(2,0,0) scale(1.1,1.5,1) rotz(45) S")
+        assert [x.code for x in w] == ["non-contracting"] and "scale 1 " in w[0].message
+
     def test_the_terrain_is_clean_at_every_order(self):
         # its cycles halve x and y and keep z: it was reported at cnt 12 and not at 8 to
         # 11, as deep as the probe's walk happened to go
