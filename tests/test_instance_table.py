@@ -251,3 +251,47 @@ def test_the_tracer_lays_out_a_hashed_table_as_its_list_of_entries():
             continue
         assert np.all(got[:3] <= want[:3]) and np.all(got[3:] >= want[3:])     # outwards
         assert np.all(got[:3] >= low[owner, :3]) and np.all(got[3:] <= high[owner, 3:])
+
+
+def test_the_rows_hold_the_same_entries_whatever_the_workers_that_fill_them():
+    """tracer_rows fills the table's parts on threads of their own, and an entry whose
+    probe would cross into the next part after them. Keys crowded into a few runs of
+    slots, across the parts' borders and around the table's end, some of them twice
+    (the later entry wins): every probe finds the same box and level with 1 to 5 workers
+    as by the one-worker fill, and the rows hold nothing else."""
+    from pcsg.trace.instance_table import ENTRY
+    rng = np.random.default_rng(11)
+    n = 300
+    slots = 1024                      # table_slots(300)
+    # runs across the parts' borders of 2 (at 512), 3 (341, 682) and 5 workers (409), and
+    # across the table's end
+    homes = np.concatenate([rng.integers(330, 340, 60), rng.integers(400, 408, 50),
+                            rng.integers(505, 518, 60), rng.integers(675, 681, 40),
+                            rng.integers(1015, 1024, 50), rng.integers(0, slots, 40)])
+    keys = (rng.integers(1, 2**40, n).astype(np.uint64) * np.uint64(slots)
+            + homes.astype(np.uint64))
+    keys[280:] = keys[:20]            # the same keys again, with other boxes and levels
+    used = rng.integers(1, 4, n).astype(np.int16)
+    used[5] = 0                       # a dropped entry
+    lows = rng.uniform(-1, 0.5, (n, 3))
+    vals = np.c_[lows, lows + rng.uniform(0.1, 1, (n, 3)), np.zeros(n)].astype(np.float32)
+    assert vals.shape[1] == ENTRY
+    boxes = np.array([[-2.0, -2, -2, 2, 2, 2]])
+    tables = [tracer_rows(keys, used, vals, boxes, workers=w) for w in (1, 2, 3, 5)]
+    one = tables[0]
+    assert one["inst_keys"].shape[0] == slots
+    live = {int(k) for k, u in zip(keys, used) if u}
+    for t in tables:
+        assert sorted(int(k) for k in t["inst_keys"] if k) == sorted(live)
+        for k in live:
+            a = find(one["inst_keys"], one["inst_keys"], np.uint64(k))
+            b = find(t["inst_keys"], t["inst_keys"], np.uint64(k))
+            assert a is not None and b is not None
+            assert np.array_equal(t["inst_boxes"][b, :6], one["inst_boxes"][a, :6])
+            assert t["inst_used"][b] == one["inst_used"][a]
+    last = {int(k): i for i, k in enumerate(keys) if used[i]}    # the later entry wins
+    for k, i in last.items():
+        a = find(one["inst_keys"], one["inst_keys"], np.uint64(k))
+        assert one["inst_used"][a] == used[i]
+    # the parts' borders were crossed: two workers placed entries otherwise than one
+    assert not np.array_equal(tables[1]["inst_keys"], one["inst_keys"])
