@@ -79,20 +79,54 @@ import gc
 from numba.core.caching import NullCache
 from numba.core.dispatcher import Dispatcher
 import pcsg.cli, pcsg.compiler, pcsg.render.job, pcsg.trace.kernel, pcsg.trace.reference
-ours = [d for d in gc.get_objects()
-        if isinstance(d, Dispatcher) and d.py_func.__module__.startswith("pcsg.")]
-print(len(ours), sum(len(d.signatures) > 0 for d in ours),
-      sum(not isinstance(d._cache, NullCache) for d in ours))
+from pcsg.trace.dispatch import Deferred, make_all
+def ours():
+    return [d for d in gc.get_objects()
+            if isinstance(d, Dispatcher) and d.py_func.__module__.startswith("pcsg.")]
+deferred = sum(type(d) is Deferred for d in gc.get_objects())
+made = len(ours())
+make_all()
+print(deferred, made, len(ours()), sum(len(d.signatures) > 0 for d in ours()),
+      sum(not isinstance(d._cache, NullCache) for d in ours()))
 """
 
 
-def test_importing_pcsg_compiles_nothing_and_sets_no_cache_up():
+def test_importing_pcsg_makes_no_dispatcher_and_compiles_nothing():
+    """Importing pcsg's modules leaves their jitted functions Deferred: no dispatcher is
+    made; made, none of them has compiled anything or set its cache up."""
     out = subprocess.run([sys.executable, "-c", IMPORTS], capture_output=True, text=True,
                          timeout=600)
     assert out.returncode == 0, out.stderr
-    count, compiled, caches = map(int, out.stdout.split())
-    assert count > 100
-    assert (compiled, caches) == (0, 0)
+    deferred, made, count, compiled, caches = map(int, out.stdout.split())
+    assert deferred > 100 and made == 0
+    assert count >= deferred and (compiled, caches) == (0, 0)
+
+
+MADE = """
+import numpy as np
+from numba import njit
+import pcsg.trace.vm as vm
+from pcsg.trace.dispatch import Deferred
+from pcsg.trace.vm import mix
+assert type(mix) is Deferred and type(vm.fmin) is Deferred
+
+@njit(cache=False)
+def uses(a, b):                 # a compile: every Deferred is made first
+    return mix(np.uint64(a), np.uint64(b)), vm.fmin(1.0, 2.0)
+
+print(uses(3, 4) == (vm.mix(np.uint64(3), np.uint64(4)), 1.0), type(mix).__name__,
+      type(vm.fmin).__name__, type(vm.fmax).__name__)
+"""
+
+
+def test_a_compile_makes_every_deferred_function_first():
+    """numba compiles a function from the globals its code reads (and inlines a call by
+    what it finds there): before it compiles anything, every module's Deferred global,
+    this test's own too, names its dispatcher."""
+    out = subprocess.run([sys.executable, "-c", MADE], capture_output=True, text=True,
+                         timeout=600)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["True", "Declared", "CachedLater", "CachedLater"]
 
 
 LOADS = """

@@ -17,6 +17,9 @@ Flat) is typed without numba's test for a masked array, which imported `numpy.ma
 the first time a process passed an array to any jitted function."""
 from __future__ import annotations
 
+import sys
+import threading
+
 import numpy as np
 from numba import njit
 from numba.core import errors, typeinfer, types
@@ -105,13 +108,122 @@ class Declared(CachedLater):
 
 
 def cached_jit(**options):
-    """njit(cache=True, **options), the cache set up at the first compile."""
-    return lambda f: _become(njit(**options)(f), CachedLater, _cache_later=True)
+    """njit(cache=True, **options), the cache set up at the first compile; the
+    dispatcher itself made at its first use (Deferred)."""
+    return lambda f: _deferred(f, lambda: _become(njit(**options)(f), CachedLater,
+                                                  _cache_later=True))
 
 
 def declared(signature: str, **options):
     """njit(signature, cache=True, **options), compiled at the first use."""
-    return lambda f: _become(cached_jit(**options)(f), Declared, _signature=signature)
+    return lambda f: _deferred(f, lambda: _become(njit(**options)(f), Declared,
+                                                  _cache_later=True, _signature=signature))
+
+
+class Deferred:
+    """A jitted function whose numba dispatcher is made where it is first used: called,
+    an attribute read, or typed by numba (numba reads `_numba_type_`). Of pcsg's ~150
+    jitted functions a render whose kernels load from the cache calls some twenty; the
+    others are inlined into those kernels, and making their dispatchers at import (numba
+    inspects the signature and registers each with its typing context) took 8 to 10 ms
+    of every command. numba compiles a function from the globals its code reads, and
+    inlines a call where it finds a dispatcher there, so before it compiles anything
+    every Deferred is made and every module's global that names one names its dispatcher
+    instead (make_all, from numba's compilers: compile_hooks)."""
+
+    def __init__(self, func, make):
+        self.__wrapped__ = self.py_func = func
+        self.__name__, self.__qualname__ = func.__name__, func.__qualname__
+        self.__module__, self.__doc__ = func.__module__, func.__doc__
+        self._make = make
+        self._made = None
+
+    def made(self):
+        """The dispatcher (the function itself under NUMBA_DISABLE_JIT)."""
+        made = self._made
+        if made is None:
+            with _making:
+                if self._made is None:
+                    self._made = self._make()
+                made = self._made
+        return made
+
+    def __call__(self, *args, **kwargs):
+        return self.made()(*args, **kwargs)
+
+    def __getattr__(self, name):        # what the dispatcher has and this does not
+        return getattr(self.made(), name)
+
+    def __repr__(self):
+        return f"<deferred {self.__qualname__}>"
+
+    def __reduce__(self):               # by name, as pickle takes a function
+        return _named, (self.__module__, self.__qualname__)
+
+
+def _named(module: str, qualname: str):
+    import importlib
+    found = importlib.import_module(module)
+    for part in qualname.split("."):
+        found = getattr(found, part)
+    return found
+
+
+_making = threading.RLock()
+_deferred_all: list[Deferred] = []
+_all_made = False
+
+
+def _deferred(func, make):
+    if _all_made:
+        return make()
+    d = Deferred(func, make)
+    _deferred_all.append(d)
+    return d
+
+
+def make_all() -> None:
+    """Every Deferred made, and in every module each global that names one made to name
+    its dispatcher (a module imported afterwards gets dispatchers: _deferred)."""
+    global _all_made
+    if _all_made:
+        return
+    with _making:
+        if _all_made:
+            return
+        for d in _deferred_all:
+            d.made()
+        for module in list(sys.modules.values()):
+            try:    # not getattr: a module that loads when first read (LazyLoader) would
+                names = object.__getattribute__(module, "__dict__")
+            except AttributeError:
+                continue
+            if not isinstance(names, dict):
+                continue
+            for name, value in list(names.items()):
+                if type(value) is Deferred:
+                    names[name] = value.made()
+        _all_made = True
+
+
+def compile_hooks() -> None:
+    """make_all before numba compiles a function (a jitted one, or a C callback) that
+    its cache does not hold: cache loads need no other dispatcher."""
+    from numba.core import ccallback, dispatcher
+    for cls, name in ((dispatcher._FunctionCompiler, "compile"),
+                      (ccallback.CFunc, "_compile_uncached")):
+        original = getattr(cls, name, None)
+        if original is None or getattr(original, "_pcsg_makes_all", False):
+            continue
+
+        def hooked(self, *args, _original=original, **kwargs):
+            make_all()
+            return _original(self, *args, **kwargs)
+        hooked._pcsg_makes_all = True
+        setattr(cls, name, hooked)
+
+
+compile_hooks()
 
 
 def _become(dispatcher, cls, **state):
@@ -126,4 +238,6 @@ def _become(dispatcher, cls, **state):
 def cached(dispatcher):
     """The dispatcher with its on-disk cache set up, for code that reads numba's cache
     index; anything else (a plain function under NUMBA_DISABLE_JIT) as it is."""
+    if type(dispatcher) is Deferred:
+        dispatcher = dispatcher.made()
     return dispatcher.cached() if isinstance(dispatcher, CachedLater) else dispatcher
