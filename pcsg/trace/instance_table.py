@@ -116,7 +116,7 @@ def _fill_share(w, workers, keys, used, vals, boxes, rows, row_keys, levels, spi
     next part is listed in spill[w] instead (their number in spilled[w]), for _put_spilled
     once every part is filled: the parts are written by one worker each, so the rows are
     the same whatever the timing. The table is filled in hash order, one cache miss an
-    entry: two workers take 9 ms of the terrain's 17."""
+    entry: two workers fill the terrain at 9's rows in 11 to 13 ms, one took 17."""
     n = row_keys.shape[0]
     lo = n * w // workers
     hi = n * (w + 1) // workers
