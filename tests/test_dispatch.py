@@ -171,3 +171,19 @@ def test_what_numba_must_decide_is_left_to_it():
     assert argument_type(masked) is None
     assert argument_type((np.zeros(2), masked)) is None
     assert argument_type(np.array([object()])) == numba.typeof(np.array([object()]))
+
+
+FIRST_USE = """
+from pcsg.trace import vm
+from pcsg.trace.dispatch import Deferred
+assert type(vm.fmax) is Deferred
+print(vm.fmax(1.0, 2.0), type(vm.fmax).__name__)
+"""
+
+
+def test_a_deferred_function_first_used_is_its_modules_dispatcher_from_then_on():
+    """Calls through the module reach the dispatcher itself after the first use."""
+    out = subprocess.run([sys.executable, "-c", FIRST_USE], capture_output=True, text=True,
+                         timeout=600)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["2.0", "CachedLater"]

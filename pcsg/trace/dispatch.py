@@ -139,17 +139,23 @@ class Deferred:
         self._made = None
 
     def made(self):
-        """The dispatcher (the function itself under NUMBA_DISABLE_JIT)."""
+        """The dispatcher (the function itself under NUMBA_DISABLE_JIT). Its own module's
+        global names the dispatcher from then on, so that calls through the module reach
+        it directly; names imported elsewhere call through this (0.3 µs more a call)."""
         made = self._made
         if made is None:
             with _making:
                 if self._made is None:
                     self._made = self._make()
+                    names = getattr(sys.modules.get(self.__module__), "__dict__", {})
+                    if names.get(self.__name__) is self:
+                        names[self.__name__] = self._made
                 made = self._made
         return made
 
     def __call__(self, *args, **kwargs):
-        return self.made()(*args, **kwargs)
+        made = self._made
+        return (made if made is not None else self.made())(*args, **kwargs)
 
     def __getattr__(self, name):        # what the dispatcher has and this does not
         return getattr(self.made(), name)
