@@ -187,3 +187,30 @@ def test_a_deferred_function_first_used_is_its_modules_dispatcher_from_then_on()
                          timeout=600)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["2.0", "CachedLater"]
+
+
+FORKED = """
+import os, signal, threading
+from pcsg.trace import dispatch, vm
+held, done = threading.Event(), threading.Event()
+def hold():                 # a thread making a dispatcher when the process forks
+    with dispatch._making:
+        held.set()
+        done.wait()
+threading.Thread(target=hold).start()
+held.wait()
+pid = os.fork()
+if pid == 0:
+    signal.alarm(20)        # a child left with the parent's held lock would hang here
+    os._exit(0 if vm.fmin(1.0, 2.0) == 1.0 else 1)
+_, status = os.waitpid(pid, 0)
+done.set()
+print(os.waitstatus_to_exitcode(status))
+"""
+
+
+def test_a_child_forked_while_a_dispatcher_is_made_makes_its_own():
+    out = subprocess.run([sys.executable, "-c", FORKED], capture_output=True, text=True,
+                         timeout=600)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["0"]

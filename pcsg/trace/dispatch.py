@@ -17,6 +17,7 @@ Flat) is typed without numba's test for a masked array, which imported `numpy.ma
 the first time a process passed an array to any jitted function."""
 from __future__ import annotations
 
+import os
 import sys
 import threading
 
@@ -178,6 +179,16 @@ def _named(module: str, qualname: str):
 _making = threading.RLock()
 _deferred_all: list[Deferred] = []
 _all_made = False
+
+
+def _unlocked_after_fork() -> None:
+    # a child forked while another thread was making a dispatcher has the lock held by a
+    # thread it does not have; what that thread had not finished, the child makes again
+    global _making
+    _making = threading.RLock()
+
+
+os.register_at_fork(after_in_child=_unlocked_after_fork)
 
 
 def _deferred(func, make):
