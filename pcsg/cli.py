@@ -7,6 +7,7 @@ import contextlib
 import gc
 import glob
 import importlib
+import importlib.util
 import json
 import os
 import sys
@@ -489,7 +490,6 @@ def _numba_without_extensions():
     importlib.metadata where something uses it (importlib's LazyLoader)."""
     name = "importlib.metadata"
     if name not in sys.modules:
-        import importlib.util
         spec = importlib.util.find_spec(name)
         if spec is not None and spec.loader is not None:
             spec.loader = importlib.util.LazyLoader(spec.loader)

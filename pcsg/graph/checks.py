@@ -219,14 +219,15 @@ def _least_scale(rel) -> float:
     each column the smallest, and neither costs an SVD; most cycles contract well below
     1); 0 where rel is not finite: such a map empties the instance, so there is no
     cycle."""
-    frobenius = np.sqrt((rel * rel).sum())
+    squares = rel * rel
+    frobenius = np.sqrt(squares.sum())
     if not np.isfinite(frobenius):
         return 0.0
     if frobenius < 1 - 1e-9:
         return float(frobenius)
     # the shortest image of an axis bounds it too (the terrain's scale(0.5, 0.5, 1): the
     # Frobenius norm is 1.22, an axis shrinks to 0.5); an SVD cost 15 µs a cycle
-    column = float(np.sqrt((rel * rel).sum(axis=0).min()))
+    column = float(np.sqrt(squares.sum(axis=0).min()))
     if column < 1 - 1e-9:
         return column
     return float(np.linalg.svd(rel, compute_uv=False)[-1])
