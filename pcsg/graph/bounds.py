@@ -18,7 +18,7 @@ from ..language.errors import Diagnostic, PcsgError
 from ..limits import BOUNDS_BUDGET
 from ..language.names import PIXELS
 from ..recursion import recursion_limit
-from ..trace.primitives import object_box
+from ..trace.primitives import CODES, hull, object_box
 from .dependence import StateKey
 from .derive import Deriver, State
 from .fuse import fuse_runs
@@ -200,7 +200,10 @@ class _Walker:
 
     @staticmethod
     def leaf(name: str, args) -> np.ndarray:
-        return _corners(object_box(name, args))
+        """A polytope's own corners (a triangle's three, not its box's four), else its
+        object box's: they map exactly, so an instance's box is its mapped corners' box."""
+        corners = hull(CODES[name])
+        return _corners(object_box(name, args)) if corners is None else corners
 
     @staticmethod
     def intersect(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -19,7 +19,7 @@ from .jit import copy_into, inline, kernel, threads
 from .instance_table import TABLE_SLOTS, append, empty_table, new_book
 from .nodes import node_affine, pick_rule, run_calc
 from .fractals import A_R
-from .primitives import BOXES, FRACTAL_MIN
+from .primitives import BOXES, FRACTAL_MIN, HULL, HULL_COUNT, TRI1, TRI2
 
 NODE, SLOT, LEVEL, PHASE, CUT = range(5)
 COLLECT, CONSUME = 1, 2    # split modes of walk
@@ -75,6 +75,35 @@ def _primitive_box(flat, node, out):
 
 
 @inline
+def _mapped_primitive_box(flat, prim, m, inner, out):
+    """The box of primitive node `prim` under the map m, its object box being `inner`:
+    its mapped corners' box for a polytope (exact), else inner's image."""
+    code = flat.code[prim]
+    if code == TRI1 or code == TRI2:        # corners 0, s e_x, s e_y: the terrain's leaves
+        s = 1.0 if code == TRI1 else -1.0
+        for i in range(3):
+            a = s * m[i, 0]
+            b = s * m[i, 1]
+            out[i] = m[i, 3] + min(0.0, min(a, b))
+            out[i + 3] = m[i, 3] + max(0.0, max(a, b))
+        return
+    k = HULL_COUNT[code] if code < FRACTAL_MIN else 0
+    if k == 0:
+        _transform_box(m, inner, out)
+        return
+    for i in range(3):
+        lo = np.inf
+        hi = -np.inf
+        for c in range(k):
+            v = m[i, 3] + m[i, 0] * HULL[code, c, 0] + m[i, 1] * HULL[code, c, 1] \
+                + m[i, 2] * HULL[code, c, 2]
+            lo = min(lo, v)
+            hi = max(hi, v)
+        out[i] = lo
+        out[i + 3] = hi
+
+
+@inline
 def _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack, args, m34):
     """The run of single-child steps from frame f down to its primitive (Flat.chain) in
     two loops, down and up, with the arithmetic of the general walk's frames but not its
@@ -93,15 +122,20 @@ def _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack, args, m34)
         g += 1
     _primitive_box(flat, fr[g, NODE], acc[g])
     _close(boxes, fr[g, NODE], acc[g])
+    bare = True         # acc[k + 1] is the primitive's object box
     for k in range(g - 1, f - 1, -1):
         node = fr[k, NODE]
         if flat.kind[node] != TRANSFORM:
             copy_into(acc[k], acc[k + 1])
-        elif node_affine(flat, node, params, fr[k, SLOT], hs[f], stack, args, m34):
-            _transform_box(m34, acc[k + 1], acc[k])
         else:
-            acc[k, :3] = np.inf
-            acc[k, 3:] = -np.inf
+            if not node_affine(flat, node, params, fr[k, SLOT], hs[f], stack, args, m34):
+                acc[k, :3] = np.inf
+                acc[k, 3:] = -np.inf
+            elif bare:
+                _mapped_primitive_box(flat, fr[g, NODE], m34, acc[k + 1], acc[k])
+            else:
+                _transform_box(m34, acc[k + 1], acc[k])
+            bare = False
         _close(boxes, node, acc[k])
     return g - f
 

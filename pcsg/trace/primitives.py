@@ -72,6 +72,26 @@ TETRA_CORNERS = np.array([[1.0, 1.0, 1.0], [-1.0, -1.0, 1.0], [1.0, -1.0, -1.0],
 TETRA_CORNERS.setflags(write=False)
 
 
+# the corners of the primitives that are polytopes (HULL_COUNT of them, by code; 0 for
+# the others): a primitive's box under a map is the box of its mapped corners, exact,
+# where its object box's image is not (a sheared triangle's box reached the height of
+# the corner (1, 1) it does not have: the terrain's patches were 1.3 times too tall)
+HULL = np.zeros((len(PRIMITIVES), 4, 3))
+HULL_COUNT = np.zeros(len(PRIMITIVES), dtype=np.int64)
+for _code, _corners in ((TRI1, [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+                        (TRI2, [[0.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]),
+                        (TETRAHEDRON, TETRA_CORNERS)):
+    HULL[_code, :len(_corners)] = _corners
+    HULL_COUNT[_code] = len(_corners)
+HULL.setflags(write=False)
+HULL_COUNT.setflags(write=False)
+
+
+def hull(code: int) -> np.ndarray | None:
+    """The corners (k, 3) of a polytope primitive, None for the others."""
+    return HULL[code, :HULL_COUNT[code]].copy() if HULL_COUNT[code] else None
+
+
 def box(code: int) -> np.ndarray:
     """The object-frame bounding box (xmin, ymin, zmin, xmax, ymax, zmax) of a primitive."""
     return BOXES[code].copy()
