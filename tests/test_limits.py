@@ -19,19 +19,21 @@ ROW if(n > 0, 2, 1)
 """
 # the same row clipped: a ray along it meets 41 pieces inside one ∩
 CLIPPED = ROW.replace("{ n = 40 } ROW", "{ n = 40 } (ROW ∩ scale(200, 2, 2) cube)")
+# its spheres in a module: seen from the far end, every level leaves its own ball pending
+# on the stack, nearest box first (a sphere, a cheap operand, is tested at once)
+BALLS = ROW.replace("sphere ∪", "BALL ∪") + "BALL 1\n1: BALL → sphere\n"
 
 
 def test_a_full_walk_stack_is_reported_with_the_option_that_raises_it():
-    # seen from the far end, every level leaves its own sphere pending on the stack
     o, d = [[200.0, 0, 0]], [[-1.0, 0, 0]]
-    full = pcsg.loads(ROW).trace(o, d)
+    full = pcsg.loads(BALLS).trace(o, d)
     assert full.events[EV_STACK].sum() == 0 and full.t[0] == pytest.approx(99.0)
-    small = pcsg.loads(ROW, "row.pcsg", stack_depth=16)
+    small = pcsg.loads(BALLS, "row.pcsg", stack_depth=16)
     h = small.trace(o, d)
     assert h.events[EV_STACK].sum() == 1
-    assert h.hit[0] and h.t[0] > full.t[0]        # it lost the far spheres, nothing else
+    assert h.hit[0] and h.t[0] > full.t[0]        # it lost the far balls, nothing else
     (line,) = small.describe_events(h.events)
-    assert line.startswith("walk stack full 1 times (union at row.pcsg:5:17, depth up to ")
+    assert line.startswith("walk stack full 1 times (union at row.pcsg:5:15, depth up to ")
     assert line.endswith("raise --stack-depth (now 16)")
 
 
@@ -48,7 +50,7 @@ def test_full_interval_lists_are_reported_with_the_option_that_raises_it():
 
 def test_the_render_names_the_overflow_and_strict_fails_on_it(capsys, tmp_path):
     src = tmp_path / "row.pcsg"
-    src.write_text(ROW.replace("{ n = 40 } ROW", "{ n = 40 } move(-50, 0, 0) ROW"),
+    src.write_text(BALLS.replace("{ n = 40 } ROW", "{ n = 40 } move(-50, 0, 0) ROW"),
                    encoding="utf-8")
     out = tmp_path / "row.png"
     args = ["render", str(src), "-o", str(out), "--size", "48x24", "-q", "--no-shadows",

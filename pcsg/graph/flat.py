@@ -70,7 +70,8 @@ Flat = namedtuple("Flat", [
     "defer",         # int8[n]      C- and paint nodes the first-hit walks leave to a hit
                      #              (graph/defer.py)
     "chain",         # int8[n]      1: the node heads a run of single-child steps (C-, T-,
-                     #              paint, material nodes) that ends in a primitive
+                     #              paint, material nodes) that ends in a primitive, 2: in a
+                     #              fractal (which the tracer marches: not a cheap operand)
     "holds",         # int8[m]      per entry of `children`: 1 where it is a rule of an
                      #              S-node and its box holds the S-node's (_holds)
     "root",          # int64
@@ -140,9 +141,11 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table: dict | None = None,
     if table is None:
         table = row_fields()
     fractal = np.zeros((n, ARG_WIDTH))
+    is_fractal = np.zeros(n, dtype=bool)
     for i, x in enumerate(nodes):
         if x.kind == PRIMITIVE and x.name in FRACTAL_PRIMITIVES:
             fractal[i] = fractal_row(x.name, graph.constant_args(i))
+            is_fractal[i] = True
     children = np.array([c for x in nodes for c in x.children], dtype=np.int32)
     state_count = np.full(n, -1, dtype=np.int32)
     keyed = [np.zeros(0, dtype=np.int32)] * n
@@ -155,7 +158,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table: dict | None = None,
     defer = deferrable(graph, fixed)
     then = (_compose_chains(kind, starts, children) if runs
             else np.full(n, -1, dtype=np.int32))
-    chain = _chains(kind, starts, children)
+    chain = _chains(kind, starts, children, is_fractal)
     origin = np.full(n, -1, dtype=np.int32)
     for m, head in graph.origins.items():
         origin[m] = head
@@ -318,9 +321,10 @@ def _compose_chains(kind, starts, children):
     return then
 
 
-def _chains(kind, starts, children):
+def _chains(kind, starts, children, fractal):
     """Flat.chain: a terminating rule is mostly such a run (calc paint move ... primitive),
-    which the bounding walk takes in one step instead of a frame per node."""
+    which the bounding walk takes in one step instead of a frame per node; the tracers
+    visit a union's operands that are such runs first (nodes.cheap_operand)."""
     step = np.isin(kind, (CALC, TRANSFORM, PAINT, MATERIAL))
     chain = np.zeros(len(kind), dtype=np.int8)
     for i in np.nonzero(step)[0]:
@@ -328,7 +332,8 @@ def _chains(kind, starts, children):
         while step[node] and node not in seen:
             seen.add(node)
             node = children[starts[node]]
-        chain[i] = kind[node] == PRIMITIVE
+        if kind[node] == PRIMITIVE:
+            chain[i] = 2 if fractal[node] else 1
     return chain
 
 

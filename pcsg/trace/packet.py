@@ -32,8 +32,9 @@ from .deferred import defer_step
 from .nodes import (BOXED, CUT, DCALC, DPAINT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, INV, LEVEL, M0, MAT,
                     N_EVENTS, NAVG, NODE, OX, PAINT, PHASE, RAY_WIDTH, SLOT, T0, T1, axis_aligned,
-                    child_hash, copy_frame, culprit, map_matrix, map_ray, map_ray_scaled, note,
-                    pick_rule, powers_of_two, set_inverse, transform_map)
+                    cheap_operand, child_hash, copy_frame, culprit, map_matrix, map_ray,
+                    map_ray_scaled, note, pick_rule, pops_before, powers_of_two, set_inverse,
+                    transform_map)
 from .normals import world_size
 from .windows import (instance_slot, operand_entry, operand_slot, packet_box, slabs, state_slot,
                       volume_window)
@@ -577,15 +578,18 @@ def split_each(flat, node, P, g, blk, has_table):
 def enlist(flat, node, P, g, u, k, q, near, far, used):
     """Child k of the union, met by the q rays of row u of P.tact / P.twin (the nearest
     entry at `near`, the farthest at `far`; its PHASE in P.tphase[u] already), into
-    P.order, which holds the `used` children listed before it: descending by entry, so
-    the nearest pops first; on a tie the earlier operand first."""
+    P.order, which holds the `used` children listed before it: in the reverse order of
+    their visits (nodes.pops_before: cheap operands first, then the nearest entry; on a
+    tie the earlier operand), so that the last pops first."""
     P.tn[u] = q
     P.tfar[u] = far
     P.tk[u] = k
     P.th[u] = child_hash(flat, P.H[g], node, k)
     order, tkey = P.order, P.tkey
+    ck = cheap_operand(flat, node, k)
     j = used
-    while j > 0 and tkey[order[j - 1]] <= near:
+    while j > 0 and pops_before(cheap_operand(flat, node, P.tk[order[j - 1]]),
+                                tkey[order[j - 1]], ck, near):
         order[j] = order[j - 1]
         j -= 1
     tkey[u] = near

@@ -30,9 +30,9 @@ Semantics (the contract the tracer is compared on)
   triangle the normal is turned so that dot(normal, d) <= 0; a solid's normal
   is the CSG outward normal as is.
 - Coincident surfaces: on a tie a union keeps its first operand's end; the graph
-  tracer, which visits operands nearest box first, may show the other one. `tie`
-  marks the rays whose hit has another surface of a different paint or material at
-  the same t.
+  tracer, which visits operands nearest box first (cheap ones before the others), may
+  show the other one. `tie` marks the rays whose hit has another surface of a different
+  paint or material at the same t.
 - Misses: hit False, t inf, normal nan, paint nan, material -1, primitive ''.
 - With a cut (graph/cut.py), the expansion a tracer walks at its depth bound without
   a level of detail: deeper selections take their terminating rule, and a graftal's

@@ -1,8 +1,8 @@
 """The per-ray walks over the cyclic graph (njit, explicit stacks, no recursion).
 
 `walk` finds the nearest surface: union children are visited nearest box
-first and anything beyond the best hit so far is skipped (Bekaert & Willems
-§3.1). At an ∩ or \\ node it asks `intervals` for that subtree's sorted interval
+first, the cheap ones before the others (nodes.pops_before), and anything beyond the best
+hit so far is skipped (Bekaert & Willems §3.1). At an ∩ or \\ node it asks `intervals` for that subtree's sorted interval
 list along the ray (Roth 1982), so both work on recursive operands too.
 """
 from __future__ import annotations
@@ -15,8 +15,9 @@ from . import vm
 from .jit import copy_into, inline, kernel
 from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_STACK, EV_VISITS, INSIDE, DPAINT, LEVEL, MAT, NODE, OX, PAINT,
-                    PHASE, SLOT, T0, T1, axis_aligned, child_hash, copy_frame, culprit,
-                    enter_paint, enter_transform, note, pick_rule, cached_calc)
+                    PHASE, SLOT, T0, T1, axis_aligned, cheap_operand, child_hash,
+                    copy_frame, culprit, enter_paint, enter_transform, note, pick_rule,
+                    pops_before, cached_calc)
 from .normals import world_diameter, world_normal, world_size, average_box_normal
 from .windows import (entry_window, instance_slot, operand_entry, node_window, instance_window,
                       operand_slot, state_window, volume_window, volume_normal)
@@ -475,7 +476,8 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                 if sp + n > cap:
                     note(ev, EV_STACK, node, I[f, LEVEL])
                     break
-                # nearest box first: sort the children that the window meets by entry
+                # nearest box first, cheap operands before the others: sort the children
+                # that the window meets
                 m = 0
                 for k in range(n):
                     c = flat.children[flat.child_start[node] + k]
@@ -488,10 +490,12 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                     e1 = min(e1, t1)
                     if e0 <= e1:
                         hk = child_hash(flat, H[f], node, k)
+                        ck = cheap_operand(flat, node, k)
                         j = m
-                        # descending, so the nearest pops first; on a tie the earlier
-                        # operand pops first and keeps the surface (as a union merges)
-                        while j > 0 and keys[j - 1, 0] <= e0:
+                        # in the reverse order of their visits (pops_before): the last
+                        # pops first
+                        while j > 0 and pops_before(cheap_operand(flat, node, order[j - 1]),
+                                                    keys[j - 1, 0], ck, e0):
                             keys[j, 0] = keys[j - 1, 0]
                             keys[j, 1] = keys[j - 1, 1]
                             order[j] = order[j - 1]
