@@ -74,6 +74,9 @@ Flat = namedtuple("Flat", [
                      #              fractal (which the tracer marches: not a cheap operand)
     "holds",         # int8[m]      per entry of `children`: 1 where it is a rule of an
                      #              S-node and its box holds the S-node's (_holds)
+    "cheap",         # int8[m]      per entry of `children`: 1 where the child is a primitive
+                     #              or heads a chain to one, not a fractal (the walks visit
+                     #              such operands of a union first: nodes.cheap_operand)
     "root",          # int64
     "n_params",      # int64        the system's parameters, then arg_base's columns
     "arg_base",      # int64        the first column of compiled arguments (scratch)
@@ -179,6 +182,8 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table: dict | None = None,
         vm_code=vm_code, calc_start=calc_start, calc_end=calc_end, calc_cache=calc_cache,
         calc_fn=calc_fn, arg_fn=arg_fn, block_no=block_no, arg_base=np.int64(arg_base),
         defer=defer, chain=chain, holds=_holds(kind, starts, counts, children, boxes, spheres),
+        cheap=((chain[children] == 1) | ((kind[children] == PRIMITIVE)
+                                          & ~is_fractal[children])).astype(np.int8),
         vm_consts=np.asarray(vm["consts"], dtype=np.float64),
         vm_start=vm_start, vm_end=vm_end,
         root=np.int64(graph.root),

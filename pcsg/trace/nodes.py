@@ -17,9 +17,7 @@ import numpy as np
 from . import vm
 from .jit import copy_into, inline, kernel
 from .native import call_block
-from .primitives import FRACTAL_MIN
 from .transforms import affine
-from ..graph.model import PRIMITIVE
 
 # F columns; INV is 1/DX, kept so that box tests multiply instead of divide
 # NAVG: the running average of the world normals of the boxes the walk entered
@@ -104,8 +102,7 @@ def cheap_operand(flat, node, k):
     rays' nearest hits nearer than the other operands' boxes, as the sea does for the
     terrain, whose box the camera rays enter first and whose patches under the water a
     quarter of them walked down to the hit behind the sea's surface."""
-    c = flat.children[flat.child_start[node] + k]
-    return flat.chain[c] == 1 or (flat.kind[c] == PRIMITIVE and flat.code[c] < FRACTAL_MIN)
+    return flat.cheap[flat.child_start[node] + k] != 0
 
 
 @inline
