@@ -1,6 +1,6 @@
 """The order in which both walks visit a union's operands (nodes.pops_before): the
-cheap ones (a primitive, or a run of C-, T-, paint and material nodes down to one) first,
-then the nearest box first. The terrain's camera rays enter its box before the sea's,
+cheap ones (a primitive, or a run of C-, T-, paint and material nodes down to one, not a
+fractal) first, then the nearest box first. The terrain's camera rays enter its box before the sea's,
 and a quarter of them walked the patches under the water down to a hit behind the sea's
 surface; tested first, the sea closes their windows there."""
 import numpy as np
