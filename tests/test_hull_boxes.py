@@ -29,10 +29,7 @@ def _box(points):
 
 def _image_of_object_box(name, m):
     """What the walks bounded the primitive by before: its object box's image."""
-    b = BOXES[CODES[name]]
-    lo = m[:3, 3] + np.minimum(m[:3, :3] * b[:3], m[:3, :3] * b[3:]).sum(axis=1)
-    hi = m[:3, 3] + np.maximum(m[:3, :3] * b[:3], m[:3, :3] * b[3:]).sum(axis=1)
-    return np.concatenate([lo, hi])
+    return bounds.transform_box(m, BOXES[CODES[name]])
 
 
 def _both_walks(text):
