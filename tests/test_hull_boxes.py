@@ -86,6 +86,7 @@ def test_the_terrains_box_is_its_vertices_box(monkeypatch, method):
     triangle's corners (their object boxes' images rose above its highest vertex)."""
     if method == "memoised":
         monkeypatch.setattr(bounds, "PROBE_STATES", bounds.MAX_STATES)
+        monkeypatch.setattr(bounds, "PROBE_RANDOM", bounds.MAX_STATES)
     else:
         monkeypatch.setattr(bounds, "MAX_STATES", 0)
     g = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=4).graph

@@ -103,6 +103,7 @@ def test_hyper_boxes_contain_every_primitive(name, overrides, monkeypatch):
     the transformations) is at least as tight as the per-instance box arithmetic."""
     # the small terrain memoises, though not a state repeats: keep the probe from giving up
     monkeypatch.setattr(bounds, "PROBE_STATES", bounds.MAX_STATES)
+    monkeypatch.setattr(bounds, "PROBE_RANDOM", bounds.MAX_STATES)
     g = pcsg.load(GRAMMARS / f"{name}.pcsg", **overrides).graph
     boxes, how, _, _ = hyper_boxes(g)
     assert how == "memoised"
@@ -352,8 +353,8 @@ def test_instance_box_table_agrees_with_the_reference(monkeypatch, name, params)
 
 
 def test_a_walk_that_never_meets_a_state_twice_gives_up_early():
-    """The terrain's every patch has its own heights: the memoised walk stops at
-    PROBE_STATES instead of MAX_STATES and the compiled walk bounds it."""
+    """The terrain's every patch has its own heights, drawn from rand(): the memoised
+    walk stops at PROBE_RANDOM instead of MAX_STATES and the compiled walk bounds it."""
     g = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=5).graph
     seen = []
     real = bounds._Walker.box
@@ -367,7 +368,7 @@ def test_a_walk_that_never_meets_a_state_twice_gives_up_early():
             bounds._memoised(g)
     finally:
         bounds._Walker.box = real
-    assert bounds.PROBE_STATES <= max(seen) < bounds.MAX_STATES
+    assert bounds.PROBE_RANDOM <= max(seen) < bounds.PROBE_STATES
 
 
 def test_padding_widens_every_finite_side_by_its_hair():

@@ -48,14 +48,36 @@ def structural_params(graph: Graph, geometry: bool = False) -> list[frozenset]:
     return rel
 
 
+def drawn_params(graph: Graph) -> frozenset:
+    """The parameters that can hold a value drawn from rand(), with a seed or without:
+    assigned from an expression that calls it or that reads such a parameter, in any
+    block, whatever the order the blocks run in (so a superset)."""
+    table, names = graph.exprs, graph.param_names
+    assigned = [(names[slot], expr) for n in graph.nodes if n.kind == CALC
+                for slot, expr in zip(n.targets, n.exprs)]
+    drawn: set = set()
+    changed = True
+    while changed:          # grows within the finite set of names: ends
+        changed = False
+        for name, expr in assigned:
+            if name not in drawn and (table.draws(expr) or table.reads(expr) & drawn):
+                drawn.add(name)
+                changed = True
+    return frozenset(drawn)
+
+
 class StateKey:
     """Memo keys: a node and the values of only those parameters that can change what it
-    derives (bytes, so that nan equals nan), plus the instance hash if a rand() decides."""
+    derives (bytes, so that nan equals nan), plus the instance hash if a rand() decides.
+    `random`: some node's key holds the instance hash or a parameter drawn from rand(),
+    so that its instances' states are likely all different (the terrain's heights)."""
 
     def __init__(self, graph: Graph, geometry: bool = False):
         import numpy as np
         rel = structural_params(graph, geometry)
         self.rand = [RAND in r for r in rel]
+        drawn = drawn_params(graph)
+        self.random = any(RAND in r or not drawn.isdisjoint(r) for r in rel)
         slots = [sorted(graph.params[p] for p in r if p != RAND) for r in rel]
         self.slots = [np.array(x, dtype=np.int64) for x in slots]
         self.masks = [sum(1 << i for i in x) for x in slots]

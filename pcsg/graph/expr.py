@@ -118,6 +118,11 @@ class ExprTable:
     def uses_rand(self, idx) -> bool:
         return any(f[0] == 'rand' for f in _walk(self._exprs[idx][0]))
 
+    def draws(self, idx) -> bool:
+        """Whether the expression calls rand, with a seed or without."""
+        return any(f[0] == 'rand' or (f[0] == 'op' and f[1] == vm.RAND_SEED)
+                   for f in _walk(self._exprs[idx][0]))
+
     def constant(self, idx) -> float | None:
         form = self._exprs[idx][0]
         return form[1] if form[0] == 'const' else None
