@@ -94,6 +94,10 @@ def main():
     ap.add_argument("--walk", action="store_true",
                     help="profile the bounding walk instead of the camera rays")
     args = ap.parse_args()
+    if args.walk:
+        # bounds kept on disk would spare pcsg.load the walk, whose code then loaded
+        # outside `objects` below and showed as "other"
+        os.environ["PCSG_BOUNDS_CACHE"] = "0"
     width, height = map(int, args.size.split("x"))
     overrides = {k: float(v) for k, v in (s.split("=") for s in args.set)}
     loaded = {}
