@@ -7,6 +7,7 @@ import numpy as np
 from pcsg.compiler import compile_text
 from pcsg.graph import bounds
 from pcsg.graph.dependence import StateKey, drawn_params
+from pcsg.graph.regroup import regroup
 from pcsg.trace.boxwalk import walk_boxes
 
 from .conftest import GRAMMARS
@@ -25,6 +26,11 @@ S if(c > 0, 2, 1)
 1: S -> uscale(0.1) move(a, 0, 0) sphere
 2: S -> ({c = c-1; a = 2*a+1} S ∪ {c = c-1; a = 3*a+1} S)
 """
+
+
+def graph_of(text: str, **overrides):
+    """The graph as a render bounds it (tracer.Traced regroups it first)."""
+    return regroup(compile_text(text, "probe", overrides))
 
 
 def states_seen(graph):
@@ -47,7 +53,7 @@ def states_seen(graph):
 
 
 def test_the_terrains_heights_are_drawn_and_its_counts_are_not():
-    g = compile_text((GRAMMARS / "carpenter_terrain.pcsg").read_text(), "t", {"cnt": 3})
+    g = graph_of((GRAMMARS / "carpenter_terrain.pcsg").read_text(), cnt=3)
     drawn = drawn_params(g)
     assert {"z1", "z2", "z3", "nz12", "nz13", "nz23", "rnd"} <= drawn
     assert not {"cnt", "kl", "delta", "x1", "y1", "sealevel"} & drawn
@@ -55,13 +61,13 @@ def test_the_terrains_heights_are_drawn_and_its_counts_are_not():
 
 
 def test_the_terrain_gives_up_at_the_random_probe():
-    g = compile_text((GRAMMARS / "carpenter_terrain.pcsg").read_text(), "t", {"cnt": 5})
+    g = graph_of((GRAMMARS / "carpenter_terrain.pcsg").read_text(), cnt=5)
     seen, gave_up = states_seen(g)
     assert gave_up and bounds.PROBE_RANDOM <= max(seen) < bounds.PROBE_STATES
 
 
 def test_drawn_once_and_repeated_states_still_memoise():
-    g = compile_text(DRAWN_SCALE, "drawn", {})
+    g = graph_of(DRAWN_SCALE)
     assert StateKey(g, geometry=True).random
     boxes, how, _, _ = bounds.hyper_boxes(g)
     assert how == "memoised"
@@ -71,7 +77,7 @@ def test_drawn_once_and_repeated_states_still_memoise():
 
 
 def test_a_system_without_rand_waits_for_the_full_probe():
-    g = compile_text(NEVER_TWICE, "never", {})
+    g = graph_of(NEVER_TWICE)
     assert not StateKey(g, geometry=True).random
     seen, gave_up = states_seen(g)
     assert gave_up and max(seen) >= bounds.PROBE_STATES > bounds.PROBE_RANDOM

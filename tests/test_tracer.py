@@ -352,25 +352,6 @@ def test_instance_box_table_agrees_with_the_reference(monkeypatch, name, params)
             assert np.array_equal(a.t, b.t) and np.array_equal(a.normal, b.normal)
 
 
-def test_a_walk_that_never_meets_a_state_twice_gives_up_early():
-    """The terrain's every patch has its own heights, drawn from rand(): the memoised
-    walk stops at PROBE_RANDOM instead of MAX_STATES and the compiled walk bounds it."""
-    g = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=5).graph
-    seen = []
-    real = bounds._Walker.box
-
-    def spy(self, *a):
-        seen.append(len(self.memo))
-        return real(self, *a)
-    bounds._Walker.box = spy
-    try:
-        with pytest.raises(bounds.TooManyStates):
-            bounds._memoised(g)
-    finally:
-        bounds._Walker.box = real
-    assert bounds.PROBE_RANDOM <= max(seen) < bounds.PROBE_STATES
-
-
 def test_padding_widens_every_finite_side_by_its_hair():
     """Each finite side moves outwards by 1e-9 of the axis's magnitude plus 1e-12 (the
     formula in numpy below); infinite sides and empty boxes stay."""
