@@ -70,6 +70,30 @@ def test_rays_agree_with_the_reference(direction):
                                   np.nan_to_num(got.paint, nan=-1.0))
 
 
+# a block and two paints passed in one step (trace/deferred.py): the inner paint colours
+NESTED = """
+{n = 2} A
+A if(n > 0, 2, 1)
+1: A → {c = rand()} paint(c, 0.2, 0.9) paint(0.3, c, 1 - c) uscale(0.9) sphere
+2: A → {n = n-1} move(-0.5, 0, 0) uscale(0.5) A ∪ {n = n-1} move(0.5, 0, 0) uscale(0.5) A ∪
+       {n = n-1} move(0, 0.5, 0) uscale(0.5) A ∪ {n = n-1} move(0, -0.5, 0) uscale(0.5) A
+"""
+
+
+def test_a_block_and_two_paints_pass_together_and_the_inner_paint_colours():
+    t = pcsg.loads(NESTED)
+    assert len(marked(t, CALC)) == 1 and len(marked(t, PAINT)) == 2
+    o, d = camera_rays(t.bounds, 40, (0.2, 0.1, 1))
+    got = assert_agrees(t, o, d, min_hits=150)
+    single = t.trace(o, d, packets=False)
+    np.testing.assert_array_equal(single.t, got.t)
+    np.testing.assert_array_equal(single.paint, got.paint)
+    # every sphere has the inner paint's colour: red 0.3, green and blue adding up to 1
+    np.testing.assert_array_equal(got.paint[got.hit, 0], 0.3)
+    np.testing.assert_allclose(got.paint[got.hit, 1] + got.paint[got.hit, 2], 1.0)
+    assert np.ptp(got.paint[got.hit, 1]) > 0.1         # rand() differs from sphere to sphere
+
+
 EMPTY = """
 {c = 0.1} paint(sqrt(c - 0.4), 0.5, 0.5) sphere ∪
 {c = 0.9} paint(sqrt(c - 0.4), 0.5, 0.5) move(3, 0, 0) sphere
