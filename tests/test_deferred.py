@@ -70,7 +70,7 @@ def test_rays_agree_with_the_reference(direction):
                                   np.nan_to_num(got.paint, nan=-1.0))
 
 
-# a block and two paints passed in one step (trace/deferred.py): the inner paint colours
+# a block and two paints on one chain, all three passed to the hit: the inner paint colours
 NESTED = """
 {n = 2} A
 A if(n > 0, 2, 1)
@@ -80,7 +80,7 @@ A if(n > 0, 2, 1)
 """
 
 
-def test_a_block_and_two_paints_pass_together_and_the_inner_paint_colours():
+def test_a_block_and_two_passed_paints_the_inner_one_colours():
     t = pcsg.loads(NESTED)
     assert len(marked(t, CALC)) == 1 and len(marked(t, PAINT)) == 2
     o, d = camera_rays(t.bounds, 40, (0.2, 0.1, 1))
