@@ -440,6 +440,16 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_INTERNAL
 
 
+def needs_kernels(argv: list[str]) -> bool:
+    """Whether the command may compile or trace: not a bare `pcsg`, nor any asking for
+    help or the version, which argparse answers before a command runs (they took 0.25 s,
+    all of it numba's import, for a line of text)."""
+    return bool(argv) and not HELP_FLAGS.intersection(argv)
+
+
+HELP_FLAGS = frozenset({"-h", "--help", "--version"})
+
+
 def import_kernels() -> None:
     """Import the compiler and the tracer (numba, numpy, the cached kernels' helpers)
     with the collector off, then freeze what they made (see run). The imports make no
@@ -517,8 +527,9 @@ def run() -> None:
     walked them all again (0.1 to 0.25 s of a terrain render)."""
     redeliver_in_finalizers()
     try:
-        prefetch.first_file(sys.argv[1:])       # parsed on the other core meanwhile
-        import_kernels()
+        if needs_kernels(sys.argv[1:]):
+            prefetch.first_file(sys.argv[1:])       # parsed on the other core meanwhile
+            import_kernels()
     except KeyboardInterrupt:       # main reports one from then on
         print("pcsg: interrupted", file=sys.stderr, flush=True)
         os._exit(130)

@@ -204,6 +204,28 @@ else:
     assert r.returncode == 0, r.stderr
 
 
+@pytest.mark.parametrize("args, code", [([], 2), (["--help"], 0), (["--version"], 0),
+                                        (["render", "--help"], 0), (["check", "x.pcsg", "-h"], 0)])
+def test_help_and_version_do_not_import_numba(args, code):
+    # argparse answers these before a command runs: numba's import would be 0.25 s of
+    # waiting for a line of text. run() exits with os._exit, so what it imported is
+    # read from -X importtime's lines
+    run = f"import sys; sys.argv = ['pcsg'] + {args!r}; import pcsg.cli; pcsg.cli.run()"
+    r = subprocess.run([sys.executable, "-X", "importtime", "-c", run], capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == code, r.stderr
+    assert ("pcsg 0" if args == ["--version"] else "usage: pcsg") in r.stdout + r.stderr
+    imported = {line.rsplit("|", 1)[-1].strip() for line in r.stderr.splitlines()
+                if line.startswith("import time:")}
+    assert "pcsg.cli" in imported and "numba" not in imported
+
+
+def test_a_command_with_a_file_still_imports_the_kernels():
+    from pcsg.cli import needs_kernels
+    assert needs_kernels(["render", "a.pcsg"]) and needs_kernels(["check", "a.pcsg"])
+    assert not needs_kernels(["render", "a.pcsg", "--help"]) and not needs_kernels([])
+
+
 BLAS = """
 import ctypes, os, sys
 import pcsg.cli
