@@ -3,6 +3,7 @@ and never destroys an earlier good one: a temporary file beside it, then rename.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import tempfile
 from pathlib import Path
@@ -11,9 +12,18 @@ from pathlib import Path
 @contextlib.contextmanager
 def open_atomic(path: Path, mode: str = "wb"):
     """A file to write `path` through: it replaces `path` only when the block ends
-    without an exception."""
+    without an exception. A symbolic link is written through (the file it names is
+    replaced, the link stays), and a device, pipe or socket (/dev/stdout, a fifo) is
+    written into: a rename would put a plain file in its place, /dev/null's too."""
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent or ".")
+    target = Path(os.path.realpath(path))
+    if target.is_dir():
+        raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(path))
+    if target.exists() and not target.is_file():
+        with open(target, mode) as f:
+            yield f
+        return
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent)
     try:
         # mkstemp makes the file private; give it the permissions a plain open() would
         umask = os.umask(0)
@@ -23,7 +33,7 @@ def open_atomic(path: Path, mode: str = "wb"):
             yield f
             f.flush()
             os.fsync(f.fileno())
-        os.replace(tmp, path)
+        os.replace(tmp, target)
     except BaseException:
         try:
             os.unlink(tmp)

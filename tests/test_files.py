@@ -129,3 +129,42 @@ def test_a_full_disk_keeps_the_earlier_image(capsys, tmp_path, small_disk):
     assert code == 1 and "No space left on device" in err and "Traceback" not in err
     assert earlier.read_bytes() == b"an earlier good image"
     assert _leftovers(small_disk) == []
+
+
+def test_an_output_through_a_symbolic_link_keeps_the_link(capsys, tmp_path):
+    src = tmp_path / "s.pcsg"
+    src.write_text(SPHERE, encoding="utf-8")
+    real = tmp_path / "real.png"
+    real.write_bytes(b"old")
+    link = tmp_path / "link.png"
+    link.symlink_to(real)
+    assert main(["render", str(src), "-o", str(link), *FAST]) == 0
+    assert link.is_symlink() and real.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert _leftovers(tmp_path) == []
+
+
+def test_an_output_into_a_fifo_is_written_into_it(capsys, tmp_path):
+    # a rename would leave a plain file where the pipe was, and its reader with nothing:
+    # /dev/null, written by root, went the same way
+    import threading
+    src = tmp_path / "s.pcsg"
+    src.write_text(SPHERE, encoding="utf-8")
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    got = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()), daemon=True)
+    reader.start()
+    assert main(["graph", str(src), "-o", str(fifo)]) == 0
+    reader.join(60)
+    assert fifo.is_fifo() and got and b"digraph" in got[0]
+    assert _leftovers(tmp_path) == []
+
+
+def test_an_output_that_is_a_directory_is_named(capsys, tmp_path):
+    src = tmp_path / "s.pcsg"
+    src.write_text(SPHERE, encoding="utf-8")
+    (tmp_path / "adir").mkdir()
+    assert main(["graph", str(src), "-o", str(tmp_path / "adir")]) == 1
+    err = capsys.readouterr().err
+    assert f"Is a directory: {tmp_path / 'adir'}" in err and ".part" not in err
+    assert _leftovers(tmp_path) == []
