@@ -10,12 +10,16 @@ from .language import prefetch
 from .language.errors import Diagnostic, PcsgError
 from .language.files import read_source_text
 from .language.source import Source
-from .recursion import SYNTAX_DEPTH, recursion_limit
+from .recursion import SYNTAX_DEPTH, on_deep_stack, recursion_limit
 
 
 def compile_text(text: str, file: str = "<string>", overrides: dict[str, float] | None = None
                  ) -> Graph:
     """Parse, build and check; raises PcsgError. Warnings are in graph.warnings."""
+    return on_deep_stack(_compile, text, file, overrides)
+
+
+def _compile(text: str, file: str, overrides: dict[str, float] | None) -> Graph:
     try:
         with recursion_limit(SYNTAX_DEPTH):
             parsed = prefetch.take(file, text)

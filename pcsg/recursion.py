@@ -13,6 +13,9 @@ import threading
 from contextlib import contextmanager
 
 SYNTAX_DEPTH = 60_000      # the parse and the AST passes recurse with the nesting
+# the C stack of a thread that runs such a pass: reserved address space, not memory
+# (pages are touched only as deep as the recursion goes)
+DEEP_STACK = 1 << 29
 _lock = threading.Lock()
 _asked: list[int] = []      # the limits of the passes inside
 _saved = 0                  # the limit before the first of them came in
@@ -32,3 +35,39 @@ def recursion_limit(at_least: int):
         with _lock:
             _asked.remove(at_least)
             sys.setrecursionlimit(max([_saved, *_asked]))
+
+
+_stack_lock = threading.Lock()
+
+
+def on_deep_stack(fn, *args):
+    """fn(*args) on a thread whose C stack holds SYNTAX_DEPTH levels of any pass. Python
+    calls Python without the C stack, but a generator consumed by a builtin (`tuple(f(a)
+    for a in ...)`), pickle and lark's callbacks recurse in C too: a sum of 20 000 terms
+    overflowed the main thread's 8 MiB and the process died of a segmentation fault,
+    before the recursion limit could raise its RecursionError."""
+    result: list = []
+
+    def run():
+        try:
+            result.append((True, fn(*args)))
+        except BaseException as e:      # noqa: BLE001 -- raised again on the caller's thread
+            result.append((False, e))
+
+    with _stack_lock:
+        before = threading.stack_size()
+        try:
+            threading.stack_size(DEEP_STACK)
+            worker = threading.Thread(target=run, name="pcsg-deep", daemon=True)
+            worker.start()
+        except (ValueError, RuntimeError, MemoryError):
+            worker = None               # no such stack here: the caller's own
+        finally:
+            threading.stack_size(before)
+    if worker is None:
+        return fn(*args)
+    worker.join()
+    ok, value = result[0]
+    if ok:
+        return value
+    raise value

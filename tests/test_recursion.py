@@ -1,5 +1,7 @@
 """The recursion limit is the interpreter's: passes on two threads that raise it must not
 leave each other with a lower one (pcsg/recursion.py)."""
+import os
+import subprocess
 import sys
 import threading
 
@@ -55,3 +57,27 @@ def test_the_limit_returns_when_a_pass_raises():
         with recursion_limit(before + 1000):
             raise ValueError("inside")
     assert sys.getrecursionlimit() == before
+
+
+@pytest.mark.parametrize("terms, code", [(20_000, 0), (100_000, 1)])
+def test_a_long_sum_compiles_or_is_too_deep_without_a_crash(tmp_path, terms, code):
+    """A sum of 20 000 terms is 20 000 levels of the syntax tree, and its constant fold
+    recursed in C as well (a generator inside tuple()): the main thread's stack ran out
+    and the process died of a segmentation fault, under the recursion limit. In its own
+    process, since a crash would end the test run."""
+    f = tmp_path / "sum.pcsg"
+    f.write_text("move(" + "+".join(["1"] * terms) + ", 0, 0) sphere\n", encoding="utf-8")
+    r = subprocess.run([sys.executable, "-m", "pcsg", "check", str(f)], capture_output=True,
+                       text=True, timeout=300, env={**os.environ, "PCSG_PREFETCH": "0"})
+    assert r.returncode == code, (r.returncode, r.stderr[-500:])
+    if code:
+        assert "nested too deeply to compile" in r.stderr
+    else:
+        assert "ok (2 nodes" in r.stdout
+
+
+def test_on_deep_stack_returns_and_raises_as_a_call_would():
+    from pcsg.recursion import on_deep_stack
+    assert on_deep_stack(divmod, 7, 2) == (3, 1)
+    with pytest.raises(ZeroDivisionError):
+        on_deep_stack(divmod, 1, 0)
