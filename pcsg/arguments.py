@@ -177,7 +177,7 @@ def cluster_arguments(r: argparse.ArgumentParser):
     c = r.add_argument_group("across processes and machines (needs pip install 'pcsg[dask]')")
     c.add_argument("--workers", type=int, metavar="N",
                    help="render on a local Dask cluster of N worker processes")
-    c.add_argument("--scheduler", metavar="ADDRESS",
+    c.add_argument("--scheduler", metavar="ADDRESS", type=_scheduler,
                    help="render on an existing Dask cluster, e.g. tcp://10.0.0.5:8786")
     c.add_argument("--tiles", type=int, default=1, metavar="N",
                    help="split each image into N bands of rows, rendered apart (on the "
@@ -186,6 +186,25 @@ def cluster_arguments(r: argparse.ArgumentParser):
     c.add_argument("--force", action="store_true",
                    help="render again outputs that a cluster batch or a sweep would skip as "
                         "already complete")
+
+
+SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")     # dask's, but inproc: no other process's
+
+
+def _scheduler(text: str) -> str:
+    """A Dask scheduler's address, [SCHEME://]HOST:PORT, checked before dask is imported:
+    dask's own parse raised ValueErrors that came out as internal errors."""
+    scheme, sep, rest = text.partition("://")
+    if not sep:
+        scheme, rest = "tcp", text
+    host, colon, port = rest.rpartition(":")
+    host = host[1:-1] if host.startswith("[") and host.endswith("]") else host   # IPv6
+    if scheme not in SCHEMES or not colon or not host or "/" in rest \
+            or not port.isdigit() or not 1 <= int(port) <= 65535:
+        raise argparse.ArgumentTypeError(
+            f"expected a Dask scheduler's address, e.g. tcp://10.0.0.5:8786 "
+            f"({'|'.join(SCHEMES)}://HOST:PORT), got '{text}'")
+    return text
 
 
 def _size(text: str) -> tuple[int, int]:

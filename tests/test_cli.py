@@ -418,3 +418,23 @@ def test_bounces_out_of_range_are_usage_errors(capsys, tmp_path, command, value)
     err = capsys.readouterr().err
     assert f"--bounces {value}: use 0 (off) to 32" in err and "Traceback" not in err
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("address", ["bogus://", "tcp://127.0.0.1:abc", "tcp://", "inproc://x",
+                                     "", "10.0.0.5", "tcp://10.0.0.5:0"])
+def test_a_malformed_scheduler_address_is_a_usage_error(capsys, tmp_path, address):
+    # dask's own parse raised ValueErrors that came out as internal errors, and an empty
+    # address rendered here instead
+    with pytest.raises(SystemExit) as e:
+        main(["render", str(GRAMMARS / "sierpinski.pcsg"), "-o", str(tmp_path / "x.png"),
+              "--scheduler", address])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert "argument --scheduler: expected a Dask scheduler's address" in err
+    assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("address", ["tcp://10.0.0.5:8786", "10.0.0.5:8786", "tls://[::1]:8786"])
+def test_scheduler_addresses_dask_takes_pass(address):
+    from pcsg.arguments import _scheduler
+    assert _scheduler(address) == address
