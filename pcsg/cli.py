@@ -20,7 +20,8 @@ from .arguments import parser  # noqa: E402
 from .interrupt import redeliver_in_finalizers, release_compiler_lock  # noqa: E402
 from .language import prefetch  # noqa: E402
 from .language.errors import PcsgError, labelled  # noqa: E402
-from .limits import MAX_DEPTH, bounces_problem  # noqa: E402
+from .limits import (MAX_DEPTH, bounces_problem, shadow_samples_problem,  # noqa: E402
+                     size_problem)
 from .timings import Timings, note_startup  # noqa: E402
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
@@ -333,8 +334,10 @@ def cmd_export(args) -> int:
     out = Path(args.pov)
     if not out.parent.exists():
         raise UsageError(f"--pov {args.pov}: the directory {out.parent} does not exist")
-    if problem := bounces_problem(args.bounces):
-        raise UsageError(problem)
+    for problem in (bounces_problem(args.bounces), size_problem(args.size),
+                    shadow_samples_problem(args.shadow_samples)):
+        if problem:
+            raise UsageError(problem)
     if args.max_depth is not None and not 1 <= args.max_depth <= 10_000:
         raise UsageError(f"--max-depth {args.max_depth}: use 1 to 10000")
     start = time.perf_counter()

@@ -18,6 +18,21 @@ MAX_INTERVAL_ROWS = 1_000_000   # --interval-rows at most: 128 MB per worker
 LIM_STACK, LIM_ROWS, LIM_INSTANCES = 0, 1, 2
 
 
+def size_problem(size: tuple[int, int]) -> str | None:
+    """The usage message for a --size without pixels (render, animate and export)."""
+    w, h = size
+    if w < 1 or h < 1:
+        return f"--size {w}x{h}: width and height must be at least 1"
+    return None
+
+
+def shadow_samples_problem(samples: int) -> str | None:
+    """The usage message for a --shadow-samples out of range (render, animate and export)."""
+    if not 1 <= samples <= 256:
+        return f"--shadow-samples {samples}: use 1 to 256"
+    return None
+
+
 def bounces_problem(bounces: int) -> str | None:
     """The usage message for a --bounces out of range (render, animate and export)."""
     if not 0 <= bounces <= MAX_BOUNCES:

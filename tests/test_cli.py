@@ -410,6 +410,22 @@ def test_timeout_must_be_positive(capsys, value):
 
 
 @pytest.mark.parametrize("command", ["render", "export"])
+@pytest.mark.parametrize("option, value, message", [
+    ("--size", "5x0", "--size 5x0: width and height must be at least 1"),
+    ("--size", "0x5", "--size 0x5: width and height must be at least 1"),
+    ("--shadow-samples", "0", "--shadow-samples 0: use 1 to 256")])
+def test_sizes_and_shadow_samples_out_of_range_are_usage_errors(capsys, tmp_path, command,
+                                                                option, value, message):
+    # export divided by the height (an internal error), or wrote a camera of no width
+    out = (["--pov", str(tmp_path / "x.pov")] if command == "export"
+           else ["-o", str(tmp_path / "x.png")])
+    assert main([command, str(GRAMMARS / "sierpinski.pcsg"), option, value, *out]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "internal error" not in err
+    assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("command", ["render", "export"])
 @pytest.mark.parametrize("value", ["-1", "33"])
 def test_bounces_out_of_range_are_usage_errors(capsys, tmp_path, command, value):
     out = (["--pov", str(tmp_path / "x.pov")] if command == "export"

@@ -17,7 +17,8 @@ from ..trace.nodes import (EV_INTERVALS, EV_NONFINITE, EV_SELECTION, EV_SINGULAR
                            EV_VISITS, no_events)
 from ..scene import MAX_AO_SAMPLES
 from ..limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES,
-                      MAX_INTERVAL_ROWS, MAX_STACK_DEPTH, bounces_problem)
+                      MAX_INTERVAL_ROWS, MAX_STACK_DEPTH, bounces_problem,
+                      shadow_samples_problem, size_problem)
 from ..memory import freeing_blocks
 from ..timings import Timings
 from ..tracer import Hits, Traced
@@ -68,9 +69,9 @@ class RenderFailed(Exception):
 
 def check_options(o: Options) -> str | None:
     """A clear message for options that cannot work, before anything is compiled."""
+    if problem := size_problem(o.size):
+        return problem
     w, h = o.size
-    if w < 1 or h < 1:
-        return f"--size {w}x{h}: width and height must be at least 1"
     if w * h > MAX_PIXELS:
         need = w * h * BYTES_PER_PIXEL / 2 ** 30
         return (f"--size {w}x{h} is {w * h / 1e6:.0f} million pixels (about {need:.0f} GiB of "
@@ -79,8 +80,8 @@ def check_options(o: Options) -> str | None:
         return f"--samples {o.samples}: use 1 to 1024"
     if o.timeout is not None and not o.timeout > 0:
         return f"--timeout {o.timeout}: give a positive number of seconds"
-    if not 1 <= o.shadow_samples <= 256:
-        return f"--shadow-samples {o.shadow_samples}: use 1 to 256"
+    if problem := shadow_samples_problem(o.shadow_samples):
+        return problem
     if problem := bounces_problem(o.bounces):
         return problem
     if o.ao is not None and not 0 <= o.ao <= MAX_AO_SAMPLES:
