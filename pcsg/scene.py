@@ -28,6 +28,14 @@ RANGES = {
     ("occlusion", "distance"): (lambda v: 0 < v < float("inf"), "a positive distance"),
     ("camera", "fov"): (lambda v: 0 < v < 180, "an angle in degrees between 0 and 180"),
 }
+# lights and finishes: a negative or non-finite one drew black, white or glowing spheres
+_AMOUNT = (lambda v: 0 <= v < math.inf, "a finite number, 0 or more")
+_FRACTION = (lambda v: 0 <= v <= 1, "a fraction from 0 to 1")
+RANGES.update({(d, k): _AMOUNT for d, keys in (
+    ("light", ("color", "radius")), ("sky", ("color", "horizon", "zenith")),
+    ("material", ("color", "diffuse", "specular", "shininess"))) for k in keys})
+RANGES.update({("material", "reflect"): _FRACTION, ("material", "transmit"): _FRACTION,
+               ("material", "ior"): (lambda v: 0 < v < math.inf, "a positive finite number")})
 
 
 def camera_degenerate(eye, at, up) -> str | None:
@@ -104,8 +112,10 @@ def build_scene(directives: list[ast.Directive], constants, report) -> Scene:
                 report(item.value.span, f"'{item.key}' takes finite numbers", "directive")
                 continue
             check, wanted = RANGES.get((d.kind, item.key), (None, ""))
-            if check is not None and not check(nums[0]):
-                report(item.value.span, f"'{item.key}' takes {wanted}, got {nums[0]:g}",
+            bad = [x for x in nums if check is not None and not check(x)]
+            if bad:
+                each = " each" if want > 1 else ""
+                report(item.value.span, f"'{item.key}' takes{each} {wanted}, got {bad[0]:g}",
                        "directive")
                 continue
             values[item.key] = nums[0] if want == 1 else nums
