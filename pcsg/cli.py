@@ -277,16 +277,32 @@ def _outputs(files: list[str], output: str | None) -> list[Path]:
     """NAME.png here; or -o FILE.png for one file; or -o DIR/ (created) for any number."""
     names = [Path(f).stem + ".png" for f in files]
     if output is None:
-        return [Path(n) for n in names]
+        return _distinct(files, [Path(n) for n in names])
     out = Path(output)
     if out.is_dir() or output.endswith(("/", "\\")) or (len(files) > 1 and not out.suffix):
+        paths = _distinct(files, [out / n for n in names])
         out.mkdir(parents=True, exist_ok=True)
-        return [out / n for n in names]
+        return paths
     if len(files) > 1:
         raise UsageError(f"-o {output}: several files need a directory, e.g. -o renders/")
     if not out.parent.exists():
         raise UsageError(f"-o {output}: the directory {out.parent} does not exist")
     return [out]
+
+
+def _distinct(files: list[str], paths: list[Path]) -> list[Path]:
+    """The paths, where no two files of the batch share one: the second image overwrote
+    the first, and the batch said it rendered both."""
+    first: dict[Path, str] = {}
+    for f, n in zip(files, paths):
+        other = first.setdefault(n, f)
+        if other is f:
+            continue
+        if os.path.realpath(other) == os.path.realpath(f):
+            raise UsageError(f"{f} is given twice")
+        raise UsageError(f"{other} and {f} would both be written to {n}: rename one, or "
+                         f"render them apart")
+    return paths
 
 
 def cmd_animate(args) -> int:

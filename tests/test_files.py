@@ -168,3 +168,17 @@ def test_an_output_that_is_a_directory_is_named(capsys, tmp_path):
     err = capsys.readouterr().err
     assert f"Is a directory: {tmp_path / 'adir'}" in err and ".part" not in err
     assert _leftovers(tmp_path) == []
+
+
+def test_two_files_of_one_name_are_not_written_over_each_other(capsys, tmp_path):
+    for d in ("a", "b"):
+        (tmp_path / d).mkdir()
+        (tmp_path / d / "x.pcsg").write_text(SPHERE, encoding="utf-8")
+    out = tmp_path / "out"
+    a, b = str(tmp_path / "a" / "x.pcsg"), str(tmp_path / "b" / "x.pcsg")
+    assert main(["render", a, b, "-o", f"{out}/", *FAST]) == 2
+    assert f"{a} and {b} would both be written to {out / 'x.png'}" in capsys.readouterr().err
+    assert not out.exists()
+    assert main(["render", a, str(tmp_path / "a" / ".." / "a" / "x.pcsg"), "-o", f"{out}/",
+                 *FAST]) == 2
+    assert "is given twice" in capsys.readouterr().err
