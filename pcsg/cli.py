@@ -94,11 +94,14 @@ def cmd_expand(args) -> int:
         raise UsageError("-n must be 0 or more")
     graph = _compile(args.file, args.overrides)
     _report(None, graph.warnings)
+    notes: list[str] = []
     try:
-        text = expand_file(graph, args.steps, args.max_chars)
+        text = expand_file(graph, args.steps, args.max_chars, notes)
     except ExpansionTooLarge as e:
         raise UsageError(str(e)) from None
     _write(text, args.output)
+    for note in notes:
+        print(f"{args.file}: warning: {note}", file=sys.stderr)
     return EXIT_OK
 
 

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from pcsg.compiler import compile_file, compile_text
-from pcsg.graph.expand import expand_axiom, expand_file
+from pcsg.graph.expand import REDRAWN, expand_axiom, expand_file
 from pcsg.graph.flatten import flatten
 from pcsg.graph.stats import count_by_primitive, count_primitives
 from pcsg.language.errors import PcsgError
@@ -83,6 +83,24 @@ class TestExpand:
         for x, y in zip(a, b):
             assert np.array_equal(x.matrix, y.matrix)
             assert x.paint == y.paint and x.material == y.material
+
+    @pytest.mark.parametrize("draw, steps, warned", [
+        ("rand()", 2, True),            # modules left: their paths start anew
+        ("rand()", 20, False),          # every module rewritten: the same primitives
+        ("rand(c)", 2, False)])         # a seed's numbers are the seed's alone
+    def test_expansion_says_where_rand_draws_other_numbers(self, draw, steps, warned):
+        g = compile_text(f"{{c = 4}} S\nS if(c > 0, if({draw} < 0.5, 2, 3), 1)\n"
+                         "1: S → cube\n"
+                         "2: S → {c = c-1} (move(-1,0,0) uscale(0.5) S ∪\n"
+                         "                  move(1,0,0) uscale(0.5) S)\n"
+                         "3: S → {c = c-1} move(0,0,1) uscale(0.5) S\n")
+        notes = []
+        g2 = compile_text(expand_file(g, steps, notes=notes), "expanded.pcsg")
+        assert notes == ([REDRAWN] if warned else [])
+        if not warned:
+            a, b = flatten(g), flatten(g2)
+            assert [x.primitive for x in a] == [x.primitive for x in b]
+            assert all(np.array_equal(x.matrix, y.matrix) for x, y in zip(a, b))
 
     def test_complete_expansion_leaves_no_module(self):
         g = sample("sierpinski", c=2)

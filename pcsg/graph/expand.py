@@ -72,6 +72,17 @@ class _Printer:
         self.out(parts, f"{{{values}}} {node.name}" if values else node.name)
 
 
+REDRAWN = ("the written word's modules draw other numbers from rand() than the file's: rand() "
+           "depends on the path from the axiom, which the word starts anew, so below the "
+           "modules it leaves the primitives differ (rand(seed) draws the same)")
+
+
+def redraws(graph: Graph) -> bool:
+    """Whether some expression calls rand() without a seed: its numbers depend on the
+    instance's path from the axiom."""
+    return any(graph.exprs.uses_rand(i) for i in range(len(graph.exprs)))
+
+
 class ExpansionTooLarge(Exception):
     def __init__(self, limit: int):
         super().__init__(f"the expansion is longer than {limit:,} characters; "
@@ -100,10 +111,15 @@ def _axiom_head(graph: Graph, d: Deriver) -> str:
     return "; ".join(f"{k} = {format_value(v)}" for k, v in state.items(graph))
 
 
-def expand_file(graph: Graph, steps: int, max_chars: int = 50_000_000) -> str:
+def expand_file(graph: Graph, steps: int, max_chars: int = 50_000_000,
+                notes: list[str] | None = None) -> str:
     """The whole file with its axiom replaced by the expansion: a file `pcsg check` accepts.
-    Macros are shown expanded, since the axiom is printed from the expanded text."""
+    Macros are shown expanded, since the axiom is printed from the expanded text. Appends
+    to `notes` what the user must know of it: where modules are left that draw `rand()`,
+    the file derives other primitives below them (redrawn)."""
     axiom, p = _expand(graph, steps, max_chars)
+    if notes is not None and p.modules_left and redraws(graph):
+        notes.append(REDRAWN)
     if p.modules_left == 0:
         # The rules stay in the file and read parameters that only the old axiom assigned:
         # keep those assignments, or the file would read undefined names.
