@@ -6,7 +6,7 @@ import pytest
 from pcsg.compiler import compile_file, compile_text
 from pcsg.graph.flat import flatten_graph
 from pcsg.trace.boxsplit import _split_level, walk_split
-from pcsg.trace.boxwalk import STOPPED, walk_boxes
+from pcsg.trace.boxwalk import FAULTS, STOPPED, new_counts, walk_boxes
 from pcsg.trace.instance_table import TABLE_SLOTS, new_book
 
 from tests.conftest import GRAMMARS
@@ -19,27 +19,35 @@ def split_walk(graph, depth, workers, budget=10**9, most=TABLE_SLOTS // 2, watch
     boxes = empty.copy()
     book = new_book(depth + 1, most)
     per_level = np.zeros(depth + 2, dtype=np.int64)
-    changed = np.zeros(1, dtype=np.int64)
+    changed = new_counts(1)[0]
     capacity = (depth + 2) * (n + 2) + 16
     visits, table = walk_split(flat, depth, budget, capacity, boxes, book, per_level, changed,
                                workers, watch)
     if table is None:
-        return visits, boxes, int(changed[0]), per_level.tolist(), int(book[0]), None, flat
+        return visits, boxes, changed.tolist(), per_level.tolist(), int(book[0]), None, flat
     keys, used, vals = table
     kept = used > 0
     entries = sorted(zip(keys[kept].tolist(), used[kept].tolist(), map(tuple, vals[kept])))
-    return visits, boxes, int(changed[0]), per_level.tolist(), int(book[0]), entries, flat
+    return visits, boxes, changed.tolist(), per_level.tolist(), int(book[0]), entries, flat
 
 
 CASES = [("carpenter_terrain", {"cnt": 6}, 64),        # every instance, table complete
          ("carpenter_terrain", {"cnt": 8}, 6),         # cut by the depth bound
          ("sympodial_tree", {"cnt": 9}, 64),
-         ("graftal_tree", {}, 7)]
+         ("graftal_tree", {}, 7),
+         ("non-finite maps", {}, 64)]                  # counted, the least node named
+NONFINITE = """{c = 6} S
+S if(c > 0, 2, 1)
+1: S → move(sqrt(rand() - 0.1), 0, 0) sphere ∪ move(0, 0, log(rand() - 0.05)) cube
+2: S → {c = c-1} (move(-1,0,0) uscale(0.5) S ∪ move(1,0,0) uscale(0.5) S ∪
+                  move(0,1,0) uscale(0.5) S)
+"""
 
 
 @pytest.mark.parametrize("name, params, depth", CASES)
 def test_split_walk_is_the_walk_from_the_root(name, params, depth):
-    graph = compile_file(GRAMMARS / f"{name}.pcsg", params)
+    graph = compile_text(NONFINITE) if name == "non-finite maps" else \
+        compile_file(GRAMMARS / f"{name}.pcsg", params)
     one = split_walk(graph, depth, 1)
     assert one[0] > 0
     level, count, _ = _split_level(one[6], depth, 10**9, (depth + 2) * (len(graph.nodes) + 2)
@@ -49,7 +57,8 @@ def test_split_walk_is_the_walk_from_the_root(name, params, depth):
         got = split_walk(graph, depth, workers)
         assert got[0] == one[0]                             # visits
         assert np.array_equal(got[1], one[1])               # boxes
-        assert got[2:6] == one[2:6]         # changed, per level, deepest kept, entries
+        assert got[2:6] == one[2:6]         # counts, per level, deepest kept, entries
+    assert (one[2][FAULTS] > 0) == (name == "non-finite maps")
 
 
 def test_split_walk_keeps_the_levels_that_fit():
@@ -157,7 +166,7 @@ def test_the_walk_reads_no_scratch_row_it_has_not_written(name, params, depth):
         buffer = (np.empty(4096, np.uint64), np.empty(4096, np.int16),
                   np.empty((4096, ENTRY), np.float32))
         per_level = np.zeros(depth + 2, dtype=np.int64)
-        changed = np.zeros(1, dtype=np.int64)
+        changed = new_counts(1)[0]
         scratch = walk_scratch(flat, capacity)
         for array, value in zip(scratch[:4], fill):
             array[:] = value
@@ -165,7 +174,7 @@ def test_the_walk_reads_no_scratch_row_it_has_not_written(name, params, depth):
                          changed, np.zeros(3, np.int64), *items_for(flat, 1), -1, *scratch,
                          np.zeros(2, np.int64), 1)
         kept = book[2]
-        return (visits, boxes, per_level, int(changed[0]), buffer[0][:kept].tolist(),
+        return (visits, boxes, per_level, changed.tolist(), buffer[0][:kept].tolist(),
                 buffer[2][:kept])
 
     clean = walk((0, 0, np.nan, 0.0))

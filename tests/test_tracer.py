@@ -315,7 +315,8 @@ def test_a_deeper_walk_over_budget_falls_back_to_the_last_walks_table(monkeypatc
 
     def over_budget_below_5(flat, empty, depth, max_depth, budget, instances, *watch):
         if depth > 5:
-            return empty.copy(), -1, 0, boxwalk.empty_table(boxwalk.TABLE_SLOTS)
+            return (empty.copy(), -1, boxwalk.new_counts(1)[0],
+                    boxwalk.empty_table(boxwalk.TABLE_SLOTS))
         return real(flat, empty, depth, max_depth, budget, instances, *watch)
 
     monkeypatch.setattr(boxwalk, "_walk_to", over_budget_below_5)

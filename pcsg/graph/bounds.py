@@ -139,6 +139,7 @@ class _Walker:
         # bounding volume is a sphere is bounded above by that sphere (graph/volumes.py)
         self.volumes: dict = {}
         self.matrices: dict = {}   # T-node memo key -> its matrix, kept across rounds
+        self.faults: set = set()   # T-nodes a map with non-finite arguments emptied
         self.reset()
 
     def reset(self):
@@ -178,6 +179,8 @@ class _Walker:
             m = self.matrices.get(key)
             if m is None:       # the key fixes the matrix: rounds need not derive it again
                 m = self.matrices[key] = self.d.matrix(i, state, h)
+                if not np.isfinite(m).all():
+                    self.faults.add(i)
             b = self.transform(m, self.box(n.children[0], state, h, level))
         elif n.kind in (UNION, INTERSECTION, DIFFERENCE):
             parts = [self.box(c, state, self.d.edge(h, i, k), level)
@@ -241,15 +244,19 @@ class _Walker:
         return sorted(found)
 
 
-def _memoised(graph: Graph) -> tuple[np.ndarray, dict, StateTable | None]:
+def _memoised(graph: Graph, faults: set | None = None
+              ) -> tuple[np.ndarray, dict, StateTable | None]:
     """Exact boxes by the memoised walk, iterated to a fixed point over re-entered
     states; TooManyStates when memoising cannot help. A re-entered state that stays
     empty (a graftal: no primitive below its cycle) is bounded as an IFS attractor.
     Also returns the bounds the last round took for the re-entered states (state key ->
     corner points whose hull holds that state's attractor), where bounding spheres
     start (graph/spheres.py), and where no state is re-entered, the boxes by state
-    (graph/states.py)."""
+    (graph/states.py). `faults` gets the T-nodes that a map with non-finite arguments
+    emptied somewhere."""
     w = _Walker(graph)
+    if faults is not None:
+        w.faults = faults
 
     def round_():
         w.reset()
@@ -354,6 +361,21 @@ GROWTH = 1e-9           # relative widening per growing round: makes containment
 TIGHTEN_ROUNDS = 200
 
 
+def fault_warnings(graph: Graph, walked: Graph, faults, counted: bool) -> list[Diagnostic]:
+    """Warnings at the T-nodes of `walked` (the graph a walk took) that a map with
+    non-finite arguments emptied: (count, node) each, the count of instances where
+    `counted`. No ray reaches such an instance to report it as a runtime error (its box
+    is empty), so the walk that met it does."""
+    out = []
+    for count, node in faults:
+        many = f"{count:,} instances" if counted else "some instances"
+        out.append(Diagnostic(
+            "warning", f"the arguments of this transformation are not finite in {many}, "
+            f"which are empty (a runtime error in the grammar)", walked.nodes[node].span,
+            graph.source, code="non-finite-map"))
+    return out
+
+
 def _empty(b: np.ndarray) -> bool:
     return bool(b[0] > b[3])
 
@@ -392,9 +414,12 @@ def bound(graph: Graph, max_depth: int = 64, budget: int = BOUNDS_BUDGET, poll=N
     graph they are for. With `fuse`, a system bounded instance by instance has its runs
     of maps written out as one first (graph/fuse.py): that graph is the one bounded."""
     problems = []
+    faults: set = set()
     try:
         with recursion_limit(20 * MAX_LEVELS):
-            boxes, hulls, states = _memoised(graph)
+            boxes, hulls, states = _memoised(graph, faults)
+        problems += fault_warnings(graph, graph, [(len(faults), f) for f in sorted(faults)],
+                                   counted=False)
         return boxes, "memoised", problems, states, hulls, max_depth, graph
     except TooManyStates:
         pass
@@ -410,9 +435,11 @@ def bound(graph: Graph, max_depth: int = 64, budget: int = BOUNDS_BUDGET, poll=N
     if fuse:
         graph = fuse_runs(graph)
     walked, skipped = without_passable(graph)
+    found: list = []
     boxes, complete, table, depth = walk_boxes(walked, max_depth, budget, instances=True,
-                                               poll=poll, cache=True)
+                                               poll=poll, cache=True, faults=found)
     fill_boxes(boxes, skipped)
+    problems += fault_warnings(graph, walked, found[:1] if found[0][0] else [], counted=True)
     if depth < max_depth:
         problems.append(Diagnostic(
             "warning", f"the instances below derivation depth {depth} are too many to bound "

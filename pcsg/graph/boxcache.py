@@ -27,7 +27,7 @@ import numpy as np
 from ..trace import kernel_digest
 from ..caches import cache_dir
 
-FORMAT = 1
+FORMAT = 2                  # 2: the walk's faults kept beside its result
 # the terrain at 7 (212 k visits) and deeper: its bounds phase takes 0.16 to 0.21 s
 # walked on 2 cores and 0.10 s read back, at 9 (3.3 M) 0.27 to 0.29 s and 0.10 s; most
 # of a read is flattening the graph and loading its blocks, which a walk does as well
@@ -58,21 +58,22 @@ def key(flat, *arguments) -> str:
 
 
 def load(k: str):
-    """walk_boxes's result kept under key k, or None."""
+    """walk_boxes's result and faults (count, node) kept under key k, or None."""
     global hits
     path = folder() / f"{k}.npz"
     try:
         with np.load(path) as z:
             boxes, depth, complete = z["boxes"], int(z["depth"]), bool(z["complete"])
             table = z["keys"], z["used"], z["vals"]
+            found = int(z["faults"][0]), int(z["faults"][1])
         os.utime(path)          # read recently: removed last
     except Exception:       # noqa: BLE001 -- missing, cut short, another format: walk
         return None
     hits += 1
-    return boxes, complete, table, depth
+    return (boxes, complete, table, depth), found
 
 
-def store(k: str, result) -> None:
+def store(k: str, result, found) -> None:
     """Keeps walk_boxes's result under key k; a folder that cannot be written keeps
     nothing (the cache is only ever a speed-up)."""
     boxes, complete, table, depth = result
@@ -84,7 +85,7 @@ def store(k: str, result) -> None:
         fd, tmp = tempfile.mkstemp(dir=where, suffix=".tmp")
         with os.fdopen(fd, "wb") as f:
             np.savez(f, boxes=boxes, depth=depth, complete=complete, keys=keys, used=used,
-                     vals=vals)
+                     vals=vals, faults=np.array(found, dtype=np.int64))
         os.replace(tmp, where / f"{k}.npz")
         _trim(where)
     except Exception:       # noqa: BLE001 -- a full disk, a read-only folder: keep nothing

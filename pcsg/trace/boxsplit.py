@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from . import vm
-from .boxwalk import COLLECT, CONSUME, STOPPED, walk, walk_in, walk_scratch
+from .boxwalk import (COLLECT, CONSUME, STOPPED, add_counts, new_counts, walk, walk_in,
+                      walk_scratch)
 from .instance_table import ENTRY, empty_table, gather
 from .jit import share, watched
 
@@ -63,7 +64,7 @@ def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, per_le
     else:
         wboxes = np.repeat(boxes[None], workers, axis=0)
         wlevels = np.zeros((workers, per_level.shape[0]), dtype=np.int64)
-        wchanged = np.zeros(workers, dtype=np.int64)
+        wchanged = new_counts(workers)
         wvisits = np.zeros(workers, dtype=np.int64)
         watched([(_walk_share, (w, workers, flat, depth, budget, capacity, count, *items,
                                 wboxes, bbook, bkeys, bused, bvals, wlevels, wchanged,
@@ -75,7 +76,7 @@ def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, per_le
         np.minimum(boxes[:, :3], wboxes[:, :, :3].min(axis=0), out=boxes[:, :3])
         np.maximum(boxes[:, 3:], wboxes[:, :, 3:].max(axis=0), out=boxes[:, 3:])
         per_level += wlevels.sum(axis=0)
-        changed[0] += wchanged.sum()
+        add_counts(changed, wchanged)
     if top == STOPPED or (wvisits == STOPPED).any():
         return STOPPED, None
     if top < 0 or (wvisits < 0).any() or top + wvisits.sum() > budget:
@@ -116,7 +117,7 @@ def _split_level(flat, depth: int, budget: int, capacity: int, workers: int, wat
         """The instances of `level` into items: (walk's result, how many)."""
         split = np.array([COLLECT, level, 0], dtype=np.int64)
         got = walk(flat, depth, budget, capacity, boxes, book, *none, levels,
-                   np.zeros(1, dtype=np.int64), split, *items, -1, watch, 1)
+                   new_counts(1)[0], split, *items, -1, watch, 1)
         return got, int(split[2])
 
     best = last = 0
@@ -148,7 +149,7 @@ def _walk_share(w, workers, flat, depth, budget, capacity, count, items, item_ha
             wvisits[w] = STOPPED
             break
         got = walk_in(flat, depth, budget - wvisits[w], capacity, wboxes[w], bbook[w],
-                      bkeys[w], bused[w], bvals[w], wlevels[w], wchanged[w:w + 1], split,
+                      bkeys[w], bused[w], bvals[w], wlevels[w], wchanged[w], split,
                       items, item_hash, item_params, item_boxes, i, fr, hs, params, acc, tmp,
                       stack, args, m34, watch, 1 + w)
         if got < 0:

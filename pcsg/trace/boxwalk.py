@@ -25,6 +25,11 @@ NODE, SLOT, LEVEL, PHASE, CUT = range(5)
 COLLECT, CONSUME = 1, 2    # split modes of walk
 STOPPED = -3               # a walk's result when watch[0] asked it to stop
 TELL_EVERY = 1 << 16       # visits between a walk's reports to its watch (a few ms)
+# a walk's counts: changed[CHANGED] instances the depth bound finished otherwise,
+# changed[FAULTS] instances emptied by a map with non-finite arguments, the least such
+# T-node in changed[FAULT_NODE] (NO_NODE if none)
+CHANGED, FAULTS, FAULT_NODE = range(3)
+NO_NODE = 1 << 62
 
 
 @inline
@@ -104,7 +109,15 @@ def _mapped_primitive_box(flat, prim, m, inner, out):
 
 
 @inline
-def _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack, args, m34):
+def _fault(changed, node):
+    """A map with non-finite arguments emptied an instance of T-node `node`: the tracer
+    empties it too, and no ray may ever reach it to say so (its box is empty)."""
+    changed[FAULTS] += 1
+    changed[FAULT_NODE] = min(changed[FAULT_NODE], node)
+
+
+@inline
+def _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack, args, m34, changed):
     """The run of single-child steps from frame f down to its primitive (Flat.chain) in
     two loops, down and up, with the arithmetic of the general walk's frames but not its
     dispatch per frame: the terminating rules, three quarters of the terrain's visits.
@@ -131,6 +144,7 @@ def _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack, args, m34)
             if not node_affine(flat, node, params, fr[k, SLOT], hs[f], stack, args, m34):
                 acc[k, :3] = np.inf
                 acc[k, 3:] = -np.inf
+                _fault(changed, node)
             elif bare:
                 _mapped_primitive_box(flat, fr[g, NODE], m34, acc[k + 1], acc[k])
             else:
@@ -178,9 +192,9 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
     """Fill boxes[n] (pre-set to empty) with the union of node n's instance boxes, and
     append to the buffer (keys, used, vals) the box of every S-node instance and operator
     operand of the top derivation levels that fit (see instance_table.append; `book` is
-    its bookkeeping), keyed by its instance hash; per_level counts them by level, changed[0]
+    its bookkeeping), keyed by its instance hash; per_level counts them by level, changed
     the instances that the depth bound finished otherwise than their own selection would
-    have. Returns the node visits made, or -1 if the visit budget or the stack capacity
+    have and those a non-finite map emptied (CHANGED, FAULTS, FAULT_NODE). Returns the node visits made, or -1 if the visit budget or the stack capacity
     ran out.
 
     The walk starts at the root when `first` is -1, else at the S-node instance
@@ -234,7 +248,7 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
             acc[f, 3:] = -np.inf
             if flat.chain[node] != 0:
                 steps = _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack,
-                                    args, m34)
+                                    args, m34, changed)
                 visits += steps
                 if steps < 0 or visits > budget:
                     return -1
@@ -271,7 +285,7 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
                         if level > 4 * max_depth + 64:
                             r = -1          # a terminating rule that keeps recursing: stopped
                         if r != pick_rule(flat, node, params, fr[f, SLOT], hs[f], stack):
-                            changed[0] += 1     # the bound changed what this instance is
+                            changed[CHANGED] += 1   # the bound changed what this instance is
                         if r < 0:
                             r = -1          # a graftal: bounded by its own box (no growth)
                     else:
@@ -338,6 +352,7 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
                 else:               # non-finite arguments: the tracer empties the instance
                     acc[p, :3] = np.inf
                     acc[p, 3:] = -np.inf
+                    _fault(changed, up)
             elif above == CALC or above == PAINT or above == MATERIAL:
                 copy_into(acc[p], acc[p + 1])
             else:
@@ -354,7 +369,7 @@ FIRST_DEPTH = 4        # the first walk, which measures how fast the instances g
 
 
 def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances: bool = False,
-               poll=None, cache: bool = False):
+               poll=None, cache: bool = False, faults: list | None = None):
     """(n, 6) hyper boxes of every node by visiting every instance, whether they are
     complete, the table of per-instance boxes of the top derivation levels (with
     `instances`: as many levels as fit half of TABLE_SLOTS, as (keys, used, vals) for the
@@ -376,7 +391,10 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
     exception it raises, or Ctrl-C, stops the walk within milliseconds and is raised.
 
     With `cache`, the result of a long walk is kept on disk and read instead of walking
-    again (graph/boxcache.py)."""
+    again (graph/boxcache.py).
+
+    `faults`, if given, gets (count, node) of the instances of the boxes' walk that a map
+    with non-finite arguments emptied, node the least T-node of them (count 0: none)."""
     budget = BOUNDS_BUDGET if budget is None else budget
     flat, empty = walk_flat(graph)
     k = None
@@ -384,10 +402,15 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
         k = boxcache.key(flat, max_depth, budget, instances, FIRST_DEPTH, TABLE_SLOTS)
         kept = boxcache.load(k)
         if kept is not None:
-            return kept
-    result, visits = _walk_depths(flat, empty, max_depth, budget, instances, poll)
+            result, found = kept
+            if faults is not None:
+                faults.append(found)
+            return result
+    result, visits, found = _walk_depths(flat, empty, max_depth, budget, instances, poll)
     if k is not None and visits >= boxcache.MIN_VISITS:
-        boxcache.store(k, result)
+        boxcache.store(k, result, found)
+    if faults is not None:
+        faults.append(found)
     return result
 
 
@@ -403,7 +426,8 @@ def walk_flat(graph):
 
 
 def _walk_depths(flat, empty, max_depth: int, budget: int, instances: bool, poll):
-    """walk_boxes's result from the walks deeper and deeper, and the visits they made."""
+    """walk_boxes's result from the walks deeper and deeper, the visits they made, and
+    the faults (count, node) of the walk whose boxes it gives."""
     n = empty.shape[0]
     spent = 0
     graftal = (flat.term_rule[flat.kind == SELECT] < 0).any()
@@ -411,16 +435,18 @@ def _walk_depths(flat, empty, max_depth: int, budget: int, instances: bool, poll
     best = last = None
     expected = None
     while True:
-        boxes, visits, changed, table = _walk_to(flat, empty, depth, max_depth, budget,
-                                                 instances, poll, expected)
+        boxes, visits, counts, table = _walk_to(flat, empty, depth, max_depth, budget,
+                                                instances, poll, expected)
         if visits < 0:
             table = None            # over budget: best's table is built again below
             spent += budget
             break
+        changed = int(counts[CHANGED])
+        found = int(counts[FAULTS]), int(counts[FAULT_NODE])
         spent += visits
         if depth == max_depth or changed == 0:
             # the bound changed nothing: these are the boxes of every depth
-            return (boxes, True, table, max_depth), spent
+            return (boxes, True, table, max_depth), spent, found
         if last is None:
             deeper = depth + 1          # a second walk, to see how the visits grow
         else:
@@ -432,34 +458,48 @@ def _walk_depths(flat, empty, max_depth: int, budget: int, instances: bool, poll
             if graftal and deeper < max_depth:
                 break                               # max_depth would not fit
             if deeper == depth:
-                return (boxes, True, table, depth), spent   # the next depth would not fit
+                return (boxes, True, table, depth), spent, found   # the next would not fit
             expected = int(cost)
         if not graftal:
             # a list of its entries (boxsplit.walk_split), no slots to free: kept as it is
-            best = boxes, table, depth
+            best = boxes, table, depth, found
         table = None
         last = depth, visits
         depth = deeper
     if best is None:
         boxes = np.tile([-np.inf, -np.inf, -np.inf, np.inf, np.inf, np.inf], (n, 1))
-        return (boxes, False, empty_table(), max_depth), spent
-    return (best[0], True, best[1], best[2]), spent
+        return (boxes, False, empty_table(), max_depth), spent, (0, NO_NODE)
+    return (best[0], True, best[1], best[2]), spent, best[3]
 
 
 def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bool,
              poll=None, expected: int | None = None):
-    """One walk to `depth`, on every core: boxes, visits (-1: over budget), how many
-    instances the depth bound changed, table."""
+    """One walk to `depth`, on every core: boxes, visits (-1: over budget), its counts
+    (CHANGED, FAULTS, FAULT_NODE), table."""
     from .boxsplit import walk_split
     n = empty.shape[0]
     boxes = empty.copy()
     capacity = (max_depth + 2) * (n + 2) + 16     # as deep a stack as the full walk's
     per_level = np.zeros(depth + 2, dtype=np.int64)
     book = new_book(depth + 1 if instances else -1, TABLE_SLOTS // 2)
-    changed = np.zeros(1, dtype=np.int64)
+    changed = new_counts(1)[0]
     workers = threads()
     watch = np.zeros(1 + workers, dtype=np.int64)
     tick = None if poll is None else lambda: poll(int(watch[1:].sum()), expected)
     visits, table = walk_split(flat, depth, budget, capacity, boxes, book, per_level,
                                changed, workers, watch, tick)
-    return boxes, visits, int(changed[0]), table
+    return boxes, visits, changed, table
+
+
+def new_counts(walks: int) -> np.ndarray:
+    """The counts (CHANGED, FAULTS, FAULT_NODE) of `walks` walks, one row each."""
+    counts = np.zeros((walks, 3), dtype=np.int64)
+    counts[:, FAULT_NODE] = NO_NODE
+    return counts
+
+
+def add_counts(total: np.ndarray, rows: np.ndarray) -> None:
+    """The counts of several walks into `total`, whatever walked what."""
+    total[CHANGED] += rows[:, CHANGED].sum()
+    total[FAULTS] += rows[:, FAULTS].sum()
+    total[FAULT_NODE] = min(total[FAULT_NODE], rows[:, FAULT_NODE].min())

@@ -1,0 +1,81 @@
+"""A map whose arguments are not finite (uscale(1e999), move(sqrt(-1), 0, 0)) empties
+its instance, in the tracer as in the bounding walks; and its box is then empty too, so
+no ray ever reaches it to count it as a runtime error. The walk that met it says so,
+where the T-node is written, and --strict fails on it (graph/bounds.py)."""
+import numpy as np
+import pytest
+
+from pcsg.cli import main
+from pcsg.compiler import compile_text
+from pcsg.graph import boxcache
+from pcsg.graph.bounds import fault_warnings
+from pcsg.graph.flatten import flatten
+from pcsg.trace.boxwalk import walk_boxes
+
+# rand() draws a path's own numbers: no state repeats, so the instance walk bounds it
+DRAWN = """{c = 5} S
+S if(c > 0, 2, 1)
+1: S → move(sqrt(rand() - 0.1), 0, 0) sphere
+2: S → {c = c-1} (move(-1,0,0) uscale(0.5) S ∪ move(1,0,0) uscale(0.5) S ∪
+                  move(0,1,0) uscale(0.5) S)
+"""
+
+
+def faults_of(traced):
+    return [w for w in traced.warnings if w.code == "non-finite-map"]
+
+
+@pytest.mark.parametrize("text, column", [
+    ("uscale(1e999) sphere ∪ move(3,0,0) cube", 1),
+    ("{k = -1} move(sqrt(k), 0, 0) sphere ∪ move(3,0,0) cube", 10)])
+def test_a_constant_map_that_is_not_finite_is_named(text, column):
+    from pcsg.tracer import loads
+    traced = loads(text, "t.pcsg")
+    assert traced.bounds_method == "memoised"
+    (w,) = faults_of(traced)
+    assert (w.location.line, w.location.column) == (1, column)
+    assert "not finite in some instances, which are empty" in w.message
+
+
+def test_the_instance_walk_counts_the_instances_the_reference_expansion_has():
+    graph = compile_text(DRAWN, "t.pcsg")
+    bad = sum(not np.isfinite(x.matrix).all() for x in flatten(graph))
+    assert 0 < bad < 3 ** 5
+    from pcsg.tracer import loads
+    traced = loads(DRAWN, "t.pcsg")
+    assert traced.bounds_method == "every instance"
+    (w,) = faults_of(traced)
+    assert f"not finite in {bad:,} instances" in w.message
+    assert (w.location.line, w.location.column) == (3, 8)
+
+
+def test_a_system_without_such_maps_has_no_warning():
+    from pcsg.tracer import loads
+    assert faults_of(loads(DRAWN.replace("- 0.1", "+ 0.1"), "t.pcsg")) == []
+    assert faults_of(loads("scale(0, 1, 1) sphere", "t.pcsg")) == []     # singular: rays see it
+
+
+def test_the_count_comes_back_from_the_bounds_cache(monkeypatch, tmp_path):
+    monkeypatch.setenv("PCSG_BOUNDS_CACHE", "1")
+    monkeypatch.setenv("PCSG_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(boxcache, "MIN_VISITS", 0)
+    graph = compile_text(DRAWN, "t.pcsg")
+    walked, read = [], []
+    walk_boxes(graph, instances=True, cache=True, faults=walked)
+    hits = boxcache.hits
+    walk_boxes(graph, instances=True, cache=True, faults=read)
+    assert boxcache.hits == hits + 1 and read == walked and walked[0][0] > 0
+    assert fault_warnings(graph, graph, walked, counted=True)[0].span == \
+        graph.nodes[walked[0][1]].span
+
+
+def test_strict_fails_on_it_and_a_plain_render_says_it(capsys, tmp_path):
+    src = tmp_path / "t.pcsg"
+    src.write_text("uscale(1e999) sphere ∪ move(3,0,0) cube\n", encoding="utf-8")
+    out = tmp_path / "t.png"
+    fast = ["--size", "32x24", "-q", "--no-shadows"]
+    assert main(["render", str(src), "-o", str(out), "--strict", *fast]) == 1
+    assert "not finite in some instances" in capsys.readouterr().err and not out.exists()
+    assert main(["render", str(src), "-o", str(out), *fast]) == 0
+    assert "t.pcsg:1:1: warning: the arguments of this transformation are not finite" in \
+        capsys.readouterr().err
