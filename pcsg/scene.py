@@ -72,7 +72,8 @@ def _known(words) -> str:
 
 def build_scene(directives: list[ast.Directive], constants, report) -> Scene:
     """Evaluate directives; `constants(node)` compiles a parameter-free expression to a float
-    (reporting its own errors); `report(span, message, code)` reports the rest."""
+    (reporting its own errors, and then None); `report(span, message, code)` reports the
+    rest."""
     scene = Scene()
     seen: dict[str, ast.Directive] = {}
     for d in directives:
@@ -108,6 +109,8 @@ def build_scene(directives: list[ast.Directive], constants, report) -> Scene:
                 report(item.value.span, f"'{item.key}' takes {shape}, got {len(parts)}", "directive")
                 continue
             nums = tuple(constants(p) for p in parts)
+            if None in nums:        # said already: 'undefined name', not 'not finite' too
+                continue
             if d.kind == "camera" and not all(math.isfinite(x) for x in nums):
                 report(item.value.span, f"'{item.key}' takes finite numbers", "directive")
                 continue

@@ -221,10 +221,12 @@ class _Builder:
                 now[a.name] = value
         return {name: v for name, v in now.items() if counts[name] == 1}
 
-    def _constant(self, node) -> float:
-        """A directive value: numbers and pi only."""
+    def _constant(self, node) -> float | None:
+        """A directive value: numbers and pi only; None where it is an error (reported)."""
+        errors = len(self.errors)
         table = ExprTable({}, self.error)
-        return float(table.evaluate(table.add(node), _EMPTY))
+        value = float(table.evaluate(table.add(node), _EMPTY))
+        return None if len(self.errors) > errors else value
 
     # ---- CSG expressions
     def csg(self, e) -> int:

@@ -15,6 +15,19 @@ DEFAULT_DIRECTION = np.array([1.0, -1.6, 0.9])      # from the front right, a li
 DEFAULT_FOV = 35.0
 
 
+FARTHEST = 1e150     # from eye to at: the tracer squares distances and coordinates
+
+
+def _unit(v: np.ndarray) -> tuple[np.ndarray, float]:
+    """v's direction and length, v scaled by its largest component first: the sum of
+    squares of an eye 1e-200 from at underflowed to 0 (a picture of NaN, all black), of
+    one 1e300 away overflowed (with numpy's warning). v is not zero."""
+    scale = float(np.abs(v).max())
+    w = v / scale
+    n = float(np.sqrt(w @ w))
+    return w / n, scale * n         # Python's product: inf without a warning
+
+
 class CameraError(ValueError):
     """A camera that cannot be placed: its eye on the point it looks at, its up along
     its view, or not finite (an object too large to frame)."""
@@ -37,13 +50,11 @@ class Camera:
         if what == "parallel":
             raise CameraError(f"the camera's up {_point(self.up)} is parallel to its "
                               f"viewing direction: give another up")
-        fwd = self.at - self.eye
-        norm = np.linalg.norm(fwd)
-        if not math.isfinite(norm):
+        fwd, length = _unit(np.asarray(self.at, dtype=np.float64) -
+                            np.asarray(self.eye, dtype=np.float64))
+        if not length < FARTHEST:
             raise CameraError("the camera's eye is too far from at")
-        fwd = fwd / norm
-        right = np.cross(fwd, self.up)
-        right /= np.linalg.norm(right)
+        right = _unit(np.cross(fwd, _unit(np.asarray(self.up, dtype=np.float64))[0]))[0]
         return fwd, right, np.cross(right, fwd)
 
     def rays(self, width: int, height: int, sx: np.ndarray, sy: np.ndarray):
