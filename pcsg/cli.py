@@ -261,9 +261,17 @@ def cmd_sweep(args) -> int:
         raise UsageError("give one parameter to sweep, e.g. --set c=1..12 "
                          f"({len(ranges)} ranges given)")
     name, values = ranges[0]
+    names = [n for n, _ in args.overrides]
+    if twice := sorted({n for n in names if names.count(n) > 1}):
+        raise UsageError(f"--set {twice[0]} is given twice")
     fixed = {n: v[0] for n, v in args.overrides if len(v) == 1}
     _distributed(args)          # its checks; a sweep always goes through pcsg.distributed
     out_dir = Path(args.output)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise UsageError(f"-o {args.output}: a sweep writes one image per value into a "
+                         f"directory, and this is a file")
+    # the file's errors and unknown names once, not once for every image
+    _compile(args.file, {**fixed, name: values[0]})
     out_dir.mkdir(parents=True, exist_ok=True)
     jobs = []
     for value, out in zip(values, sweep_outputs(args.file, out_dir, name, values)):

@@ -380,6 +380,8 @@ def test_timeout_stops_a_long_bounding_walk(capsys, tmp_path):
      "the camera's eye and at are the same point (1, 1, 1)"),
     (SIERPINSKI, ["--eye", "0,0,5", "--at", "0,0,0"],
      "the camera's up (0, 0, 1) is parallel to its viewing direction"),
+    (SIERPINSKI, ["--eye", "1e300,1e300,1e300", "--at", "0,0,0"],
+     "the camera's eye is too far from at"),
 ])
 def test_a_camera_that_cannot_be_placed_fails_cleanly(capsys, tmp_path, text, options,
                                                       message):
@@ -454,3 +456,51 @@ def test_a_malformed_scheduler_address_is_a_usage_error(capsys, tmp_path, addres
 def test_scheduler_addresses_dask_takes_pass(address):
     from pcsg.arguments import _scheduler
     assert _scheduler(address) == address
+
+
+@pytest.mark.parametrize("eye", ["1e-200,0,0", "0,1e-300,2e-300", "1e149,0,0"])
+def test_an_eye_very_near_or_far_from_at_still_frames_a_picture(tmp_path, eye):
+    # the sum of squares of its distance underflowed to 0: every pixel NaN, all black
+    import warnings
+    import numpy as np
+    from PIL import Image
+    out = tmp_path / "c.png"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")          # numpy's too: none may be printed
+        assert main(["render", str(GRAMMARS / "sierpinski.pcsg"), "-o", str(out), "--size",
+                     "40x30", "-q", "--eye", eye, "--at", "0,0,0"]) == 0
+    assert np.ptp(np.asarray(Image.open(out))) > 0
+
+
+def test_a_directive_value_in_error_is_reported_once(tmp_path):
+    from pcsg.compiler import compile_text
+    from pcsg.language.errors import PcsgError
+    with pytest.raises(PcsgError) as e:
+        compile_text("#camera eye=(c, 1, 1) at=(0, 0, 0)\nsphere\n", "t.pcsg")
+    assert [d.message for d in e.value.diagnostics] == ["undefined name 'c'"]
+
+
+@pytest.mark.parametrize("args, code, message", [
+    (["--set", "c=1..2", "--set", "c=3"], 2, "--set c is given twice"),
+    (["--set", "z=1..3"], 1, "'z' is not an initial parameter"),
+    (["--set", "c=1..100000000"], 2, "100,000,000 images; a sweep renders at most 10,000"),
+])
+def test_sweep_usage_errors_are_said_once_before_any_image(capsys, tmp_path, args, code,
+                                                          message):
+    out = tmp_path / "out"
+    try:
+        got = main(["sweep", str(GRAMMARS / "sierpinski.pcsg"), *args, "-o", str(out), "-q",
+                    "--size", "16x12"])
+    except SystemExit as e:         # argparse's own
+        got = e.code
+    err = capsys.readouterr().err
+    assert got == code and err.count(message) == 1 and not out.exists()
+
+
+def test_sweep_into_a_file_is_a_usage_error(capsys, tmp_path):
+    out = tmp_path / "s.png"
+    out.write_bytes(b"old")
+    assert main(["sweep", str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=1..2", "-o",
+                 str(out)]) == 2
+    assert "a sweep writes one image per value into a directory" in capsys.readouterr().err
+    assert out.read_bytes() == b"old"

@@ -5,6 +5,9 @@ import argparse
 from pathlib import Path
 
 
+MAX_IMAGES = 10_000
+
+
 def sweep_set(text: str) -> tuple[str, list[float]]:
     """NAME=VALUE, or NAME=A..B / NAME=A..B..STEP (integers, B included)."""
     name, eq, value = text.partition("=")
@@ -26,7 +29,11 @@ def sweep_set(text: str) -> tuple[str, list[float]]:
         raise argparse.ArgumentTypeError(f"--set {text}: a range is A..B or A..B..STEP, "
                                          f"with a positive STEP")
     a, b, step = parts[0], parts[1], parts[2] if len(parts) == 3 else 1
-    values = list(range(a, b + 1, step)) if a <= b else list(range(a, b - 1, -step))
+    values = range(a, b + 1, step) if a <= b else range(a, b - 1, -step)
+    if len(values) > MAX_IMAGES:
+        # the list alone of a range of 10^8 took seconds, and then as many renders
+        raise argparse.ArgumentTypeError(f"--set {text}: {len(values):,} images; a sweep "
+                                         f"renders at most {MAX_IMAGES:,}")
     return name, [float(v) for v in values]
 
 
