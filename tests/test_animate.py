@@ -158,6 +158,10 @@ def test_camera_only_when_the_file_has_no_t(capsys, tmp_path):
     out = tmp_path / "a"
     code, stdout, stderr = animate(capsys, src, out, "--frames", "3", "--jobs", "1")
     assert code == 2 and "assigns no t in its axiom" in stderr and not out.exists()
+    for still in ("3,3,3", "3,3,3 3,3,3"):         # a path that stays at one point
+        code, stdout, stderr = animate(capsys, src, out, "--frames", "3", "--path", still)
+        assert code == 2 and "a path of one point stays there" in stderr
+        assert not out.exists()
     code, stdout, stderr = animate(capsys, src, out, "--frames", "3", "--jobs", "1",
                                    "--path=" + PATH)
     assert code == 0, stderr

@@ -57,6 +57,11 @@ class FrameJob:
     key: str
 
 
+def _moves(path) -> bool:
+    """Whether a camera path goes anywhere: not None, nor one point however often."""
+    return path is not None and any(tuple(p) != tuple(path[0]) for p in path)
+
+
 def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
     """Every frame's options; and whether the file assigns t (else only the camera moves).
     Raises PcsgError for a file with errors, BadAnimation for a still animation or a
@@ -70,9 +75,10 @@ def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
         raise BadAnimation(f"--set {TIME}: animate sets {TIME} itself, from 0 to 1")
     graph = compile_file(anim.source, o.overrides)
     timed = _assigns_t(anim.source, o.overrides)
-    if not timed and anim.eye_path is None and anim.at_path is None:
+    if not timed and not _moves(anim.eye_path) and not _moves(anim.at_path):
         raise BadAnimation(f"{anim.source} assigns no {TIME} in its axiom and no --path or "
-                           f"--at-path moves the camera: every frame would be the same")
+                           f"--at-path moves the camera (a path of one point stays there): "
+                           f"every frame would be the same")
     traced = traced_for(graph, o)
     w, h = o.size
     try:
