@@ -95,9 +95,9 @@ def check_options(o: Options) -> str | None:
     if not 16 <= o.interval_rows <= MAX_INTERVAL_ROWS:
         return f"--interval-rows {o.interval_rows}: use 16 to {MAX_INTERVAL_ROWS}"
     if not 1 <= o.max_instances <= 2 ** 62:
-        return f"--max-instances {o.max_instances}: give a positive number"
+        return f"--max-instances {o.max_instances}: use 1 to 2^62"
     if not 1 <= o.bounds_budget <= 2 ** 62:
-        return f"--bounds-budget {o.bounds_budget}: give a positive number of node visits"
+        return f"--bounds-budget {o.bounds_budget}: use 1 to 2^62 node visits"
     if o.light is not None and not all(math.isfinite(v) for v in o.light):
         point = ",".join(f"{v:g}" for v in o.light)
         return f"--light {point}: give a point with finite coordinates"
