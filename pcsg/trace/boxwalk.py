@@ -194,8 +194,8 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
     operand of the top derivation levels that fit (see instance_table.append; `book` is
     its bookkeeping), keyed by its instance hash; per_level counts them by level, changed
     the instances that the depth bound finished otherwise than their own selection would
-    have and those a non-finite map emptied (CHANGED, FAULTS, FAULT_NODE). Returns the node visits made, or -1 if the visit budget or the stack capacity
-    ran out.
+    have and those a non-finite map emptied (CHANGED, FAULTS, FAULT_NODE). Returns the
+    node visits made, or -1 if the visit budget or the stack capacity ran out.
 
     The walk starts at the root when `first` is -1, else at the S-node instance
     items[first] (node, level above it, cut; its hash and parameters beside) and leaves
