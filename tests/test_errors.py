@@ -51,6 +51,23 @@ def test_macro_errors_name_use_and_definition():
     assert "line 2, column 31 of the file" in text
 
 
+@pytest.mark.parametrize("use", ["X sphere", "X sphere)"])
+def test_a_bracket_a_macro_leaves_open_is_pointed_at(use):
+    # the parse stops after the macro's text, where nothing said that a macro was there
+    e = pytest.raises(PcsgError, compile_text, f"#define X move(1, 0, 0\n{use}\n",
+                      "t.pcsg").value
+    text = e.diagnostics[0].format()
+    assert "t.pcsg:2:3: error: unexpected 'sphere'" in text
+    assert ("t.pcsg:2:1: note: the '(' that macro 'X' (defined at t.pcsg:1:9) opens is "
+            "still open here") in text
+
+
+def test_a_bracket_opened_outside_any_macro_has_no_macro_note():
+    e = pytest.raises(PcsgError, compile_text, "#define X sphere\nmove(1, 0, 0 X\n",
+                      "t.pcsg").value
+    assert "still open here" not in e.diagnostics[0].format()
+
+
 def test_the_report_quotes_the_line_with_a_caret_under_the_span():
     e = pytest.raises(PcsgError, compile_text, "{c = 6} S\n1: S → sphere ∪ foo\n", "x.pcsg").value
     lines = e.diagnostics[0].format().splitlines()

@@ -255,7 +255,23 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner) -> Dia
         msg = f"unexpected end of line, expected {_expected(expected)}"
     else:
         msg = f"unexpected {_describe(tok)}, expected {_expected(expected)}"
-    return Diagnostic("error", msg, span, source, code="syntax")
+    notes += _open_in_macro(source, joiner, tok.start_pos)
+    return Diagnostic("error", msg, span, source, notes=notes, code="syntax")
+
+
+def _open_in_macro(source: Source, joiner: LineJoiner, pos: int) -> list:
+    """A note where the innermost bracket still open at `pos` was opened by a macro's
+    text that `pos` is not in: `#define X move(1,0,0` then `X sphere` stopped at
+    'sphere', with nothing pointing at the macro."""
+    if not joiner.open_brackets:
+        return []
+    b = joiner.open_brackets[-1]
+    uses = source.macro_uses(b.start_pos)
+    if not uses or source.macro_uses(pos)[-1:] == uses[-1:]:
+        return []
+    name, _use, defined = uses[0]
+    return [((b.start_pos, b.end_pos), f"the '{b.value}' that macro '{name}' (defined at "
+                                       f"{source.location(defined)}) opens is still open here")]
 
 
 def _word_before(text: str, pos: int):
