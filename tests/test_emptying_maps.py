@@ -1,7 +1,8 @@
-"""A map whose arguments are not finite (uscale(1e999), move(sqrt(-1), 0, 0)) empties
-its instance, in the tracer as in the bounding walks; and its box is then empty too, so
-no ray ever reaches it to count it as a runtime error. The walk that met it says so,
-where the T-node is written, and --strict fails on it (graph/bounds.py)."""
+"""A map whose arguments are not finite (uscale(1e999), move(sqrt(-1), 0, 0)) or that
+is singular (uscale(0)) empties its instance, in the tracer as in the bounding walks; and
+its box is then empty too, so no ray ever reaches it to count it as a runtime error. The
+walk that met it says so once, where the T-node is written (notation §4: "reported
+once"), and --strict fails on it (graph/bounds.py)."""
 import numpy as np
 import pytest
 
@@ -10,6 +11,7 @@ from pcsg.compiler import compile_text
 from pcsg.graph import boxcache
 from pcsg.graph.bounds import fault_warnings
 from pcsg.graph.flatten import flatten
+from pcsg.graph.model import TRANSFORM
 from pcsg.trace.boxwalk import walk_boxes
 
 # rand() draws a path's own numbers: no state repeats, so the instance walk bounds it
@@ -21,8 +23,8 @@ S if(c > 0, 2, 1)
 """
 
 
-def faults_of(traced):
-    return [w for w in traced.warnings if w.code == "non-finite-map"]
+def faults_of(traced, code="non-finite-map"):
+    return [w for w in traced.warnings if w.code == code]
 
 
 @pytest.mark.parametrize("text, column", [
@@ -51,8 +53,37 @@ def test_the_instance_walk_counts_the_instances_the_reference_expansion_has():
 
 def test_a_system_without_such_maps_has_no_warning():
     from pcsg.tracer import loads
-    assert faults_of(loads(DRAWN.replace("- 0.1", "+ 0.1"), "t.pcsg")) == []
-    assert faults_of(loads("scale(0, 1, 1) sphere", "t.pcsg")) == []     # singular: rays see it
+    fine = loads(DRAWN.replace("- 0.1", "+ 0.1"), "t.pcsg")
+    assert faults_of(fine) == [] and faults_of(fine, "singular-map") == []
+
+
+@pytest.mark.parametrize("text", ["uscale(0) sphere ∪ move(3,0,0) cube",
+                                  "{k = 0} uscale(k) sphere ∪ move(3,0,0) cube",
+                                  "scale(1, 0, 1) sphere ∪ move(3,0,0) cube"])
+def test_a_singular_map_is_reported_once_and_its_box_is_empty(text):
+    # a zero scale's box is a point or a flat disk, which rays met by chance: uscale(0)
+    # was never reported, scale(1, 0, 1) once for every ray that crossed its disk
+    from pcsg.tracer import loads
+    traced = loads(text, "t.pcsg")
+    (w,) = faults_of(traced, "singular-map")
+    assert (w.location.line, w.location.column) == (1, 1 if text[0] != "{" else 9)
+    assert "singular (a zero scale) or too large to invert in some instances, which are " \
+        "empty" in w.message
+    maps = [i for i, n in enumerate(traced.graph.nodes)
+            if n.kind == TRANSFORM and n.span == w.span]
+    assert maps and all(traced.boxes[i, 0] > traced.boxes[i, 3] for i in maps)
+
+
+def test_the_instance_walk_counts_singular_maps_as_the_reference_has_them():
+    text = DRAWN.replace("move(sqrt(rand() - 0.1), 0, 0)", "scale(1, floor(rand() * 5), 1)")
+    graph = compile_text(text, "t.pcsg")
+    bad = sum(abs(np.linalg.det(x.matrix[:3, :3])) == 0 for x in flatten(graph))
+    assert 0 < bad < 3 ** 5
+    from pcsg.tracer import loads
+    traced = loads(text, "t.pcsg")
+    assert traced.bounds_method == "every instance"
+    (w,) = faults_of(traced, "singular-map")
+    assert f"too large to invert in {bad:,} instances" in w.message
 
 
 def test_the_count_comes_back_from_the_bounds_cache(monkeypatch, tmp_path):
@@ -64,9 +95,11 @@ def test_the_count_comes_back_from_the_bounds_cache(monkeypatch, tmp_path):
     walk_boxes(graph, instances=True, cache=True, faults=walked)
     hits = boxcache.hits
     walk_boxes(graph, instances=True, cache=True, faults=read)
-    assert boxcache.hits == hits + 1 and read == walked and walked[0][0] > 0
-    assert fault_warnings(graph, graph, walked, counted=True)[0].span == \
-        graph.nodes[walked[0][1]].span
+    assert boxcache.hits == hits + 1 and read == walked
+    (count, node), (singular, _) = walked[0]
+    assert count > 0 and singular == 0
+    assert fault_warnings(graph, graph, [(0, count, node)], counted=True)[0].span == \
+        graph.nodes[node].span
 
 
 def test_strict_fails_on_it_and_a_plain_render_says_it(capsys, tmp_path):

@@ -11,6 +11,7 @@ own heights), the numba walk in pcsg.trace.boxwalk visits every instance.
 """
 from __future__ import annotations
 
+import math
 
 import numpy as np
 
@@ -139,7 +140,7 @@ class _Walker:
         # bounding volume is a sphere is bounded above by that sphere (graph/volumes.py)
         self.volumes: dict = {}
         self.matrices: dict = {}   # T-node memo key -> its matrix, kept across rounds
-        self.faults: set = set()   # T-nodes a map with non-finite arguments emptied
+        self.faults: set = set()   # (kind, T-node) of the maps that emptied an instance
         self.reset()
 
     def reset(self):
@@ -178,9 +179,13 @@ class _Walker:
         elif n.kind == TRANSFORM:
             m = self.matrices.get(key)
             if m is None:       # the key fixes the matrix: rounds need not derive it again
-                m = self.matrices[key] = self.d.matrix(i, state, h)
+                m = self.d.matrix(i, state, h)
                 if not np.isfinite(m).all():
-                    self.faults.add(i)
+                    self.faults.add((NONFINITE, i))
+                elif singular(m):
+                    self.faults.add((SINGULAR, i))
+                    m = EMPTIED         # the tracer empties the instance: so do the bounds
+                self.matrices[key] = m
             b = self.transform(m, self.box(n.children[0], state, h, level))
         elif n.kind in (UNION, INTERSECTION, DIFFERENCE):
             parts = [self.box(c, state, self.d.edge(h, i, k), level)
@@ -252,8 +257,8 @@ def _memoised(graph: Graph, faults: set | None = None
     Also returns the bounds the last round took for the re-entered states (state key ->
     corner points whose hull holds that state's attractor), where bounding spheres
     start (graph/spheres.py), and where no state is re-entered, the boxes by state
-    (graph/states.py). `faults` gets the T-nodes that a map with non-finite arguments
-    emptied somewhere."""
+    (graph/states.py). `faults` gets (kind, T-node) where a map with non-finite
+    arguments (NONFINITE) or a singular one (SINGULAR) emptied an instance."""
     w = _Walker(graph)
     if faults is not None:
         w.faults = faults
@@ -361,18 +366,36 @@ GROWTH = 1e-9           # relative widening per growing round: makes containment
 TIGHTEN_ROUNDS = 200
 
 
+NONFINITE, SINGULAR = 0, 1          # kinds of faults, as trace/boxwalk.py counts them
+EMPTIED = np.full((4, 4), np.nan)   # a singular map's stand-in: every walker empties by it
+EMPTIED.flags.writeable = False
+_FAULTS = (("the arguments of this transformation are not finite", "non-finite-map"),
+           ("this transformation is singular (a zero scale) or too large to invert",
+            "singular-map"))
+
+
+def singular(m: np.ndarray) -> bool:
+    """Whether the map's linear part is singular, by the determinant the tracer computes
+    (nodes.singular_map, transform_map), which empties such an instance."""
+    (a, b, c), (d, e, g), (p, q, r) = m[:3, :3].tolist()    # Python's: inf, no warning
+    det = a * (e * r - g * q) + b * (g * p - d * r) + c * (d * q - e * p)
+    return not (det != 0.0 and math.isfinite(det))
+
+
 def fault_warnings(graph: Graph, walked: Graph, faults, counted: bool) -> list[Diagnostic]:
-    """Warnings at the T-nodes of `walked` (the graph a walk took) that a map with
-    non-finite arguments emptied: (count, node) each, the count of instances where
-    `counted`. No ray reaches such an instance to report it as a runtime error (its box
-    is empty), so the walk that met it does."""
+    """Warnings at the T-nodes of `walked` (the graph a walk took) whose maps emptied
+    instances: (kind, count, node) each, the count of instances where `counted`. Such an
+    instance's box is empty too, so no ray reaches it to report a runtime error: the
+    walk that met it does, once for its T-node (notation §4)."""
     out = []
-    for count, node in faults:
-        many = f"{count:,} instances" if counted else "some instances"
-        out.append(Diagnostic(
-            "warning", f"the arguments of this transformation are not finite in {many}, "
-            f"which are empty (a runtime error in the grammar)", walked.nodes[node].span,
-            graph.source, code="non-finite-map"))
+    for kind, count, node in faults:
+        many = (f"{count:,} instance{'s' if count != 1 else ''}" if counted else
+                "some instances")
+        what, code = _FAULTS[kind]
+        verb = "is" if counted and count == 1 else "are"
+        out.append(Diagnostic("warning", f"{what} in {many}, which {verb} empty (a runtime "
+                              f"error in the grammar)", walked.nodes[node].span,
+                              graph.source, code=code))
     return out
 
 
@@ -418,7 +441,7 @@ def bound(graph: Graph, max_depth: int = 64, budget: int = BOUNDS_BUDGET, poll=N
     try:
         with recursion_limit(20 * MAX_LEVELS):
             boxes, hulls, states = _memoised(graph, faults)
-        problems += fault_warnings(graph, graph, [(len(faults), f) for f in sorted(faults)],
+        problems += fault_warnings(graph, graph, [(k, 0, f) for k, f in sorted(faults)],
                                    counted=False)
         return boxes, "memoised", problems, states, hulls, max_depth, graph
     except TooManyStates:
@@ -439,7 +462,8 @@ def bound(graph: Graph, max_depth: int = 64, budget: int = BOUNDS_BUDGET, poll=N
     boxes, complete, table, depth = walk_boxes(walked, max_depth, budget, instances=True,
                                                poll=poll, cache=True, faults=found)
     fill_boxes(boxes, skipped)
-    problems += fault_warnings(graph, walked, found[:1] if found[0][0] else [], counted=True)
+    problems += fault_warnings(graph, walked, [(k, c, n) for k, (c, n) in enumerate(found[0])
+                                               if c], counted=True)
     if depth < max_depth:
         problems.append(Diagnostic(
             "warning", f"the instances below derivation depth {depth} are too many to bound "

@@ -58,14 +58,14 @@ def key(flat, *arguments) -> str:
 
 
 def load(k: str):
-    """walk_boxes's result and faults (count, node) kept under key k, or None."""
+    """walk_boxes's result and faults (boxwalk.faults_of) kept under key k, or None."""
     global hits
     path = folder() / f"{k}.npz"
     try:
         with np.load(path) as z:
             boxes, depth, complete = z["boxes"], int(z["depth"]), bool(z["complete"])
             table = z["keys"], z["used"], z["vals"]
-            found = int(z["faults"][0]), int(z["faults"][1])
+            found = tuple((int(c), int(n)) for c, n in z["faults"])
         os.utime(path)          # read recently: removed last
     except Exception:       # noqa: BLE001 -- missing, cut short, another format: walk
         return None

@@ -17,7 +17,7 @@ from ..graph import boxcache
 from . import vm
 from .jit import copy_into, inline, kernel, threads
 from .instance_table import TABLE_SLOTS, append, empty_table, new_book
-from .nodes import node_affine, pick_rule, run_calc
+from .nodes import node_affine, pick_rule, run_calc, singular_map
 from .fractals import A_R
 from .primitives import BOXES, FRACTAL_MIN, HULL, HULL_COUNT, TRI1, TRI2
 
@@ -25,10 +25,13 @@ NODE, SLOT, LEVEL, PHASE, CUT = range(5)
 COLLECT, CONSUME = 1, 2    # split modes of walk
 STOPPED = -3               # a walk's result when watch[0] asked it to stop
 TELL_EVERY = 1 << 16       # visits between a walk's reports to its watch (a few ms)
-# a walk's counts: changed[CHANGED] instances the depth bound finished otherwise,
-# changed[FAULTS] instances emptied by a map with non-finite arguments, the least such
-# T-node in changed[FAULT_NODE] (NO_NODE if none)
-CHANGED, FAULTS, FAULT_NODE = range(3)
+# a walk's counts: changed[CHANGED] instances the depth bound finished otherwise, then for
+# each kind of fault (a map with non-finite arguments, a singular map: the tracer empties
+# the instance) the instances it emptied and the least such T-node (NO_NODE if none), at
+# changed[FAULTS + 2 * kind] and the column after it
+CHANGED, FAULTS = 0, 1
+NONFINITE, SINGULAR = 0, 1
+KINDS = 2
 NO_NODE = 1 << 62
 
 
@@ -109,11 +112,12 @@ def _mapped_primitive_box(flat, prim, m, inner, out):
 
 
 @inline
-def _fault(changed, node):
-    """A map with non-finite arguments emptied an instance of T-node `node`: the tracer
-    empties it too, and no ray may ever reach it to say so (its box is empty)."""
-    changed[FAULTS] += 1
-    changed[FAULT_NODE] = min(changed[FAULT_NODE], node)
+def _fault(changed, kind, node):
+    """A map with non-finite arguments or a singular one (kind) emptied an instance of
+    T-node `node`: the tracer empties it too, and no ray may ever reach it to say so (its
+    box is empty)."""
+    changed[FAULTS + 2 * kind] += 1
+    changed[FAULTS + 2 * kind + 1] = min(changed[FAULTS + 2 * kind + 1], node)
 
 
 @inline
@@ -144,7 +148,11 @@ def _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack, args, m34,
             if not node_affine(flat, node, params, fr[k, SLOT], hs[f], stack, args, m34):
                 acc[k, :3] = np.inf
                 acc[k, 3:] = -np.inf
-                _fault(changed, node)
+                _fault(changed, NONFINITE, node)
+            elif singular_map(m34):
+                acc[k, :3] = np.inf
+                acc[k, 3:] = -np.inf
+                _fault(changed, SINGULAR, node)
             elif bare:
                 _mapped_primitive_box(flat, fr[g, NODE], m34, acc[k + 1], acc[k])
             else:
@@ -194,8 +202,8 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
     operand of the top derivation levels that fit (see instance_table.append; `book` is
     its bookkeeping), keyed by its instance hash; per_level counts them by level, changed
     the instances that the depth bound finished otherwise than their own selection would
-    have and those a non-finite map emptied (CHANGED, FAULTS, FAULT_NODE). Returns the
-    node visits made, or -1 if the visit budget or the stack capacity ran out.
+    have, and the faults (CHANGED, FAULTS: see there). Returns the node visits made, or -1
+    if the visit budget or the stack capacity ran out.
 
     The walk starts at the root when `first` is -1, else at the S-node instance
     items[first] (node, level above it, cut; its hash and parameters beside) and leaves
@@ -346,13 +354,16 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
             up = fr[p, NODE]
             above = flat.kind[up]
             if above == TRANSFORM:
+                bad = NONFINITE
                 if node_affine(flat, up, params, fr[p, SLOT], hs[p], stack, args, m34):
+                    bad = SINGULAR if singular_map(m34) else -1
+                if bad < 0:
                     _transform_box(m34, acc[p + 1], tmp)
                     copy_into(acc[p], tmp)
-                else:               # non-finite arguments: the tracer empties the instance
+                else:               # the tracer empties the instance
                     acc[p, :3] = np.inf
                     acc[p, 3:] = -np.inf
-                    _fault(changed, up)
+                    _fault(changed, bad, up)
             elif above == CALC or above == PAINT or above == MATERIAL:
                 copy_into(acc[p], acc[p + 1])
             else:
@@ -393,8 +404,9 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
     With `cache`, the result of a long walk is kept on disk and read instead of walking
     again (graph/boxcache.py).
 
-    `faults`, if given, gets (count, node) of the instances of the boxes' walk that a map
-    with non-finite arguments emptied, node the least T-node of them (count 0: none)."""
+    `faults`, if given, gets the faults of the boxes' walk: for a map with non-finite
+    arguments and for a singular one, (instances it emptied, the least such T-node), with
+    count 0 where none (faults_of)."""
     budget = BOUNDS_BUDGET if budget is None else budget
     flat, empty = walk_flat(graph)
     k = None
@@ -427,7 +439,7 @@ def walk_flat(graph):
 
 def _walk_depths(flat, empty, max_depth: int, budget: int, instances: bool, poll):
     """walk_boxes's result from the walks deeper and deeper, the visits they made, and
-    the faults (count, node) of the walk whose boxes it gives."""
+    the faults (faults_of) of the walk whose boxes it gives."""
     n = empty.shape[0]
     spent = 0
     graftal = (flat.term_rule[flat.kind == SELECT] < 0).any()
@@ -442,7 +454,7 @@ def _walk_depths(flat, empty, max_depth: int, budget: int, instances: bool, poll
             spent += budget
             break
         changed = int(counts[CHANGED])
-        found = int(counts[FAULTS]), int(counts[FAULT_NODE])
+        found = faults_of(counts)
         spent += visits
         if depth == max_depth or changed == 0:
             # the bound changed nothing: these are the boxes of every depth
@@ -468,14 +480,14 @@ def _walk_depths(flat, empty, max_depth: int, budget: int, instances: bool, poll
         depth = deeper
     if best is None:
         boxes = np.tile([-np.inf, -np.inf, -np.inf, np.inf, np.inf, np.inf], (n, 1))
-        return (boxes, False, empty_table(), max_depth), spent, (0, NO_NODE)
+        return (boxes, False, empty_table(), max_depth), spent, faults_of(new_counts(1)[0])
     return (best[0], True, best[1], best[2]), spent, best[3]
 
 
 def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bool,
              poll=None, expected: int | None = None):
     """One walk to `depth`, on every core: boxes, visits (-1: over budget), its counts
-    (CHANGED, FAULTS, FAULT_NODE), table."""
+    (CHANGED, FAULTS ...), table."""
     from .boxsplit import walk_split
     n = empty.shape[0]
     boxes = empty.copy()
@@ -492,14 +504,22 @@ def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bo
 
 
 def new_counts(walks: int) -> np.ndarray:
-    """The counts (CHANGED, FAULTS, FAULT_NODE) of `walks` walks, one row each."""
-    counts = np.zeros((walks, 3), dtype=np.int64)
-    counts[:, FAULT_NODE] = NO_NODE
+    """The counts (CHANGED, FAULTS ...) of `walks` walks, one row each."""
+    counts = np.zeros((walks, FAULTS + 2 * KINDS), dtype=np.int64)
+    counts[:, FAULTS + 1::2] = NO_NODE
     return counts
+
+
+def faults_of(counts) -> tuple:
+    """((instances, least T-node) of each kind of fault) of a walk's counts."""
+    return tuple((int(counts[FAULTS + 2 * k]), int(counts[FAULTS + 2 * k + 1]))
+                 for k in range(KINDS))
 
 
 def add_counts(total: np.ndarray, rows: np.ndarray) -> None:
     """The counts of several walks into `total`, whatever walked what."""
     total[CHANGED] += rows[:, CHANGED].sum()
-    total[FAULTS] += rows[:, FAULTS].sum()
-    total[FAULT_NODE] = min(total[FAULT_NODE], rows[:, FAULT_NODE].min())
+    for k in range(KINDS):
+        total[FAULTS + 2 * k] += rows[:, FAULTS + 2 * k].sum()
+        total[FAULTS + 2 * k + 1] = min(total[FAULTS + 2 * k + 1],
+                                        rows[:, FAULTS + 2 * k + 1].min())
