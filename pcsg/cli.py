@@ -64,6 +64,9 @@ def cmd_check(args) -> int:
     for path in expand_globs(args.files):
         try:
             graph = _compile(path, args.overrides)
+            from .graph.checks import selection_errors
+            if errors := selection_errors(graph):
+                raise PcsgError(errors)
         except PcsgError as e:
             _report(e, [])
             failed += 1

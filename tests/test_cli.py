@@ -504,3 +504,25 @@ def test_sweep_into_a_file_is_a_usage_error(capsys, tmp_path):
                  str(out)]) == 2
     assert "a sweep writes one image per value into a directory" in capsys.readouterr().err
     assert out.read_bytes() == b"old"
+
+
+@pytest.mark.parametrize("text, message", [
+    ("{c = 0} S\nS 1/c\n1: S → sphere\n", "gives (1/0), which is not a finite number (with c = 0)"),
+    ("{c = 3} S\nS c\n1: S → sphere\n2: S → cube\n",
+     "gives 3, which names rule 3, but 'S' has rules 1..2 (with c = 3)"),
+    ("{c = 4} S\nS if(c > 0, 2, 3)\n1: S → sphere\n2: S → {c = c - 1} move(1, 0, 0) S\n",
+     "gives 3, which names rule 3, but 'S' has rules 1..2 (with c = 0)"),   # four levels down
+])
+def test_check_reports_a_selection_the_derivation_makes_invalid(capsys, tmp_path, text,
+                                                               message):
+    # notation §6 calls it an error and §9 has check report every error; stats and expand
+    # failed on these while check said "ok"
+    path = tmp_path / "s.pcsg"
+    path.write_text(text, encoding="utf-8")
+    assert main(["check", str(path)]) == 1
+    err = capsys.readouterr().err
+    assert "s.pcsg:2:1: error: the selection of module 'S' " + message in err
+
+
+def test_check_does_not_derive_a_graftal_to_the_end(capsys):
+    assert main(["check", "-q", str(GRAMMARS / "barnsley_fern.pcsg")]) == 0

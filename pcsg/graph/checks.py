@@ -39,6 +39,24 @@ def run_checks(graph: Graph) -> list[Diagnostic]:
     return warnings
 
 
+CHECK_STATES = 5_000     # the derivation `pcsg check` follows: a few ms, however large
+
+
+def selection_errors(graph: Graph, max_states: int = CHECK_STATES) -> list[Diagnostic]:
+    """The first invalid selection of the derivation's first `max_states` states
+    (notation §6: an error, with the module and its parameter values), for `pcsg check`:
+    the compile knows the initial values, but not what the selections make of them. A
+    render empties such an instance and says so; stats and expand fail on it. Deeper
+    than the budget, or in a derivation that never ends (a graftal, warned of already),
+    nothing is said."""
+    from .stats import count_primitives
+    try:
+        count_primitives(graph, max_states)
+    except PcsgError as e:
+        return [d for d in e.diagnostics if d.code == "selection"]
+    return []
+
+
 def _diag(graph, severity, message, span, code, notes=()):
     return Diagnostic(severity, message, span, graph.source, list(notes), code)
 
