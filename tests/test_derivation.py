@@ -131,3 +131,13 @@ class TestTerrain:
         spread = max(max(h) - min(h) for h in heights.values())
         assert spread < 1e-12, f"heights of one vertex differ by {spread}"
         assert len({z for h in heights.values() for z in h}) > 100   # it is not flat
+
+
+def test_a_module_comes_before_a_named_expression_of_its_name():
+    # notation §2: "A name resolves, in this order, to: a module, a named expression, a
+    # primitive"; a file with both was an error
+    g = compile_text("A\nA = sphere\n1: A → cube\n", "t.pcsg")
+    assert count_by_primitive(g) == {"cube": 1}
+    (w,) = g.warnings
+    assert w.code == "shadowed" and (w.location.line, w.location.column) == (2, 1)
+    assert "it names the module, and the named expression is never used" in w.message

@@ -80,7 +80,8 @@ class _Builder:
                 s.children.append(self.csg(rule.body))
                 s.edge_spans.append(rule.span)
         for name, named in self.named.items():
-            self.named_ref(name, named.name_span)
+            if name not in self.modules:
+                self.named_ref(name, named.name_span)
         root = self.csg(axioms[0].expr) if axioms else -1
         if self.errors:
             raise PcsgError(sorted(self.errors, key=sort_key))
@@ -107,8 +108,10 @@ class _Builder:
         for name, rs in by_module.items():
             self._reserved(name, rs[0].module_span, "a module")
             if name in self.named:
-                self.error(self.named[name].name_span,
-                           f"'{name}' is both a module and a named expression", "duplicate")
+                # notation §2: a name resolves to a module before a named expression
+                self.warn(self.named[name].name_span,
+                          f"'{name}' is both a module and a named expression: it names the "
+                          f"module, and the named expression is never used", "shadowed")
             numbers = defaultdict(list)
             for r in rs:
                 numbers[r.number].append(r)
