@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import stat
 import tempfile
 from pathlib import Path
 
@@ -16,13 +17,17 @@ def open_atomic(path: Path, mode: str = "wb"):
     replaced, the link stays), and a device, pipe or socket (/dev/stdout, a fifo) is
     written into: a rename would put a plain file in its place, /dev/null's too."""
     path = Path(path)
-    target = Path(os.path.realpath(path))
-    if target.is_dir():
+    try:
+        kind = os.stat(path).st_mode    # through links: /dev/stdout is its pipe or terminal
+    except FileNotFoundError:
+        kind = None
+    if kind is not None and stat.S_ISDIR(kind):
         raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(path))
-    if target.exists() and not target.is_file():
-        with open(target, mode) as f:
+    if kind is not None and not stat.S_ISREG(kind):
+        with open(path, mode) as f:
             yield f
         return
+    target = Path(os.path.realpath(path))
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent)
     try:
         # mkstemp makes the file private; give it the permissions a plain open() would

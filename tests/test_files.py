@@ -182,3 +182,13 @@ def test_two_files_of_one_name_are_not_written_over_each_other(capsys, tmp_path)
     assert main(["render", a, str(tmp_path / "a" / ".." / "a" / "x.pcsg"), "-o", f"{out}/",
                  *FAST]) == 2
     assert "is given twice" in capsys.readouterr().err
+
+
+def test_an_output_to_dev_stdout_reaches_a_pipe(tmp_path):
+    # its real path is /proc/PID/fd/pipe:[N], where no temporary file can be made
+    src = tmp_path / "s.pcsg"
+    src.write_text(SPHERE, encoding="utf-8")
+    r = subprocess.run([sys.executable, "-m", "pcsg", "graph", str(src), "-o", "/dev/stdout"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "digraph" in r.stdout
