@@ -60,11 +60,11 @@ def _compile(path, overrides):
 
 
 def cmd_check(args) -> int:
+    from .graph.checks import selection_errors
     failed = 0
     for path in expand_globs(args.files):
         try:
             graph = _compile(path, args.overrides)
-            from .graph.checks import selection_errors
             if errors := selection_errors(graph):
                 raise PcsgError(errors)
         except PcsgError as e:
@@ -307,11 +307,11 @@ def _outputs(files: list[str], output: str | None) -> list[Path]:
 def _distinct(files: list[str], paths: list[Path]) -> list[Path]:
     """The paths, where no two files of the batch share one: the second image overwrote
     the first, and the batch said it rendered both."""
-    first: dict[Path, str] = {}
-    for f, n in zip(files, paths):
-        other = first.setdefault(n, f)
-        if other is f:
+    first: dict[Path, int] = {}
+    for k, (f, n) in enumerate(zip(files, paths)):
+        if first.setdefault(n, k) == k:
             continue
+        other = files[first[n]]
         if os.path.realpath(other) == os.path.realpath(f):
             raise UsageError(f"{f} is given twice")
         raise UsageError(f"{other} and {f} would both be written to {n}: rename one, or "
