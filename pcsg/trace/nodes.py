@@ -252,10 +252,7 @@ def culprit(flat, node, params, slot, h, stack, args, m34, bad):
         finite = node_affine(flat, at, params, slot, h, stack, args, m34)
         if bad == 1 and not finite:
             return at
-        det = (m34[0, 0] * (m34[1, 1] * m34[2, 2] - m34[1, 2] * m34[2, 1])
-               - m34[0, 1] * (m34[1, 0] * m34[2, 2] - m34[1, 2] * m34[2, 0])
-               + m34[0, 2] * (m34[1, 0] * m34[2, 1] - m34[1, 1] * m34[2, 0]))
-        if bad == 2 and not (det != 0.0 and math.isfinite(det)):
+        if bad == 2 and singular_map(m34):
             return at
         at = flat.then[at]
     return node
