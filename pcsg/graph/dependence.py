@@ -2,6 +2,8 @@
 memoised walks key on those alone and not on the whole parameter state."""
 from __future__ import annotations
 
+import functools
+
 from .model import CALC, SELECT, TRANSFORM, Graph
 
 RAND = "<rand>"     # stands for the instance hash: a rand() decides a selection
@@ -78,11 +80,17 @@ class StateKey:
         import numpy as np
         rel = structural_params(graph, geometry)
         self.rand = [RAND in r for r in rel]
-        drawn = drawn_params(graph)
-        self.random = any(RAND in r or not drawn.isdisjoint(r) for r in rel)
+        self._graph, self._rel = graph, rel
         slots = [sorted(graph.params[p] for p in r if p != RAND) for r in rel]
         self.slots = [np.array(x, dtype=np.int64) for x in slots]
         self.masks = [sum(1 << i for i in x) for x in slots]
+
+    @functools.cached_property
+    def random(self) -> bool:
+        """Asked by the memoised bounding walk only: stats and check key their counts
+        with a StateKey too, and never need the drawn parameters' fixed point."""
+        drawn = drawn_params(self._graph)
+        return any(RAND in r or not drawn.isdisjoint(r) for r in self._rel)
 
     def __call__(self, node: int, state, h: int) -> tuple:
         return (node, state.values[self.slots[node]].tobytes(), state.assigned & self.masks[node],
