@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 
 from . import __version__
 from .distributed.sweep import sweep_set
@@ -18,6 +19,22 @@ def set_value(text: str) -> tuple[str, float]:
         raise argparse.ArgumentTypeError(f"'{value}' is not a number (in --set {text})") from None
 
 
+# a token such as -3,2,1 or -.5: a value, never an option. argparse reads only -3 or -0.5
+# as numbers and took `--eye -3,2,1` for an option, "expected one argument"; no option of
+# ours starts with a digit
+NEGATIVE = re.compile(r"-\.?\d")
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse's parser, with negative vectors and sizes read as values. Its sub-command
+    parsers are of this class too (add_subparsers makes them of the parent's type)."""
+
+    def _parse_optional(self, arg_string):
+        if NEGATIVE.match(arg_string):
+            return None
+        return super()._parse_optional(arg_string)
+
+
 def parser() -> argparse.ArgumentParser:
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("--set", dest="overrides", metavar="NAME=VALUE", action="append",
@@ -25,7 +42,7 @@ def parser() -> argparse.ArgumentParser:
                         help="override an initial parameter of the axiom (repeatable)")
     common.add_argument("--no-color", action="store_true", help=argparse.SUPPRESS)
 
-    p = argparse.ArgumentParser(prog="pcsg", description="Compile and inspect PCSG grammars: "
+    p = Parser(prog="pcsg", description="Compile and inspect PCSG grammars: "
                                 "parametric CSG rewriting systems as cyclic CSG graphs.")
     p.add_argument("--version", action="version", version=f"pcsg {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
@@ -77,8 +94,7 @@ def parser() -> argparse.ArgumentParser:
     a.add_argument("--frames", type=int, default=24, metavar="N",
                    help="frames; frame i sets t = i/(N-1) (default 24)")
     a.add_argument("--path", type=_points, metavar="'X,Y,Z X,Y,Z ...'",
-                   help="the eye's path: a Bezier control polygon from t = 0 to 1 (write "
-                        "--path=... when the first number is negative)")
+                   help="the eye's path: a Bezier control polygon from t = 0 to 1")
     a.add_argument("--at-path", type=_points, metavar="'X,Y,Z X,Y,Z ...'",
                    help="the path of the point looked at, likewise")
     a.add_argument("-o", "--output", metavar="DIR",

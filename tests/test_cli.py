@@ -458,6 +458,20 @@ def test_scheduler_addresses_dask_takes_pass(address):
     assert _scheduler(address) == address
 
 
+def test_a_negative_vector_after_its_option_is_its_value(capsys, tmp_path):
+    # argparse took `--eye -3,2,1` for an option: "expected one argument"; the camera at
+    # negative x could be placed only as --eye=-3,2,1
+    s = str(GRAMMARS / "sierpinski.pcsg")
+    spaced, joined = tmp_path / "spaced.png", tmp_path / "joined.png"
+    assert main(["render", s, "--size", "40x30", "-q", "--eye", "-3,2,1", "--at", "-.5,0,0",
+                 "-o", str(spaced)]) == 0
+    assert main(["render", s, "--size", "40x30", "-q", "--eye=-3,2,1", "--at=-.5,0,0",
+                 "-o", str(joined)]) == 0
+    assert spaced.read_bytes() == joined.read_bytes()
+    code, _, err = run(capsys, "render", s, "--size", "-40x30", "-o", str(tmp_path / "n.png"))
+    assert code == 2 and "--size -40x30: width and height must be at least 1" in err
+
+
 @pytest.mark.parametrize("eye", ["1e-200,0,0", "0,1e-300,2e-300", "1e149,0,0"])
 def test_an_eye_very_near_or_far_from_at_still_frames_a_picture(tmp_path, eye):
     # the sum of squares of its distance underflowed to 0: every pixel NaN, all black
