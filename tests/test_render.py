@@ -266,3 +266,28 @@ def test_srgb_follows_the_standards_two_pieces():
              1.0, 1.0]]
     assert np.allclose(got, want, rtol=0, atol=1e-15)
     assert abs(got[1, 1] - 0.4613561295) < 1e-9        # mid grey
+
+
+def test_a_refined_pixel_is_the_mean_of_its_samples_each_traced_alone(monkeypatch):
+    # the adaptive pass traces a pixel's samples side by side, in batches that end
+    # anywhere (5 pixels here): each sample must still be what it is traced on its own
+    from pcsg.render import image
+    from pcsg.render.shade import shade
+    monkeypatch.setattr(image, "REFINE_BATCH", 5)
+    w, h = 80, 60
+    obj = loads((GRAMMARS / "sierpinski.pcsg").read_text(encoding="utf-8"))
+    cam = make_camera(obj, w / h)
+    light = make_lighting(obj, cam)
+    once = render_frame(obj, cam, light, w, h, adaptive=False)
+    fine = render_frame(obj, cam, light, w, h)
+    ys, xs = np.nonzero((fine.rgb != once.rgb).any(axis=2))
+    assert len(ys) > 50
+    offs = image._offsets(image.ADAPTIVE_SAMPLES, np.random.default_rng(image.JITTER_SEED))
+    for y, x in list(zip(ys, xs))[::len(ys) // 16]:
+        acc = once.rgb[y, x] * 1.0
+        for k, (ox, oy) in enumerate(offs):
+            o, d = cam.rays(w, h, np.array([x + ox]), np.array([y + oy]))
+            c, _, _ = shade(obj, light, o, d,
+                            ids=image.sample_ids(np.array([y * w + x]), 1 + k, w, h))
+            acc += c[0]
+        assert np.array_equal(fine.rgb[y, x], acc / (1 + len(offs))), (y, x)

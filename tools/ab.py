@@ -25,14 +25,17 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def render(tree: Path, grammar: str, setting: str, png: Path) -> tuple[dict, str]:
+BENCH = ["--no-adaptive", "--shadow-samples", "1"]    # bench.py's: a ray a pixel, point lights
+
+
+def render(tree: Path, grammar: str, setting: str, png: Path,
+           look: list[str] = BENCH) -> tuple[dict, str]:
     """({phase: s} of --timings, PNG digest) of one fresh process of the pcsg in `tree`."""
     # the bounds walked in every process: kept ones would time a file read (graph/boxcache.py)
     env = dict(os.environ, PYTHONPATH=str(tree), PCSG_BOUNDS_CACHE="0")
     out = subprocess.run([sys.executable, "-m", "pcsg.cli", "render",
                           str(ROOT / "grammars" / f"{grammar}.pcsg"), "--set", setting,
-                          "--size", "640x480", "--no-adaptive", "--shadow-samples", "1",
-                          "--timings", "-q", "-o", str(png)],
+                          "--size", "640x480", *look, "--timings", "-q", "-o", str(png)],
                          cwd=tempfile.gettempdir(), env=env, capture_output=True, text=True)
     if out.returncode != 0:
         raise SystemExit(f"{tree}: {grammar} {setting}: exit {out.returncode}\n{out.stderr}")
@@ -49,7 +52,11 @@ def main():
     ap.add_argument("--rounds", type=int, default=6)
     ap.add_argument("--phases", action="store_true",
                     help="also every phase of --timings (interpreter, imports, compile, ...)")
+    ap.add_argument("--user-defaults", action="store_true",
+                    help="render with the command's own defaults (adaptive oversampling, "
+                         "area lights' shadow samples), not bench.py's " + " ".join(BENCH))
     args = ap.parse_args()
+    look = [] if args.user_defaults else BENCH
     trees = (args.a.resolve(), args.b.resolve())
     # both trees' modules as bytecode, as bench.py has them: where PYTHONDONTWRITEBYTECODE
     # is set (this machine), a tree without them compiled its sources at every start, and
@@ -63,7 +70,8 @@ def main():
             digests = {}
             for i in range(args.rounds):
                 for t in (trees if i % 2 == 0 else trees[::-1]):
-                    times, d = render(t, grammar, setting, Path(tmp) / f"{trees.index(t)}.png")
+                    times, d = render(t, grammar, setting, Path(tmp) / f"{trees.index(t)}.png",
+                                      look)
                     for name, seconds in times.items():
                         phases[t].setdefault(name, []).append(seconds)
                     digests.setdefault(t, set()).add(d)
