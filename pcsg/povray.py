@@ -123,10 +123,17 @@ class _Textures:
         if material >= 0:
             fin = self.graph.scene.materials[self.graph.material_names[material]]
             color = fin["color"]
+        reflection = f"reflection {_num(fin['reflect'])}"
+        if fin["transmit"] > 0:
+            # what pcsg reflects: reflect + transmit F, F by Fresnel's equations at the
+            # interior's ior; conserve_energy lets through what is not reflected
+            most = _num(min(fin["reflect"] + fin["transmit"], 1.0))
+            reflection = (f"reflection {{ {_num(fin['reflect'])}, {most} fresnel on }} "
+                          "conserve_energy")
         return ([float(c) for c in color], _num(fin["transmit"]) if fin["transmit"] > 0 else "",
                 f"finish {{ ambient rgb {_vec(self.ambient)} diffuse {_num(fin['diffuse'])} "
                 f"phong {_num(fin['specular'])} phong_size {_num(fin['shininess'])} "
-                f"reflection {_num(fin['reflect'])} }}")
+                f"{reflection} }}")
 
     def interior(self, material: int) -> str:
         if material < 0:

@@ -182,3 +182,15 @@ def test_povray_draws_the_same_picture(tmp_path, grammar, options):
     assert d.mean() < 12 and (d > 48).mean() < 0.04, (d.mean(), (d > 48).mean())
     # and a mirrored or shifted picture would not pass
     assert np.abs(a[:, ::-1] - b).max(axis=2).mean() > d.mean() + 3
+
+
+def test_glass_reflects_by_fresnel_in_povray_too(tmp_path):
+    # pcsg reflects reflect + transmit F (shade.fresnel_split); the export wrote a
+    # constant `reflection 0`, and POV-Ray's glass showed no reflections at its rims
+    src = tmp_path / "glass.pcsg"
+    src.write_text("#material glass reflect=0.1 ior=1.5 transmit=0.8\n"
+                   "#material chrome reflect=0.7\n"
+                   "material(glass) sphere ∪ material(chrome) move(3,0,0) sphere\n")
+    text = export(tmp_path, src).read_text()
+    assert "reflection { 0.1, 0.9 fresnel on } conserve_energy" in text
+    assert "interior { ior 1.5 }" in text and "reflection 0.7 }" in text

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..scene import MATERIAL_DEFAULTS
 from ..trace.jit import threads
-from ..trace.shading import GOLDEN
+from ..trace.shading import GOLDEN, MIN_WEIGHT
 from ..trace.vm import hash_to_unit_array, splitmix64_array
 from ..tracer import Hits
 from .camera import finite_bounds
@@ -111,13 +111,15 @@ def _finish(light: Lighting, material: np.ndarray, paint: np.ndarray):
 
 
 def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: bool = True,
-          ids=None):
+          ids=None, weight=None):
     """Linear RGB for each ray, its first-hit distance (inf for the sky) and its hits.
     ids (default 0, 1, ...) name each ray's pixel and sample for the ambient occlusion
-    pattern; bounces keep their camera ray's id. The graph tracer shades in one numba
+    pattern; bounces keep their camera ray's id. weight (default 1): what each ray's
+    colour is multiplied by on its way into the pixel. The graph tracer shades in one numba
     kernel (trace/shading.py); this numpy code is the model it follows, and shades the
     reference renders."""
     ids = np.arange(len(origins), dtype=np.int64) if ids is None else ids
+    weight = np.ones(len(origins)) if weight is None else weight
     if kernel and depth == 0 and hasattr(traced, "flat"):
         return _shade_kernel(traced, light, origins, directions, ids)
     hits = traced.trace(origins, directions, lod=light.lod)
@@ -148,7 +150,7 @@ def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: 
         out += vis[:, None] * lt.color * (kd * base * ndl + ks * spec * (ndl > 0))
     if depth < light.max_bounces:
         out = _bounces(traced, light, out, d, n, p, scale, inside, reflect, ior, transmit,
-                       depth, ids[h])
+                       depth, ids[h], weight[h])
     color[h] = out
     return color, hits.t, hits
 
@@ -249,26 +251,47 @@ def _hemisphere(k: int, n: int, shift: np.ndarray, normal: np.ndarray) -> np.nda
     return s * np.cos(a) * u + s * np.sin(a) * v + c * normal
 
 
-def _bounces(traced, light, out, d, n, p, scale, inside, reflect, ior, transmit, depth, ids):
-    """Mirror reflection and refraction (Schlick's Fresnel), traced one level deeper."""
+def _bounces(traced, light, out, d, n, p, scale, inside, reflect, ior, transmit, depth, ids,
+             weight):
+    """Mirror reflection and refraction, traced one level deeper: a surface keeps
+    1 - kr - kt of its own colour and passes kr to its reflection, kt to its
+    refraction (fresnel_split)."""
     cos_i = -np.einsum("ij,ij->i", d, n)
     eta = np.where(inside, ior, 1.0 / np.maximum(ior, 1e-9))
     k = 1 - eta ** 2 * (1 - cos_i ** 2)
-    r0 = ((1 - ior) / (1 + ior)) ** 2
-    fresnel = np.where(k < 0, 1.0, r0 + (1 - r0) * (1 - cos_i) ** 5)
-    kr = np.clip(reflect + transmit * fresnel, 0, 1)
-    kt = np.where(k < 0, 0.0, transmit * (1 - fresnel))
-    want_r = kr > 1e-3
+    kr, kt = fresnel_split(cos_i, eta, reflect, transmit)
+    want_r = kr * weight > MIN_WEIGHT
+    want_t = kt * weight > MIN_WEIGHT
+    out = out * (1 - np.where(want_r, kr, 0.0) - np.where(want_t, kt, 0.0))[:, None]
     if want_r.any():
         rd = d[want_r] + 2 * cos_i[want_r, None] * n[want_r]
         c, _, _ = shade(traced, light, p[want_r] + n[want_r] * EPS * scale[want_r], rd,
-                        depth + 1, ids=ids[want_r])
-        out[want_r] = out[want_r] * (1 - kr[want_r, None]) + kr[want_r, None] * c
-    want_t = kt > 1e-3
+                        depth + 1, ids=ids[want_r], weight=weight[want_r] * kr[want_r])
+        out[want_r] += kr[want_r, None] * c
     if want_t.any():
         e, ci, kk = eta[want_t, None], cos_i[want_t, None], k[want_t, None]
         td = e * d[want_t] + (e * ci - np.sqrt(np.clip(kk, 0, None))) * n[want_t]
         c, _, _ = shade(traced, light, p[want_t] - n[want_t] * EPS * scale[want_t], td,
-                        depth + 1, ids=ids[want_t])
-        out[want_t] = out[want_t] * (1 - kt[want_t, None]) + kt[want_t, None] * c
+                        depth + 1, ids=ids[want_t], weight=weight[want_t] * kt[want_t])
+        out[want_t] += kt[want_t, None] * c
     return out
+
+
+def fresnel_split(cos_i, eta, reflect, transmit):
+    """(kr, kt): the shares of the light leaving a surface that come by its reflection
+    and by its refraction, for a ray meeting it at cos_i with eta = n1 / n2. Fresnel's
+    equations for unpolarised light give the share f a dielectric reflects, 1 at total
+    internal reflection; kr = reflect + transmit f and kt = transmit (1 - f), at most
+    1 together. Schlick's approximation, used before, does not vanish where eta is 1
+    (a glass of index 1 showed a dark rim) and took the inner angle leaving glass."""
+    c = np.clip(cos_i, 0.0, 1.0)
+    sin2 = eta * eta * (1 - c * c)
+    total = sin2 >= 1
+    cos_t = np.sqrt(np.clip(1 - sin2, 0.0, None))
+    with np.errstate(invalid="ignore", divide="ignore"):     # 0/0 only at total reflection
+        rs = (eta * c - cos_t) / (eta * c + cos_t)
+        rp = (c - eta * cos_t) / (c + eta * cos_t)
+    f = np.where(total, 1.0, 0.5 * (rs * rs + rp * rp))
+    kr = np.clip(reflect + transmit * f, 0, 1)
+    kt = np.where(total, 0.0, np.minimum(transmit * (1 - f), 1 - kr))
+    return kr, kt
