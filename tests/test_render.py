@@ -1,4 +1,5 @@
 """Rendered images have the properties a person would check by eye."""
+import re
 import signal
 import subprocess
 import sys
@@ -291,3 +292,23 @@ def test_a_refined_pixel_is_the_mean_of_its_samples_each_traced_alone(monkeypatc
                             ids=image.sample_ids(np.array([y * w + x]), 1 + k, w, h))
             acc += c[0]
         assert np.array_equal(fine.rgb[y, x], acc / (1 + len(offs))), (y, x)
+
+
+def test_the_oversampling_has_its_own_progress_line(monkeypatch, capsys):
+    # the line was the first pass's alone: at 100 %, "ETA 0.0 s", while the adaptive
+    # pass took longer than the first on the terrain
+    import itertools
+    from pcsg.render import image
+    clock = itertools.count(0.0, 2.0)              # every reading 2 s after the last
+    monkeypatch.setattr(image.time, "perf_counter", lambda: next(clock))
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    monkeypatch.setattr(image, "REFINE_BATCH", 40)
+    obj = loads((GRAMMARS / "sierpinski.pcsg").read_text(encoding="utf-8"))
+    cam = make_camera(obj, 4 / 3)
+    render_frame(obj, cam, make_lighting(obj, cam), 80, 60,
+                 progress=image.Progress("s.pcsg", 80 * 60, True))
+    err = capsys.readouterr().err
+    first = err.index("s.pcsg: 100%")
+    steps = re.findall(r"s\.pcsg oversampling: +(\d+)%", err[first:])
+    assert len(steps) > 2 and steps[-1] == "100" and int(steps[0]) < 100
+    assert steps == sorted(steps, key=int)

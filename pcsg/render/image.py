@@ -62,6 +62,13 @@ class Progress:
         sys.stderr.flush()
         self.shown = max(self.shown, len(line))
 
+    def then(self, what: str, total: int) -> "Progress":
+        """The line of a further pass of the same job, timed from now: the first pass's
+        line at 100 % while the oversampling went on for longer said "ETA 0.0 s"."""
+        after = Progress(f"{self.label} {what}", total, False, self.unit)
+        after.enabled = self.enabled
+        return after
+
     def close(self):
         if self.shown:
             sys.stderr.write("\r" + " " * self.shown + "\r")
@@ -122,11 +129,11 @@ def render_frame(traced, camera: Camera, light: Lighting, width: int, height: in
             progress.update(y1 * width, light.rays[0])
         if check:
             check()
-    if refine:
-        _refine(traced, camera, light, rgb, obj, cover, rng, height, a0, (top - a0, bottom - a0),
-                check)
     if progress:
         progress.close()
+    if refine:
+        _refine(traced, camera, light, rgb, obj, cover, rng, height, a0, (top - a0, bottom - a0),
+                check, progress)
     keep = slice(top - a0, bottom - a0)
     return Frame(rgb[keep], None if obj is None else obj[keep], cover[keep], depth[keep],
                  time.perf_counter() - t0, light.rays[0])
@@ -150,7 +157,8 @@ def _gather(order, c, hit, t, acc, acc_obj, hits, depth, first, alpha):
             depth[p] = t[i] if hit[i] else np.inf
 
 
-def _refine(traced, camera, light, rgb, obj, cover, rng, height, a0, keep, check=None):
+def _refine(traced, camera, light, rgb, obj, cover, rng, height, a0, keep, check=None,
+            progress=None):
     """The paper's adaptive oversampling: more samples only where a pixel differs from
     a neighbour, so edges are smooth and flat areas cost nothing extra. The arrays hold
     rows a0... of the image; only the rows `keep` (band rows) are refined. obj None: the
@@ -169,12 +177,18 @@ def _refine(traced, camera, light, rgb, obj, cover, rng, height, a0, keep, check
     ys, xs = np.nonzero(diff > ADAPTIVE_THRESHOLD)
     blocks = block_order(ys, xs, TILE)                 # as tile_order, and for its reason
     offs = _offsets(ADAPTIVE_SAMPLES, rng)
+    bar = progress.then("oversampling", len(ys)) if progress else None
+    rays0 = light.rays[0]
     for c0 in range(0, len(ys), REFINE_BATCH):
         chunk = blocks[c0:c0 + REFINE_BATCH]
         _oversample(traced, camera, light, rgb, obj, cover, height, a0, offs,
                     ys[chunk], xs[chunk])
+        if bar:
+            bar.update(c0 + len(chunk), light.rays[0] - rays0)
         if check:
             check()
+    if bar:
+        bar.close()
 
 
 def _oversample(traced, camera, light, rgb, obj, cover, height, a0, offs, ys, xs):
