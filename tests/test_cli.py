@@ -540,3 +540,16 @@ def test_check_reports_a_selection_the_derivation_makes_invalid(capsys, tmp_path
 
 def test_check_does_not_derive_a_graftal_to_the_end(capsys):
     assert main(["check", "-q", str(GRAMMARS / "barnsley_fern.pcsg")]) == 0
+
+
+def test_a_picture_of_nothing_says_so(capsys, tmp_path):
+    # c only grows: every instance shrinks on towards the origin and none is ever drawn;
+    # the render wrote a sky without a word
+    src = tmp_path / "up.pcsg"
+    src.write_text("{c = 3} S\nS if(c > 0, 2, 1)\n1: S → sphere\n"
+                   "2: S → {c = c+1} uscale(0.5) S\n", encoding="utf-8")
+    assert main(["render", str(src), "--size", "40x30", "-o", str(tmp_path / "a.png")]) == 0
+    assert "warning: no ray met the object" in capsys.readouterr().err
+    assert main(["render", str(GRAMMARS / "sierpinski.pcsg"), "--size", "40x30",
+                 "-o", str(tmp_path / "b.png")]) == 0
+    assert "no ray met" not in capsys.readouterr().err

@@ -228,6 +228,11 @@ def render_file(path: Path, out: Path, opts: Options,
     notes, errors = scene.report(events, opts.strict)
     if errors:
         raise strict_failure(errors)
+    if not frame.coverage.any():
+        # a sky and nothing else, which rendered without a word: a system whose every
+        # instance is empty, or a camera turned away
+        notes.append(f"{path}: warning: no ray met the object: it is empty or out of the "
+                     f"camera's view (`pcsg stats` counts its primitives)")
     with clock.phase("PNG", "encode, write" + (", depth" if opts.depth is not None else "")):
         write_png(out, frame, opts.alpha)
         if opts.depth is not None:
