@@ -6,6 +6,7 @@ import math
 
 from .graph.model import Scene
 from .language import ast
+from .language.suggest import closest, did_you_mean
 
 # directive -> key -> number of values
 DIRECTIVES = {
@@ -79,7 +80,9 @@ def build_scene(directives: list[ast.Directive], constants, report) -> Scene:
     for d in directives:
         keys = DIRECTIVES.get(d.kind)
         if keys is None:
-            report(d.kind_span, f"unknown directive '#{d.kind}' (known: "
+            best = closest(d.kind, [*DIRECTIVES, "define"])
+            hint = f"; did you mean '#{best}'?" if best else ""
+            report(d.kind_span, f"unknown directive '#{d.kind}'{hint} (known: "
                                 f"{_known('#' + k for k in DIRECTIVES)}, #define)", "directive")
             continue
         if d.kind == "material":
@@ -97,8 +100,9 @@ def build_scene(directives: list[ast.Directive], constants, report) -> Scene:
         for item in d.items:
             want = keys.get(item.key)
             if want is None:
-                report(item.key_span, f"unknown key '{item.key}' for #{d.kind} "
-                                      f"(known: {_known(keys)})", "directive")
+                report(item.key_span, f"unknown key '{item.key}' for #{d.kind}"
+                                      f"{did_you_mean(item.key, keys)} (known: {_known(keys)})",
+                       "directive")
                 continue
             if item.key in values:
                 report(item.key_span, f"'{item.key}' is given twice", "directive")

@@ -369,7 +369,7 @@ TIGHTEN_ROUNDS = 200
 NONFINITE, SINGULAR = 0, 1          # kinds of faults, as trace/boxwalk.py counts them
 EMPTIED = np.full((4, 4), np.nan)   # a singular map's stand-in: every walker empties by it
 EMPTIED.flags.writeable = False
-_FAULTS = (("the arguments of this transformation are not finite", "non-finite-map"),
+FAULTS = (("the arguments of this transformation are not finite", "non-finite-map"),
            ("this transformation is singular (a zero scale) or too large to invert",
             "singular-map"))
 
@@ -391,7 +391,7 @@ def fault_warnings(graph: Graph, walked: Graph, faults, counted: bool) -> list[D
     for kind, count, node in faults:
         many = (f"{count:,} instance{'s' if count != 1 else ''}" if counted else
                 "some instances")
-        what, code = _FAULTS[kind]
+        what, code = FAULTS[kind]
         verb = "is" if counted and count == 1 else "are"
         out.append(Diagnostic("warning", f"{what} in {many}, which {verb} empty (a runtime "
                               f"error in the grammar)", walked.nodes[node].span,

@@ -7,6 +7,8 @@ from collections import defaultdict
 from ..language import ast
 from ..language.errors import Diagnostic, PcsgError, sort_key
 from ..language.names import FRACTAL_PRIMITIVES, PIXELS, PRIMITIVES, RESERVED, TRANSFORMS
+from ..language.mistakes import axiom_slip
+from ..language.suggest import did_you_mean
 from ..trace.fractals import check_arguments
 from ..scene import build_scene
 from .derive import names_in
@@ -58,8 +60,10 @@ class _Builder:
                                "duplicate")
                 else:
                     self.named[s.name] = s
+        decls, slipped = self._axiom_slips(decls, rules, axioms)
         self.rules = self._check_rules(rules, decls)
-        self._check_axiom(axioms)
+        if not slipped:
+            self._check_axiom(axioms)
         self.params = self._collect_params(stmts)
         self._apply_overrides(axioms)
         self.exprs = ExprTable(self.params, self.error, self._initial_constants(axioms, stmts))
@@ -123,6 +127,10 @@ class _Builder:
             expected = set(range(1, len(numbers) + 1))
             for n in sorted(set(numbers) - expected):
                 missing = sorted(expected - set(numbers))
+                if n < 1:
+                    self.error(numbers[n][0].number_span, f"rules are numbered from 1, and "
+                               f"'{name}' has a rule {n}", "rule-number")
+                    continue
                 self.error(numbers[n][0].number_span,
                            f"rules of '{name}' must be numbered 1..{len(numbers)}; "
                            f"rule {n} leaves a gap (missing: {', '.join(map(str, missing))})",
@@ -134,6 +142,24 @@ class _Builder:
                            f"one, e.g. '{name} if(..., 2, 1)'", "no-selection")
             out[name] = (decl, [numbers[n][0] for n in sorted(numbers)])
         return out
+
+    def _axiom_slips(self, decls, rules, axioms):
+        """(the declarations that are ones, whether an axiom slip was said). A line
+        `NAME selection` declares a module, so `sphere - cube` or, in a file without an
+        axiom, `S - cube` did too: "declared as a module but has no rules", or "no
+        axiom" and "undefined name 'cube'" for a slip of one character."""
+        modules = {r.module for r in rules}
+        kept, slipped = [], False
+        for d in decls:
+            operands = {n for n in names_in(d.selection) if n in PRIMITIVES or n in modules}
+            if (d.name in PRIMITIVES and d.name not in modules) or \
+                    (not axioms and not slipped and operands):
+                message, span = axiom_slip(self.source.expanded, d.name, d.name_span[1])
+                self.error(span, message, "syntax")
+                slipped = True
+                continue
+            kept.append(d)
+        return kept, slipped
 
     def _check_axiom(self, axioms):
         if not axioms:
@@ -164,7 +190,12 @@ class _Builder:
                 self.error(rules[0].module_span, f"'{name}' is both a module and a parameter",
                            "duplicate")
         for name, named in self.named.items():
-            self._reserved(name, named.name_span, "a named expression")
+            if not self._reserved(name, named.name_span, "a named expression") and \
+                    name in params:
+                # allowed (operands and numbers are apart), and most often a slip:
+                # `{segment = segments - 1}` for the parameter `segments`
+                self.warn(named.name_span, f"'{name}' is both a named expression and a "
+                                           f"parameter", "shadowed")
         if any(decl is not None and PIXELS in names_in(decl.selection)
                for decl, _ in self.rules.values()):
             params[PIXELS] = len(params)     # a slot that the tracer fills before selecting
@@ -274,7 +305,8 @@ class _Builder:
         if isinstance(e, ast.Material):
             if e.name not in self.scene.materials:
                 known = ", ".join(sorted(self.scene.materials)) or "none defined"
-                self.error(e.name_span, f"unknown material '{e.name}' (define it with "
+                hint = did_you_mean(e.name, self.scene.materials)
+                self.error(e.name_span, f"unknown material '{e.name}'{hint} (define it with "
                                         f"'#material {e.name} ...'; known: {known})", "undefined")
             if e.name not in self.material_names:
                 self.material_names.append(e.name)
@@ -301,8 +333,9 @@ class _Builder:
         elif e.name in RESERVED:
             what = f"'{e.name}' is {RESERVED[e.name]}, not an operand"
         else:
-            what = f"undefined name '{e.name}' (not a module, named expression or primitive: " \
-                   f"{', '.join(PRIMITIVES)})"
+            hint = did_you_mean(e.name, [*self.modules, *self.named, *PRIMITIVES])
+            what = f"undefined name '{e.name}'{hint} (not a module, named expression or " \
+                   f"primitive: {', '.join(PRIMITIVES)})"
         self.error(e.span, what, "undefined")
         return self.primitive_node_for_errors()
 

@@ -1,6 +1,7 @@
 """Static checks over the cyclic graph (notation §7 and §9)."""
 from __future__ import annotations
 
+import math
 from collections import deque
 
 import numpy as np
@@ -9,7 +10,7 @@ from ..language import ast
 from ..language.errors import Diagnostic, PcsgError
 from ..language.names import FLAT_PRIMITIVES, PIXELS, UNION_ONLY_PRIMITIVES
 from .expr import PIXELS_ONLY_IN_SELECTIONS
-from .derive import Deriver
+from .derive import Deriver, names_in
 from .model import CALC, DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, Graph
 
 PROBE_NODES = 2_000           # node visits of the contraction probe (every compile runs it)
@@ -55,6 +56,32 @@ def selection_errors(graph: Graph, max_states: int = CHECK_STATES) -> list[Diagn
     except PcsgError as e:
         return [d for d in e.diagnostics if d.code == "selection"]
     return []
+
+
+def constant_maps(graph: Graph) -> list[Diagnostic]:
+    """`check`'s word for a transformation of constant arguments that empties its
+    operand in every instance, singular or not finite (notation §4): `scale(1, 0, 1)`
+    passed check, and only render's bounding walk said so."""
+    from .bounds import FAULTS, singular
+    from ..trace.transforms import matrix
+    live = reachable(graph)
+    out = []
+    for i, n in enumerate(graph.nodes):
+        if n.kind != TRANSFORM or not live[i]:
+            continue
+        args = [graph.exprs.constant(e) for e in n.exprs]
+        if any(a is None for a in args):
+            continue
+        with np.errstate(all="ignore"):
+            m = matrix(n.name, args)
+        kind = 0 if not np.isfinite(m).all() else 1 if singular(m) else None
+        if kind is not None:
+            what, code = FAULTS[kind]
+            if kind == 0 and all(math.isfinite(a) for a in args):
+                what = "the axis or the normal of this transformation is zero"
+            out.append(_diag(graph, "warning", f"{what}: it empties its operand", n.span,
+                             code))
+    return out
 
 
 def _diag(graph, severity, message, span, code, notes=()):
@@ -216,6 +243,15 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
                        f"selection reads: this cycle never terminates (group operands with "
                        f"parentheses, e.g. '{{...}} (A ∪ B)', if a calculation block should "
                        f"apply to all of them)")
+        elif written := sorted(n for n in names_in(graph.expr_ast[s.exprs[0]])
+                               if n in graph.params):
+            # read as written, folded to a constant: the axiom sets them once and nothing
+            # on the cycle changes them (a decrement left out), not a graftal by design
+            what = ", ".join(written)
+            message = (f"'{s.name}' can call itself here and nothing changes {what}, which its "
+                       f"selection reads (the axiom sets {'it' if len(written) == 1 else 'them'} "
+                       f"once): this cycle never terminates; a block on it such as "
+                       f"'{{{written[0]} = {written[0]} - 1}}' would end it")
         else:
             # no block can end it, so grouping is no help: an endless IFS, deliberate or not
             message = (f"'{s.name}' can call itself here and its selection reads no parameter: "

@@ -19,7 +19,8 @@ import struct
 import numpy as np
 
 from ..language import ast
-from ..language.names import PIXELS
+from ..language.names import PIXELS, RESERVED
+from ..language.suggest import did_you_mean
 from ..trace import vm
 
 PIXELS_ONLY_IN_SELECTIONS = ("'pixels' (the instance's size in pixels) can only be read in a "
@@ -170,7 +171,12 @@ class ExprTable:
             if n.name == PIXELS:
                 self.report(n.span, PIXELS_ONLY_IN_SELECTIONS, 'pixels')
                 return _NAN
-            self.report(n.span, f"undefined name '{n.name}'", 'undefined-name')
+            if n.name in RESERVED:
+                self.report(n.span, f"'{n.name}' is {RESERVED[n.name]}, not a number",
+                            'undefined-name')
+                return _NAN
+            hint = did_you_mean(n.name, [*self.params, *self.constants, 'pi'])
+            self.report(n.span, f"undefined name '{n.name}'{hint}", 'undefined-name')
             return _NAN
         if isinstance(n, ast.Unary):
             x = self._resolve(n.operand)
@@ -190,8 +196,9 @@ class ExprTable:
         args = [self._resolve(a) for a in n.args]
         if n.name not in FUNCTIONS:
             known = ', '.join(sorted(FUNCTIONS))
-            self.report(n.name_span, f"unknown function '{n.name}'; the functions are: {known}",
-                        'unknown-function')
+            hint = did_you_mean(n.name, FUNCTIONS)
+            self.report(n.name_span, f"unknown function '{n.name}'{hint} (the functions: "
+                                     f"{known})", 'unknown-function')
             return _NAN
         opcode, lo, hi = FUNCTIONS[n.name]
         if len(args) < lo or (hi is not None and len(args) > hi):

@@ -1,6 +1,7 @@
 """Diagnostics that point at file:line:col, with the source line and a caret."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from .source import Source
@@ -101,5 +102,9 @@ class PcsgError(Exception):
 
 
 def sort_key(d: Diagnostic):
+    # in the file's order; one without a place (no axiom) after the others, which are
+    # often its cause: '#camera fov=' took the axiom on the next line as its value
+    if d.span is None and d.original is None:
+        return (math.inf, d.message)
     loc = d.location
     return (loc.offset if loc else -1, d.message)

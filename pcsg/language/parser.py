@@ -12,6 +12,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 from . import ast
 from .errors import Diagnostic, PcsgError
 from .files import read_source_text
+from .mistakes import assignment_for_comparison, rule_without_number, unknown_call, unknown_directive
 from .names import RESERVED
 from .postlex import LineJoiner
 from .preprocess import preprocess
@@ -215,6 +216,9 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner) -> Dia
     if isinstance(e, UnexpectedCharacters):
         pos = e.pos_in_stream
         ch = text[pos] if pos < len(text) else ""
+        said = unknown_directive(text, pos)
+        if said:
+            return Diagnostic("error", said[0], said[1], source, code="syntax")
         if text.startswith("/*", pos):
             msg = "comment opened with '/*' is never closed"
         elif ch == "[" or ch == "]":
@@ -251,12 +255,29 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner) -> Dia
     elif tok.type in ("UNION", "INTER", "DIFF") and _starts_line(text, tok):
         msg = (f"a line cannot start with '{tok.value}': to continue the line before, end that "
                f"line with the operator instead")
+    elif said := (unknown_directive(text, tok.start_pos)
+                  or (tok.type == "ARROW" and rule_without_number(text, tok.start_pos))
+                  or unknown_call(text, tok.start_pos)):
+        msg, span = said
+    elif tok.type == "EQUAL" and assignment_for_comparison(expected):
+        msg = assignment_for_comparison(expected)
     elif tok.type == "_NL" and joiner.open_brackets:
         msg = f"unexpected end of line, expected {_expected(expected)}"
     else:
         msg = f"unexpected {_describe(tok)}, expected {_expected(expected)}"
-    notes += _open_in_macro(source, joiner, tok.start_pos)
+    notes += _open_in_macro(source, joiner, tok.start_pos) or _open_before(text, joiner, tok)
     return Diagnostic("error", msg, span, source, notes=notes, code="syntax")
+
+
+def _open_before(text: str, joiner: LineJoiner, tok: Token) -> list:
+    """A note at the bracket still open from an earlier line: a ')' left out of a
+    rule stopped the parse at the next statement, with nothing pointing back."""
+    if not joiner.open_brackets:
+        return []
+    b = joiner.open_brackets[-1]
+    if "\n" not in text[b.start_pos:tok.start_pos]:
+        return []
+    return [((b.start_pos, b.end_pos), f"the '{b.value}' opened here is not closed")]
 
 
 def _open_in_macro(source: Source, joiner: LineJoiner, pos: int) -> list:

@@ -1,0 +1,107 @@
+"""Syntax errors that are common mistakes, said as the mistake: a transformation the
+notation does not have, a rule without its number, '=' for '==', a '#' comment. The
+parser stops at the first token it cannot take, which is often well after the mistake
+(`rotate(30) sphere` stopped at 'sphere', "expected end of line"); these look back from
+there. Each returns (message, span) or None."""
+from __future__ import annotations
+
+import re
+
+from .names import FUNCTIONS, TRANSFORMS
+from .suggest import closest
+
+# what may be written NAME( ... ): transformations, paint, material, fractals, functions
+CALLABLE = (*TRANSFORMS, "paint", "material", "mandelbulb", "julia", *FUNCTIONS)
+OPERATOR_WORDS = {"union": "∪", "intersection": "∩", "difference": "\\"}
+_CALL_BEFORE = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)[ \t]*\((?:[^()\n]*\))?[ \t]*$")
+
+
+def unknown_call(text: str, pos: int):
+    """`rotate(30) sphere`, `translate(1,0,0) ...`, `usclae(0.5) S`: a name written with
+    arguments that takes none, just before `pos` (its '(' open or its call complete)."""
+    line_start = text.rfind("\n", 0, pos) + 1
+    before = text[line_start:pos]
+    m = _CALL_BEFORE.search(before)
+    if m is None and text.startswith("(", pos):
+        m = re.search(r"([A-Za-z_][A-Za-z0-9_]*)[ \t]*$", before)
+    if m is None:
+        m = re.search(r"([A-Za-z_][A-Za-z0-9_]*)[ \t]*\([^()\n]*$", before)
+    if m is None:
+        return None
+    word = m.group(1)
+    span = (line_start + m.start(1), line_start + m.end(1))
+    if TRANSFORMS.get(word) == 0:
+        return f"'{word}' takes no arguments", span
+    if word in CALLABLE:
+        return None
+    if word.lower() in OPERATOR_WORDS:
+        return (f"the notation has no '{word}(...)': write the operands with "
+                f"'{OPERATOR_WORDS[word.lower()]}' between them, e.g. 'sphere ∪ cube'", span)
+    best = closest(word, (*TRANSFORMS, "paint"))
+    if best:
+        return f"unknown transformation '{word}'; did you mean '{best}'?", span
+    known = ", ".join(sorted(TRANSFORMS))
+    return (f"'{word}(...)': no transformation has that name (they are {known}, and "
+            f"paint(r, g, b)), and modules and primitives take no arguments", span)
+
+
+def unknown_directive(text: str, pos: int):
+    """`#defin X sphere`, `# a comment`: a line whose '#' word is no directive."""
+    line_start = text.rfind("\n", 0, pos) + 1
+    m = re.match(r"[ \t]*#([A-Za-z_][A-Za-z0-9_]*)?", text[line_start:])
+    if m is None:
+        return None
+    word = m.group(1)
+    start = line_start + m.start(0) + (len(m.group(0)) - len(m.group(0).lstrip()))
+    if word is None:
+        return ("'#' does not start a comment: comments are // to the end of the line, "
+                "or /* ... */", (start, start + 1))
+    from ..scene import DIRECTIVES         # not at import: scene imports the graph's model
+    directives = (*DIRECTIVES, "define")
+    if word in directives:
+        return None
+    best = closest(word, directives)
+    hint = f"; did you mean '#{best}'?" if best else ""
+    known = ", ".join("#" + d for d in directives)
+    return f"unknown directive '#{word}'{hint} (known: {known})", (start, line_start + m.end(0))
+
+
+def rule_without_number(text: str, pos: int):
+    """`S → sphere`: a rule is `N: S → ...`."""
+    line_start = text.rfind("\n", 0, pos) + 1
+    m = re.match(r"[ \t]*([A-Za-z_][A-Za-z0-9_]*)[ \t]*$", text[line_start:pos])
+    if m is None:
+        return None
+    name = m.group(1)
+    return (f"a rule starts with its number: '1: {name} → ...' (rules of a module are "
+            f"numbered 1, 2, ... and its selection picks one)",
+            (line_start + m.start(1), pos + 1))
+
+
+def assignment_for_comparison(expected) -> str | None:
+    """`if(c = 0, ...)`: '=' where a comparison may stand."""
+    if "CMP" in expected and "EQUAL" not in expected:
+        return "'=' assigns; to compare, write '=='"
+    return None
+
+
+def axiom_slip(text: str, name: str, name_end: int):
+    """`sphere - cube`, `sphere cube`, `sphere(1)`: an axiom with a slip after its first
+    name reads as the declaration `NAME selection` of a module; the slip, said as one."""
+    i = name_end + len(text[name_end:]) - len(text[name_end:].lstrip(" \t"))
+    ch = text[i:i + 1]
+    if ch in CSG_SLIPS:
+        return f"'{ch}' is not a CSG operator: {CSG_SLIPS[ch]}", (i, i + 1)
+    if ch == "(":
+        return f"'{name}' takes no arguments", (i, i + 1)
+    m = re.match(r"[A-Za-z_][A-Za-z0-9_]*", text[i:])
+    if m:
+        return (f"expected an operator (∪, ∩ or \\) between '{name}' and '{m.group(0)}'",
+                (i, i + m.end()))
+    return (f"a line that starts '{name}' and goes on so declares a module '{name}' "
+            f"with a selection; an axiom needs an operator (∪, ∩ or \\) after its operand",
+            (i, i + 1))
+
+
+CSG_SLIPS = {"-": "the difference of two operands is written '\\' or '∖'",
+             "+": "a union is written '∪' or '|'"}

@@ -1,0 +1,103 @@
+"""Diagnostics that say what the mistake most likely was: 'did you mean', the bracket
+left open, a warning in the user's terms, and what `check` says that only render said."""
+import pytest
+
+from pcsg.cli import main
+from pcsg.compiler import compile_text
+from pcsg.language.errors import PcsgError
+from pcsg.language.suggest import closest
+
+from .test_checks import warnings_of
+
+
+@pytest.mark.parametrize("name, known, want", [
+    ("spher", ["sphere", "cube"], "sphere"),            # a letter left out
+    ("Sphere", ["sphere", "cube"], "sphere"),           # case
+    ("tetrahedon", ["tetrahedron", "cone"], "tetrahedron"),
+    ("fvo", ["eye", "at", "fov"], "fov"),               # two letters swapped
+    ("cc", ["c", "d"], "c"),                            # one added
+    ("translate", ["move", "scale"], "move"),           # what other CSG tools call it
+    ("k", ["c"], None),                                 # one-letter names are all one apart
+    ("cube", ["cone", "S"], None),
+    ("xyz", ["sphere", "cube"], None),
+])
+def test_the_closest_known_name(name, known, want):
+    assert closest(name, known) == want
+
+
+@pytest.mark.parametrize("text, message", [
+    ("{segments = 3} S\nS if(segmnts > 0, 2, 1)\n1: S → sphere\n2: S → {segments = segments - 1} S\n",
+     "undefined name 'segmnts'; did you mean 'segments'?"),
+    ("Tree\nTree if(1, 1, 1)\n1: Tree → tree ∪ cube\n", "undefined name 'tree'; did you mean 'Tree'?"),
+    ("material(glas) sphere\n#material glass transmit=1\n",
+     "unknown material 'glas'; did you mean 'glass'?"),
+    ("#camera fvo=30\nsphere\n", "unknown key 'fvo' for #camera; did you mean 'fov'?"),
+    ("#camra fov=30\nsphere\n", "unknown directive '#camra'; did you mean '#camera'?"),
+    ("move(iff(1, 1, 0), 0, 0) sphere\n", "unknown function 'iff'; did you mean 'if'?"),
+])
+def test_a_misspelt_name_gets_the_name_it_misspells(text, message):
+    with pytest.raises(PcsgError) as e:
+        compile_text(text, "t.pcsg")
+    assert any(d.message.startswith(message) for d in e.value.diagnostics), \
+        [d.message for d in e.value.diagnostics]
+
+
+def test_a_bracket_left_open_on_an_earlier_line_is_pointed_at():
+    # the parse stops at the next statement, lines below the bracket
+    text = ("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → sphere\n2: S → {c = c-1} (move(1,0,0) S ∪\n"
+            "  uscale(0.5) S\n\n1: T → cube\n")
+    with pytest.raises(PcsgError) as e:
+        compile_text(text, "t.pcsg")
+    d = e.value.diagnostics[0]
+    assert d.location.line == 7
+    (span, note), = d.notes
+    assert note == "the '(' opened here is not closed" and text[span[0]] == "("
+    assert text.count("\n", 0, span[0]) + 1 == 4
+
+
+def test_no_axiom_comes_after_the_error_that_took_it():
+    # '#camera fov=' joins the next line: the axiom became fov's value
+    with pytest.raises(PcsgError) as e:
+        compile_text("#camera fov=\nsphere\n", "t.pcsg")
+    assert [d.message for d in e.value.diagnostics] == [
+        "'sphere' is a primitive, not a number",
+        "no axiom: a file needs one CSG expression to start from, e.g. '{c = 6} S'"]
+
+
+def test_an_endless_cycle_on_a_constant_says_it_is_never_changed():
+    # c is folded to 3, so the selection reads no parameter once compiled; the warning
+    # called the slip (a decrement left out) a graftal
+    w = warnings_of("{c = 3} S\nS if(c > 0, 2, 1)\n1: S → sphere\n"
+                    "2: S → move(1,0,0) uscale(0.5) S\n")
+    assert [x.message for x in w] == [
+        "'S' can call itself here and nothing changes c, which its selection reads (the axiom "
+        "sets it once): this cycle never terminates; a block on it such as '{c = c - 1}' "
+        "would end it"]
+
+
+def test_a_parameter_that_is_also_a_named_expression_is_warned_of():
+    w = warnings_of("{A = 1} A\nA = sphere\n")
+    assert [(x.code, x.message) for x in w] == [
+        ("shadowed", "'A' is both a named expression and a parameter")]
+
+
+@pytest.mark.parametrize("axiom, message", [
+    ("scale(1, 0, 1) sphere", "this transformation is singular (a zero scale) or too large "
+                              "to invert: it empties its operand"),
+    ("uscale(1/0) sphere", "the arguments of this transformation are not finite: it empties "
+                           "its operand"),
+    ("rot(30, 0, 0, 0) sphere", "the axis or the normal of this transformation is zero: it "
+                                "empties its operand"),
+])
+def test_check_warns_of_a_constant_map_that_empties_its_operand(capsys, tmp_path, axiom,
+                                                                message):
+    # notation §4: reported; check said "ok" and only render's bounding walk said so
+    src = tmp_path / "t.pcsg"
+    src.write_text(f"{axiom} ∪ move(3, 0, 0) cube\n", encoding="utf-8")
+    assert main(["check", str(src)]) == 0
+    err = capsys.readouterr().err
+    assert f"t.pcsg:1:1: warning: {message}" in err
+    assert main(["check", "--werror", str(src)]) == 1
+    src.write_text("{s = 0} S\nS 1\n1: S → uscale(s) sphere\n", encoding="utf-8")
+    assert main(["check", "-q", str(src)]) == 0          # the axiom's constant folds in
+    assert "it empties its operand" in capsys.readouterr().err
