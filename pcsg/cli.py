@@ -288,6 +288,9 @@ def _exit(failed: int) -> int:
     return EXIT_ERRORS if failed else EXIT_OK
 
 
+OTHER_IMAGES = {".jpg", ".jpeg", ".gif", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".exr"}
+
+
 def _outputs(files: list[str], output: str | None) -> list[Path]:
     """NAME.png here; or -o FILE.png for one file; or -o DIR/ (created) for any number."""
     names = [Path(f).stem + ".png" for f in files]
@@ -300,6 +303,10 @@ def _outputs(files: list[str], output: str | None) -> list[Path]:
         return paths
     if len(files) > 1:
         raise UsageError(f"-o {output}: several files need a directory, e.g. -o renders/")
+    if out.suffix.lower() in OTHER_IMAGES:
+        # PNG bytes in x.jpg, which a viewer going by the name then refused
+        raise UsageError(f"-o {output}: pcsg writes PNG images; name the file "
+                         f"{out.with_suffix('.png').name}")
     if not out.parent.exists():
         raise UsageError(f"-o {output}: the directory {out.parent} does not exist")
     return [out]

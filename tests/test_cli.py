@@ -521,7 +521,7 @@ def test_sweep_into_a_file_is_a_usage_error(capsys, tmp_path):
 
 
 @pytest.mark.parametrize("text, message", [
-    ("{c = 0} S\nS 1/c\n1: S → sphere\n", "gives (1/0), which is not a finite number (with c = 0)"),
+    ("{c = 0} S\nS 1/c\n1: S → sphere\n", "gives inf, which is not a finite number (with c = 0)"),
     ("{c = 3} S\nS c\n1: S → sphere\n2: S → cube\n",
      "gives 3, which names rule 3, but 'S' has rules 1..2 (with c = 3)"),
     ("{c = 4} S\nS if(c > 0, 2, 3)\n1: S → sphere\n2: S → {c = c - 1} move(1, 0, 0) S\n",

@@ -69,7 +69,7 @@ def test_an_endless_cycle_on_a_constant_says_it_is_never_changed():
     # called the slip (a decrement left out) a graftal
     w = warnings_of("{c = 3} S\nS if(c > 0, 2, 1)\n1: S → sphere\n"
                     "2: S → move(1,0,0) uscale(0.5) S\n")
-    assert [x.message for x in w] == [
+    assert [x.message for x in w if x.code == "endless"] == [
         "'S' can call itself here and nothing changes c, which its selection reads (the axiom "
         "sets it once): this cycle never terminates; a block on it such as '{c = c - 1}' "
         "would end it"]
@@ -101,3 +101,44 @@ def test_check_warns_of_a_constant_map_that_empties_its_operand(capsys, tmp_path
     src.write_text("{s = 0} S\nS 1\n1: S → uscale(s) sphere\n", encoding="utf-8")
     assert main(["check", "-q", str(src)]) == 0          # the axiom's constant folds in
     assert "it empties its operand" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("text, want", [
+    ("{c = 1} S\nS 1\n1: S → sphere\n2: S → cube\n",
+     [(4, "rule 2 of 'S' is never selected: its selection only gives 1")]),
+    ("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → sphere\n2: S → {c = c - 1} S\n3: S → cube\n",
+     [(5, "rule 3 of 'S' is never selected: its selection only gives 1 or 2")]),
+    ("{c = 1} S\nS c + 1\n1: S → sphere\n2: S → cube\n",      # c folds: always 2
+     [(3, "rule 1 of 'S' is never selected: its selection only gives 2")]),
+    ("{c = 1} S ∪ {c = 2} S\nS c\n1: S → sphere\n2: S → cube\n", []),
+])
+def test_a_rule_the_selection_never_names_is_warned_of(text, want):
+    got = [(w.location.line, w.message) for w in warnings_of(text) if w.code == "unselected"]
+    assert got == want
+
+
+@pytest.mark.parametrize("paint, want", [
+    ("paint(255, 0, 0)", "paint(255, 0, 0): colours are fractions from 0 to 1; above 1"),
+    ("paint(-1, 0, 0)", "paint(-1, 0, 0): colours are fractions from 0 to 1: a negative one"),
+    ("paint(1, 0.5, 0)", None),
+    ("{k = 1} paint(k, 0, 2 * k)", "paint(1, 0, 2)"),    # the axiom's constants fold in
+])
+def test_a_constant_colour_out_of_range_is_warned_of(paint, want):
+    got = [w.message for w in warnings_of(f"{paint} sphere\n") if w.code == "paint-range"]
+    assert [g[:len(want)] for g in got] == ([want] if want else [])
+
+
+def test_an_output_named_for_another_image_format_is_a_usage_error(capsys, tmp_path):
+    from .conftest import GRAMMARS
+    out = tmp_path / "x.jpg"
+    assert main(["render", str(GRAMMARS / "sierpinski.pcsg"), "-o", str(out)]) == 2
+    assert f"-o {out}: pcsg writes PNG images; name the file x.png" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())
+
+
+def test_a_value_that_is_not_finite_is_said_as_nan_or_inf(capsys, tmp_path):
+    src = tmp_path / "t.pcsg"
+    src.write_text("{c = 0/0} S\nS if(c < 1, 1, 2)\n1: S → sphere\n"
+                   "2: S → {c = c - 1} uscale(0.5) S\n", encoding="utf-8")
+    assert main(["stats", str(src)]) == 1
+    assert "(c = nan)" in capsys.readouterr().err

@@ -301,7 +301,9 @@ class _Builder:
             if len(e.args) != 3:
                 self.error(e.head_span, f"'paint' takes 3 arguments (r, g, b), got {len(e.args)}",
                            "arity")
-            return self._unary(PAINT, e, "paint", [self.expr(a) for a in e.args])
+            exprs = [self.expr(a) for a in e.args]
+            self._paint_range(e, exprs)
+            return self._unary(PAINT, e, "paint", exprs)
         if isinstance(e, ast.Material):
             if e.name not in self.scene.materials:
                 known = ", ".join(sorted(self.scene.materials)) or "none defined"
@@ -317,6 +319,18 @@ class _Builder:
         child = self.csg(e.operand)
         return self.add(Node(kind, name=name, children=[child], exprs=exprs, span=e.head_span,
                              edge_spans=[e.operand.span]))
+
+    def _paint_range(self, e: ast.Paint, exprs: list[int]):
+        """A warning for a constant colour outside 0..1: paint(255, 0, 0), written as
+        bytes, drew a colour 255 times too bright, silently (a negative one, black)."""
+        values = [self.exprs.constant(x) for x in exprs]
+        if len(values) != 3 or None in values or all(0 <= v <= 1 for v in values):
+            return
+        shown = ", ".join(f"{v:g}" for v in values)
+        why = ("; above 1 shades brighter than the light allows (from bytes 0..255, "
+               "divide by 255)" if max(values) > 1 else ": a negative one is drawn as 0")
+        self.warn(e.head_span, f"paint({shown}): colours are fractions from 0 to 1{why}",
+                  "paint-range")
 
     def ref(self, e: ast.Ref) -> int:
         if e.name in self.modules:

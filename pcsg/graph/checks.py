@@ -10,6 +10,7 @@ from ..language import ast
 from ..language.errors import Diagnostic, PcsgError
 from ..language.names import FLAT_PRIMITIVES, PIXELS, UNION_ONLY_PRIMITIVES
 from .expr import PIXELS_ONLY_IN_SELECTIONS
+from ..trace import vm
 from .derive import Deriver, names_in
 from .model import CALC, DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, Graph
 
@@ -35,7 +36,8 @@ def run_checks(graph: Graph) -> list[Diagnostic]:
               + pixels_outside_selections(graph))
     if errors:
         raise PcsgError(errors)
-    warnings = unused_modules(graph) + endless_cycles(graph) + non_contracting_cycles(graph)
+    warnings = (unused_modules(graph) + unselected_rules(graph) + endless_cycles(graph)
+                + non_contracting_cycles(graph))
     graph.warnings.extend(warnings)
     return warnings
 
@@ -206,6 +208,40 @@ def unused_modules(graph: Graph) -> list[Diagnostic]:
     return [_diag(graph, "warning", f"module '{name}' is never used: the axiom does not reach it",
                   graph.nodes[i].span, "unused")
             for name, i in graph.modules.items() if not live[i]]
+
+
+def unselected_rules(graph: Graph) -> list[Diagnostic]:
+    """Rules a selection can never name: it is a constant (`S 1` with two rules), or an
+    if() whose every branch is one (`if(c > 0, 2, 1)` with a rule 3)."""
+    out = []
+    for s in graph.nodes:
+        if s.kind != SELECT or len(s.children) < 2 or graph.exprs.uses_rand(s.exprs[0]):
+            continue
+        folded = graph.exprs.constant(s.exprs[0])
+        picks = {folded} if folded is not None else _branches(graph.expr_ast[s.exprs[0]])
+        if picks is None:
+            continue
+        named = {int(vm.round_half_away(v)) for v in picks if math.isfinite(v)}
+        for k in range(1, len(s.children) + 1):
+            if k not in named:
+                out.append(_diag(graph, "warning", f"rule {k} of '{s.name}' is never selected: "
+                                 f"its selection only gives {_listed(sorted(named))}",
+                                 s.edge_spans[k - 1], "unselected"))
+    return out
+
+
+def _branches(node) -> set[float] | None:
+    """The values an if() tree of constant leaves can give; None for anything else."""
+    if isinstance(node, ast.Num):
+        return {float(node.value)}
+    if isinstance(node, ast.Call) and node.name == "if" and len(node.args) == 3:
+        a, b = _branches(node.args[1]), _branches(node.args[2])
+        return None if a is None or b is None else a | b
+    return None
+
+
+def _listed(values: list[int]) -> str:
+    return " or ".join(map(str, values)) if values else "no rule"
 
 
 def endless_cycles(graph: Graph) -> list[Diagnostic]:

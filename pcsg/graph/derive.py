@@ -40,6 +40,12 @@ def format_value(v: float) -> str:
     return repr(v)
 
 
+def readable(v: float) -> str:
+    """A value in a message: 'nan' and 'inf' as such (format_value's '(0/0)' reads back
+    as notation, and read as a message like a formula)."""
+    return repr(v) if not math.isfinite(v) else format_value(v)
+
+
 def too_deep(graph: Graph, node_id: int, levels: int) -> PcsgError:
     n = graph.nodes[node_id]
     return PcsgError([Diagnostic("error", f"the derivation is deeper than {levels} levels at "
@@ -108,10 +114,10 @@ class Deriver:
     def selection_error(self, node_id: int, state: State, x: float) -> Diagnostic:
         node = self.g.nodes[node_id]
         reads = names_in(self.g.expr_ast[node.exprs[0]])     # as written, not as folded
-        values = ", ".join(f"{k} = {format_value(v)}" for k, v in state.items(self.g) if k in reads)
+        values = ", ".join(f"{k} = {readable(v)}" for k, v in state.items(self.g) if k in reads)
         what = "is not a finite number" if not math.isfinite(x) else \
             f"names rule {int(vm.round_half_away(x))}, but '{node.name}' has rules 1..{len(node.children)}"
-        return Diagnostic("error", f"the selection of module '{node.name}' gives {format_value(x)}, "
+        return Diagnostic("error", f"the selection of module '{node.name}' gives {readable(x)}, "
                                    f"which {what} (with {values or 'no parameters read'})",
                           node.span, self.g.source, code="selection")
 

@@ -8,7 +8,7 @@ from ..language.errors import Diagnostic, PcsgError
 from ..recursion import recursion_limit
 from .cut import NO_VOLUME, VOLUME_NAMES, Cut
 from .dependence import StateKey
-from .derive import Deriver, format_value
+from .derive import Deriver, readable
 from .model import CALC, KIND_NAMES, OPERATORS, PRIMITIVE, SELECT, Graph
 
 MAX_LEVELS = 10_000         # derivation levels (S-node nesting) before we call it endless
@@ -99,7 +99,7 @@ class _Counter:
     def _endless(self, node_id, state, what) -> Diagnostic:
         node = self.g.nodes[node_id]
         name = node.name if node.kind == SELECT else KIND_NAMES[node.kind]
-        values = ", ".join(f"{k} = {format_value(v)}" for k, v in state.items(self.g))
+        values = ", ".join(f"{k} = {readable(v)}" for k, v in state.items(self.g))
         return Diagnostic("error", f"the derivation never ends: '{name}' {what} "
                                    f"({values or 'no parameters'})",
                           node.span, self.g.source, code="endless")

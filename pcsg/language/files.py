@@ -20,10 +20,11 @@ def read_source_text(path: str | Path) -> str:
                                         Source(name, ""), code="io")])
         size = p.stat().st_size
         if size > MAX_FILE_BYTES:
-            raise PcsgError([Diagnostic("error", f"file is {size / 2**20:.1f} MiB; pcsg reads "
-                                        f"grammars of up to {MAX_FILE_BYTES // 2**20} MiB (an "
-                                        f"expanded derivation that large: use fewer steps)", None,
-                                        Source(name, ""), code="io")])
+            # in bytes: a file just over 8 MiB was "8.0 MiB", over a limit of "8 MiB"
+            raise PcsgError([Diagnostic("error", f"file is {size:,} bytes; pcsg reads grammars "
+                                        f"of up to {MAX_FILE_BYTES:,} bytes ({MAX_FILE_BYTES >> 20}"
+                                        f" MiB; an expanded derivation that large: use fewer "
+                                        f"steps)", None, Source(name, ""), code="io")])
         data = p.read_bytes()
     except OSError as e:
         raise PcsgError([Diagnostic("error", f"cannot read: {e.strerror or e}", None,
