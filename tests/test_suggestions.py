@@ -142,3 +142,16 @@ def test_a_value_that_is_not_finite_is_said_as_nan_or_inf(capsys, tmp_path):
                    "2: S → {c = c - 1} uscale(0.5) S\n", encoding="utf-8")
     assert main(["stats", str(src)]) == 1
     assert "(c = nan)" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("text, message", [
+    ("move(−1, 0, 0) sphere\n", "1:6: unexpected character '−' (U+2212): write '-' instead"),
+    ("sphere ⋃ cube\n", "1:8: unexpected character '⋃' (U+22C3): write '∪' or '|' instead"),
+    ("{c = 1} S\nS c ? 1 : 2\n1: S → sphere\n2: S → cube\n",
+     "2:5: unexpected character '?': the notation has no 'c ? a : b'; write if(c, a, b)"),
+])
+def test_a_lookalike_character_is_named_with_what_to_write(text, message):
+    with pytest.raises(PcsgError) as e:
+        compile_text(text, "t.pcsg")
+    d = e.value.diagnostics[0]
+    assert f"{d.location.line}:{d.location.column}: {d.message}" == message

@@ -105,3 +105,24 @@ def axiom_slip(text: str, name: str, name_end: int):
 
 CSG_SLIPS = {"-": "the difference of two operands is written '\\' or '∖'",
              "+": "a union is written '∪' or '|'"}
+
+
+# characters that look like the notation's, as word processors and other notations type
+# them: what to write instead
+LOOKALIKES = {"−": "'-'", "–": "'-'", "×": "'*'", "÷": "'/'", "≤": "'<='", "≥": "'>='",
+              "≠": "'!='", "⇒": "'→' or '->'", "⟶": "'→' or '->'", "⋃": "'∪' or '|'",
+              "⋂": "'∩' or '&'", "∧": "'&&' (or '∩' between operands)",
+              "∨": "'||' (or '∪' between operands)", "\u00a0": "a plain space",
+              "\u200b": "nothing (it is a zero-width space)"}
+
+
+def lookalike(ch: str) -> str | None:
+    """`unexpected character '−'`, and what the notation writes for it."""
+    if ch in "“”‘’":
+        return f"unexpected character {ch!r}: the notation has no quoted text"
+    if ch == "?":
+        return "unexpected character '?': the notation has no 'c ? a : b'; write if(c, a, b)"
+    instead = LOOKALIKES.get(ch)
+    if instead is None:
+        return None
+    return f"unexpected character {ch!r} (U+{ord(ch):04X}): write {instead} instead"

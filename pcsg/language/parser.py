@@ -12,7 +12,8 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 from . import ast
 from .errors import Diagnostic, PcsgError
 from .files import read_source_text
-from .mistakes import assignment_for_comparison, rule_without_number, unknown_call, unknown_directive
+from .mistakes import (assignment_for_comparison, lookalike, rule_without_number, unknown_call,
+                       unknown_directive)
 from .names import RESERVED
 from .postlex import LineJoiner
 from .preprocess import preprocess
@@ -223,6 +224,8 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner) -> Dia
             msg = "comment opened with '/*' is never closed"
         elif ch == "[" or ch == "]":
             msg = f"unexpected '{ch}': square brackets are not part of the notation"
+        elif said := lookalike(ch):
+            msg = said
         else:
             msg = f"unexpected character {ch!r}"
         return Diagnostic("error", msg, (pos, pos + 1), source, code="syntax")
