@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import re
 
-from .names import FUNCTIONS, TRANSFORMS
+from .names import FUNCTIONS, PRIMITIVES, TRANSFORMS
 from .suggest import closest
 
 # what may be written NAME( ... ): transformations, paint, material, fractals, functions
@@ -30,7 +30,7 @@ def unknown_call(text: str, pos: int):
         return None
     word = m.group(1)
     span = (line_start + m.start(1), line_start + m.end(1))
-    if TRANSFORMS.get(word) == 0:
+    if TRANSFORMS.get(word) == 0 or (word in PRIMITIVES and word not in CALLABLE):
         return f"'{word}' takes no arguments", span
     if word in CALLABLE:
         return None
