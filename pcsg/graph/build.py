@@ -8,12 +8,16 @@ from ..language import ast
 from ..language.errors import Diagnostic, PcsgError, sort_key
 from ..language.names import FRACTAL_PRIMITIVES, PIXELS, PRIMITIVES, RESERVED, TRANSFORMS
 from ..language.mistakes import axiom_slip
+from ..language.unparse import unparse_arith
 from ..language.suggest import did_you_mean
 from ..trace.fractals import check_arguments
 from ..scene import build_scene
 from .derive import names_in
 from .expr import ExprTable
 from .model import (CALC, MATERIAL, OPERATORS, PAINT, PRIMITIVE, SELECT, TRANSFORM, Graph, Node)
+
+
+COMPARISONS = {"<", "<=", ">", ">=", "==", "!="}
 
 
 class _Builder:
@@ -41,9 +45,30 @@ class _Builder:
         return len(self.nodes) - 1
 
     def expr(self, node) -> int:
+        self._chained_comparisons(node)
         idx = self.exprs.add(node)
         self.expr_ast.append(node)
         return idx
+
+    def _chained_comparisons(self, node):
+        """`1 < c < 3` is (1 < c) < 3, 0 or 1 against 3: true whatever c is. Legal, and
+        never what it reads as."""
+        stack = [node]
+        while stack:
+            n = stack.pop()
+            if isinstance(n, ast.Binary):
+                if n.op in COMPARISONS and isinstance(n.left, ast.Binary) and \
+                        n.left.op in COMPARISONS:
+                    a, b = unparse_arith(n.left.left), unparse_arith(n.left.right)
+                    c = unparse_arith(n.right)
+                    self.warn(n.span, f"'{a} {n.left.op} {b} {n.op} {c}' compares ({a} "
+                                      f"{n.left.op} {b}), 0 or 1, with {c}; for both, write "
+                                      f"'{a} {n.left.op} {b} && {b} {n.op} {c}'", "chained")
+                stack += [n.left, n.right]
+            elif isinstance(n, ast.Unary):
+                stack.append(n.operand)
+            elif isinstance(n, ast.Call):
+                stack += n.args
 
     # ---- the whole file
     def build(self) -> Graph:
