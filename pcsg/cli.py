@@ -60,14 +60,15 @@ def _compile(path, overrides):
 
 
 def cmd_check(args) -> int:
-    from .graph.checks import constant_maps, selection_errors
+    from .graph.checks import constant_maps, derivation_faults
     failed = 0
     for path in expand_globs(args.files):
         try:
             graph = _compile(path, args.overrides)
-            if errors := selection_errors(graph):
+            errors, warnings = derivation_faults(graph)
+            if errors:
                 raise PcsgError(errors)
-            graph.warnings += constant_maps(graph)
+            graph.warnings += warnings + constant_maps(graph)
         except PcsgError as e:
             _report(e, [])
             failed += 1

@@ -165,3 +165,17 @@ def test_a_chained_comparison_is_warned_of():
                        "'1 < c && c < 3'")]
     assert not [x for x in warnings_of("{c = 2} S\nS if(1 < c && c < 3, 2, 1)\n1: S → sphere\n"
                                        "2: S → {c = c - 1} S\n") if x.code == "chained"]
+
+
+def test_check_warns_of_a_derivation_that_meets_its_own_state_again(capsys, tmp_path):
+    # stats failed on it and check said ok; pixels-ended systems and graftals are fine
+    src = tmp_path / "t.pcsg"
+    src.write_text("{c = 3/0} S\nS if(c > 0, 2, 1)\n1: S → sphere\n"
+                   "2: S → {c = c - 1} uscale(0.5) S\n", encoding="utf-8")
+    assert main(["check", str(src)]) == 0
+    assert ("2:1: warning: the derivation never ends: 'S' repeats with the same parameters "
+            "(c = inf): a render draws it only to pixel size") in capsys.readouterr().err
+    src.write_text("S\nS if(pixels > 2, 2, 1)\n1: S → sphere\n"
+                   "2: S → move(1, 0, 0) uscale(0.5) S ∪ sphere\n", encoding="utf-8")
+    assert main(["check", str(src)]) == 0
+    assert "never ends" not in capsys.readouterr().err

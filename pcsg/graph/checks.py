@@ -45,19 +45,29 @@ def run_checks(graph: Graph) -> list[Diagnostic]:
 CHECK_STATES = 2_000     # the derivation `pcsg check` follows: under 0.1 s, however large
 
 
-def selection_errors(graph: Graph, max_states: int = CHECK_STATES) -> list[Diagnostic]:
-    """The first invalid selection of the derivation's first `max_states` states
-    (notation §6: an error, with the module and its parameter values), for `pcsg check`:
-    the compile knows the initial values, but not what the selections make of them. A
-    render empties such an instance and says so; stats and expand fail on it. Deeper
-    than the budget, or in a derivation that never ends (a graftal, warned of already),
-    nothing is said."""
+def derivation_faults(graph: Graph, max_states: int = CHECK_STATES):
+    """(errors, warnings) of the derivation's first `max_states` states, for `pcsg
+    check`: the compile knows the initial values, but not what the selections make of
+    them. An invalid selection is an error (notation §6, with the module and its
+    parameter values); a render empties such an instance and says so, stats and expand
+    fail on it. A state met again on its own path is a warning: that derivation never
+    ends (`{c = 1/0}`, or a count that never reaches its end: stats failed, check said
+    ok), and a render draws it to pixel size only. Deeper than the budget, in a graftal
+    (warned of already) or where `pixels` ends the derivation, nothing is said."""
     from .stats import count_primitives
+    from .volumes import graftal_nodes
     try:
         count_primitives(graph, max_states)
     except PcsgError as e:
-        return [d for d in e.diagnostics if d.code == "selection"]
-    return []
+        errors = [d for d in e.diagnostics if d.code == "selection"]
+        # a graftal, or a system whose selections read `pixels` (+inf here), ends where
+        # the render's pixels end it
+        if errors or graftal_nodes(graph) or PIXELS in graph.params:
+            return errors, []
+        return [], [Diagnostic("warning", d.message + ": a render draws it only to pixel "
+                               "size", d.span, d.source, code=d.code)
+                    for d in e.diagnostics if d.code == "repeats"]
+    return [], []
 
 
 def constant_maps(graph: Graph) -> list[Diagnostic]:

@@ -14,6 +14,9 @@ from .model import CALC, KIND_NAMES, OPERATORS, PRIMITIVE, SELECT, Graph
 MAX_LEVELS = 10_000         # derivation levels (S-node nesting) before we call it endless
 MAX_STATES = 2_000_000      # distinct (node, relevant state) pairs before giving up
 
+# a derivation that never ends: one state on its own path again, or still going at the limit
+ENDLESS = ("repeats", "endless")
+
 
 class Endless(Exception):
     def __init__(self, diagnostic: Diagnostic):
@@ -69,7 +72,8 @@ class _Counter:
         if hit is not None:
             return hit
         if key in self.active:
-            raise Endless(self._endless(node_id, state, "repeats with the same parameters"))
+            raise Endless(self._endless(node_id, state, "repeats with the same parameters",
+                                        "repeats"))
         if node.kind == SELECT and (level >= MAX_LEVELS or len(self.memo) > self.max_states):
             raise Endless(self._endless(node_id, state, f"is still being rewritten after "
                                                         f"{min(level, MAX_LEVELS)} levels"))
@@ -96,13 +100,13 @@ class _Counter:
         self.memo[key] = total
         return total
 
-    def _endless(self, node_id, state, what) -> Diagnostic:
+    def _endless(self, node_id, state, what, code="endless") -> Diagnostic:
         node = self.g.nodes[node_id]
         name = node.name if node.kind == SELECT else KIND_NAMES[node.kind]
         values = ", ".join(f"{k} = {readable(v)}" for k, v in state.items(self.g))
         return Diagnostic("error", f"the derivation never ends: '{name}' {what} "
                                    f"({values or 'no parameters'})",
-                          node.span, self.g.source, code="endless")
+                          node.span, self.g.source, code=code)
 
 
 def graph_stats(graph: Graph, count: bool = True) -> dict:
@@ -128,7 +132,7 @@ def graph_stats(graph: Graph, count: bool = True) -> dict:
         except PcsgError as e:
             # a graftal's derivation never ends by design: the tracer refines it to
             # pixel size; anything else that never ends is still an error
-            if not (graftal and all(d.code == "endless" for d in e.diagnostics)):
+            if not (graftal and all(d.code in ENDLESS for d in e.diagnostics)):
                 raise
             out["endless"] = True
     if graftal:
