@@ -89,14 +89,26 @@ def _write(text: str, output: str | None):
     if output is None:
         sys.stdout.write(text)
         return
+    _output_directory(output)
     from .output import write_atomic
     write_atomic(Path(output), text.encode("utf-8"))
+
+
+def _output_directory(output: str):
+    """-o into a directory that is not there: said as such (the error named the
+    temporary file beside the output)."""
+    parent = Path(output).parent
+    if not parent.is_dir():
+        what = "does not exist" if not parent.exists() else "is not a directory"
+        raise UsageError(f"-o {output}: {parent} {what}")
 
 
 def cmd_expand(args) -> int:
     from .graph.expand import ExpansionTooLarge, expand_file
     if args.steps < 0:
         raise UsageError("-n must be 0 or more")
+    if args.max_chars < 1:
+        raise UsageError(f"--max-chars {args.max_chars}: give 1 or more")
     graph = _compile(args.file, args.overrides)
     _report(None, graph.warnings)
     notes: list[str] = []
@@ -122,7 +134,9 @@ def cmd_stats(args) -> int:
             _report(e, [])
             failed += 1
     if args.json:
-        print(json.dumps(results[0] if len(results) == 1 else results, indent=2))
+        # one object for one file; a list for several, however many of them failed
+        several = len(results) + failed > 1
+        print(json.dumps(results if several else results[0] if results else None, indent=2))
     else:
         for r in results:
             print(_stats_text(r))
@@ -260,8 +274,8 @@ def cmd_render(args) -> int:
 
 def cmd_sweep(args) -> int:
     from .distributed.batch import Job, run_jobs
-    from .distributed.sweep import sweep_outputs
-    ranges = [(name, values) for name, values in args.overrides if len(values) > 1]
+    from .distributed.sweep import Swept, sweep_outputs
+    ranges = [(name, values) for name, values in args.overrides if isinstance(values, Swept)]
     if len(ranges) != 1:
         raise UsageError("give one parameter to sweep, e.g. --set c=1..12 "
                          f"({len(ranges)} ranges given)")
@@ -269,7 +283,7 @@ def cmd_sweep(args) -> int:
     names = [n for n, _ in args.overrides]
     if twice := sorted({n for n in names if names.count(n) > 1}):
         raise UsageError(f"--set {twice[0]} is given twice")
-    fixed = {n: v[0] for n, v in args.overrides if len(v) == 1}
+    fixed = {n: v[0] for n, v in args.overrides if not isinstance(v, Swept)}
     _distributed(args)          # its checks; a sweep always goes through pcsg.distributed
     out_dir = Path(args.output)
     if out_dir.exists() and not out_dir.is_dir():
@@ -289,7 +303,8 @@ def _exit(failed: int) -> int:
     return EXIT_ERRORS if failed else EXIT_OK
 
 
-OTHER_IMAGES = {".jpg", ".jpeg", ".gif", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".exr"}
+OTHER_IMAGES = {".jpg", ".jpeg", ".gif", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".exr", ".svg",
+                ".avif", ".heic"}
 
 
 def _outputs(files: list[str], output: str | None) -> list[Path]:
@@ -394,15 +409,19 @@ def cmd_export(args) -> int:
                                            lambda done: progress.update(done, done), cut=cut)
     finally:
         progress.close()
-    print(f"{out}: {count:,} primitives, {out.stat().st_size / 1e6:.1f} MB, "
+    print(f"{out}: {_many(count, 'primitive')}, {out.stat().st_size / 1e6:.1f} MB, "
           f"{time.perf_counter() - start:.1f} s; render with: povray +I{out} +W{w} +H{h}")
     if empty:
         also = (f"; {dropped:,} more went with the ∩ or \\ that lost an operand"
                 if dropped else "")
-        print(f"{args.file}: warning: {empty:,} primitives left out: their transform is "
+        print(f"{args.file}: warning: {_many(empty, 'primitive')} left out: their transform is "
               f"singular or not finite (a runtime error in the grammar), so pcsg draws "
               f"nothing there either{also}", file=sys.stderr)
     return EXIT_OK
+
+
+def _many(n: int, what: str) -> str:
+    return f"{n:,} {what}{'' if n == 1 else 's'}"
 
 
 PROGRESS_STATES = 20_000     # _export_progress's count: about 0.2 s at most

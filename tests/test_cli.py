@@ -137,9 +137,15 @@ def test_unreadable_inputs(capsys, tmp_path):
     assert code == 1 and "l.pcsg:1:14: error: not UTF-8 text (byte 0xe9)" in err
 
 
-def test_output_directory_missing(capsys, sierpinski, tmp_path):
-    code, out, err = run(capsys, "graph", str(sierpinski), "-o", str(tmp_path / "no" / "g.dot"))
-    assert code == 1 and "No such file or directory" in err and "Traceback" not in err
+@pytest.mark.parametrize("command", ["graph", "expand"])
+def test_output_directory_missing(capsys, sierpinski, tmp_path, command):
+    # the message named the temporary file beside the output
+    out = tmp_path / "no" / "g.txt"
+    code, _, err = run(capsys, command, str(sierpinski), "-o", str(out))
+    assert code == 2 and f"-o {out}: {out.parent} does not exist" in err and ".part" not in err
+    (tmp_path / "file").write_text("x")
+    code, _, err = run(capsys, command, str(sierpinski), "-o", str(tmp_path / "file" / "g"))
+    assert code == 2 and "is not a directory" in err
 
 
 def test_console_script_runs_without_traceback(tmp_path):
@@ -553,3 +559,26 @@ def test_a_picture_of_nothing_says_so(capsys, tmp_path):
     assert main(["render", str(GRAMMARS / "sierpinski.pcsg"), "--size", "40x30",
                  "-o", str(tmp_path / "b.png")]) == 0
     assert "no ray met" not in capsys.readouterr().err
+
+
+def test_a_sweep_of_one_value_renders_it(capsys, tmp_path):
+    # c=2..2 was "give one parameter to sweep (0 ranges given)"
+    out = tmp_path / "sweep"
+    assert main(["sweep", str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=2..2", "--size",
+                 "24x18", "-o", str(out), "-q"]) == 0
+    assert [p.name for p in out.glob("*.png")] == ["sierpinski_c=2.png"]
+
+
+def test_stats_json_of_several_files_is_a_list_whatever_fails(capsys, tmp_path, sierpinski):
+    bad = tmp_path / "bad.pcsg"
+    bad.write_text("sphere ∪\n", encoding="utf-8")
+    code, out, _ = run(capsys, "stats", "--json", str(sierpinski), str(bad))
+    assert code == 1 and isinstance(json.loads(out), list) and len(json.loads(out)) == 1
+    code, out, _ = run(capsys, "stats", "--json", str(sierpinski))
+    assert code == 0 and isinstance(json.loads(out), dict)
+
+
+@pytest.mark.parametrize("value", ["0", "-5"])
+def test_expand_max_chars_below_one_is_a_usage_error(capsys, sierpinski, value):
+    code, _, err = run(capsys, "expand", str(sierpinski), "--max-chars", value)
+    assert code == 2 and f"--max-chars {value}: give 1 or more" in err

@@ -108,8 +108,7 @@ def test_check_warns_of_a_constant_map_that_empties_its_operand(capsys, tmp_path
      [(4, "rule 2 of 'S' is never selected: its selection only gives 1")]),
     ("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → sphere\n2: S → {c = c - 1} S\n3: S → cube\n",
      [(5, "rule 3 of 'S' is never selected: its selection only gives 1 or 2")]),
-    ("{c = 1} S\nS c + 1\n1: S → sphere\n2: S → cube\n",      # c folds: always 2
-     [(3, "rule 1 of 'S' is never selected: its selection only gives 2")]),
+    ("{c = 1} S\nS c + 1\n1: S → sphere\n2: S → cube\n", []),   # --set c=0 picks rule 1
     ("{c = 1} S ∪ {c = 2} S\nS c\n1: S → sphere\n2: S → cube\n", []),
 ])
 def test_a_rule_the_selection_never_names_is_warned_of(text, want):
@@ -179,3 +178,56 @@ def test_check_warns_of_a_derivation_that_meets_its_own_state_again(capsys, tmp_
                    "2: S → move(1, 0, 0) uscale(0.5) S ∪ sphere\n", encoding="utf-8")
     assert main(["check", str(src)]) == 0
     assert "never ends" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("text, first", [
+    # a group that closes on a later line: no note that it is open
+    ("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → sphere\n2: S → {c = c-1} (move(1,0,0) S ∪\n"
+     "   move(-1,0,0) S S ∪\n   move(0,1,0) S)\n", "5:19: unexpected 'S'"),
+    # a directive without its '=' is no transformation
+    ("#sky color (1, 1, 1)\nsphere\n", "1:12: unexpected '('"),
+    # in a calculation block the slip is a separator left out
+    ("{a = 1; c = 1 - not (a) b = 2} sphere\n", "1:25: unexpected 'b'"),
+    # a flip of a group takes no arguments, but is not given any: an operator is missing
+    ("flipxy (sphere ∪ cube) cone\n", "1:24: unexpected 'cone'"),
+    # '=' outside brackets is no comparison
+    ("let seg = sphere\nseg\n", "1:9: unexpected '='"),
+    # ASCII arrow, and a '#' comment after a statement
+    ("S\nS -> sphere\n", "2:1: a rule starts with its number"),
+    ("S\n1: S → sphere # the ball\n", "2:15: '#' does not start a comment"),
+])
+def test_the_slip_hints_hold_back_where_the_slip_is_another(text, first):
+    with pytest.raises(PcsgError) as e:
+        compile_text(text, "t.pcsg")
+    d = e.value.diagnostics[0]
+    assert f"{d.location.line}:{d.location.column}: {d.message}".startswith(first)
+    if first.startswith("5:19"):
+        assert not d.notes
+
+
+def test_an_axiom_slip_leaves_the_module_its_declaration():
+    # `S - cube` with two rules: also "has 2 rules but no selection" before
+    with pytest.raises(PcsgError) as e:
+        compile_text("S - cube\n1: S → sphere\n2: S → cube\n", "t.pcsg")
+    assert [d.message[:36] for d in e.value.diagnostics] == [
+        "'-' is not a CSG operator: the diffe"]
+    with pytest.raises(PcsgError) as e:       # a selection reading a module: not a slip
+        compile_text("S if(c > 0, T, 1)\n1: S → sphere\n2: S → T\n1: T → cube\n", "t.pcsg")
+    assert not any("expected an operator" in d.message for d in e.value.diagnostics)
+
+
+@pytest.mark.parametrize("text", [
+    "{style = 2} S\nS style\n1: S → sphere\n2: S → cube\n",         # --set style=1 picks 1
+    "S\nS 2\n1: S → sphere\n2: S → sphere ∪ move(1,0,0) uscale(0.5) S\n",   # 1 finishes at pixel size
+])
+def test_rules_that_are_picked_otherwise_are_not_called_unselected(text):
+    assert not [w for w in warnings_of(text) if w.code == "unselected"]
+
+
+def test_a_tiled_picture_of_nothing_says_so(capsys, tmp_path):
+    src = tmp_path / "up.pcsg"
+    src.write_text("{c = 3} S\nS if(c > 0, 2, 1)\n1: S → sphere\n"
+                   "2: S → {c = c+1} uscale(0.5) S\n", encoding="utf-8")
+    assert main(["render", str(src), "--size", "40x30", "--tiles", "3",
+                 "-o", str(tmp_path / "a.png")]) == 0
+    assert "warning: no ray met the object" in capsys.readouterr().err

@@ -11,7 +11,7 @@ from pathlib import Path
 from ..language.errors import PcsgError, labelled
 from ..language.files import read_source_text
 from ..output import write_atomic
-from ..render.job import Options, check_options, strict_failure, summary_line
+from ..render.job import Options, check_options, nothing_met, strict_failure, summary_line
 from .cluster import LOCAL, ClusterUnavailable, LocalRunner, connect, require_dask
 from ..resume import Manifest, output_key
 from .tiles import MAX_TILED_PIXELS, Assembler, bands
@@ -146,9 +146,11 @@ class Batch:
             return self._fail(job, outcome.error)
         if a is None or a.image is None:
             return                          # an earlier band failed: nothing is written
-        if not a.add(unit.rows, outcome.pixels, outcome.seconds, outcome.rays, outcome.events):
+        if not a.add(unit.rows, outcome.pixels, outcome.seconds, outcome.rays, outcome.events,
+                     outcome.met):
             return
         notes, errors = self.runner.call(report_unit, unit, a.events)
+        notes += nothing_met(job.label, a.met)
         if errors:
             a.discard()
             return self._fail(job, f"pcsg render: {job.label}: {strict_failure(errors)}")

@@ -8,6 +8,10 @@ from pathlib import Path
 MAX_IMAGES = 10_000
 
 
+class Swept(list):
+    """The values of a range A..B: one value (c=2..2) is still the parameter swept."""
+
+
 def sweep_set(text: str) -> tuple[str, list[float]]:
     """NAME=VALUE, or NAME=A..B / NAME=A..B..STEP (integers, B included)."""
     name, eq, value = text.partition("=")
@@ -34,11 +38,12 @@ def sweep_set(text: str) -> tuple[str, list[float]]:
         # the list alone of a range of 10^8 took seconds, and then as many renders
         raise argparse.ArgumentTypeError(f"--set {text}: {len(values):,} images; a sweep "
                                          f"renders at most {MAX_IMAGES:,}")
-    return name, [float(v) for v in values]
+    return name, Swept(float(v) for v in values)
 
 
 def sweep_outputs(file: str, directory: Path, name: str, values: list[float]) -> list[Path]:
-    """sierpinski_c=03.png: zero-padded so that the names sort by value."""
+    """sierpinski_c=03.png: zero-padded so that the names sort by value (among values of
+    one sign: c=-2 sorts after c=-1)."""
     width = max(len(str(abs(int(v)))) for v in values)
     stem = Path(file).stem
     return [directory / f"{stem}_{name}={'-' if v < 0 else ''}{abs(int(v)):0{width}d}.png"

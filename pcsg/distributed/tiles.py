@@ -32,13 +32,14 @@ class Assembler:
                                             dir=self.out.parent)
         os.close(fd)
         self.image = np.memmap(self.scratch, np.uint8, "w+", shape=(height, width, channels))
-        self.seconds, self.rays, self.events = 0.0, 0, None
+        self.seconds, self.rays, self.events, self.met = 0.0, 0, None, False
 
     def add(self, rows: tuple[int, int], samples: np.ndarray, seconds: float, rays: int,
-            events: np.ndarray | None) -> bool:
-        """Place one band; True when it was the last."""
+            events: np.ndarray | None, met: bool = False) -> bool:
+        """Place one band; True when it was the last. `met`: a ray of it met the object."""
         from ..trace.nodes import add_events
         self.image[rows[0]:rows[1]] = samples
+        self.met = self.met or met
         self.seconds += seconds
         self.rays += rays
         if events is not None:

@@ -17,8 +17,8 @@ import numpy as np
 from ..compiler import compile_text
 from ..language.errors import PcsgError
 from ..render.image import depth_bytes, pixels, png_bytes
-from ..render.job import (Options, RenderFailed, Scene, prepare_scene, render_scene,
-                          strict_failure)
+from ..render.job import (Options, RenderFailed, Scene, nothing_met, prepare_scene,
+                          render_scene, strict_failure)
 
 SCENES_KEPT = 8         # per worker process: enough for a batch's files in turn
 
@@ -39,6 +39,7 @@ class Outcome:
     depth: bytes | None = None          # its .npy, when opts.depth is set
     pixels: np.ndarray | None = None    # a tile: its rows of PNG samples
     events: np.ndarray | None = None    # a tile: runtime events, merged by the client
+    met: bool = False                   # a tile: whether a ray of it met the object
     notes: list[str] = field(default_factory=list)
     error: str | None = None            # what to tell the user; nothing was rendered
 
@@ -74,13 +75,14 @@ def render_unit(unit: Unit) -> Outcome:
         frame, events = render_scene(scene, unit.label, opts, deadline, unit.rows)
         if unit.rows is not None:
             return Outcome(frame.seconds, frame.rays, pixels=pixels(frame, opts.alpha),
-                           events=events)
+                           events=events, met=bool(frame.coverage.any()))
         notes, errors = scene.report(events, opts.strict)
         if errors:
             raise strict_failure(errors)
         depth = None if opts.depth is None else depth_bytes(frame)
         return Outcome(frame.seconds, frame.rays, png=png_bytes(frame, opts.alpha),
-                       depth=depth, notes=scene.notes + notes)
+                       depth=depth, notes=scene.notes + notes
+                       + nothing_met(unit.label, frame.coverage.any()))
     except PcsgError as e:
         return Outcome(error="\n".join(d.format() for d in e.diagnostics))
     except RenderFailed as e:

@@ -2,6 +2,7 @@
 expressions built once and shared, every semantic error collected."""
 from __future__ import annotations
 
+import math
 from collections import defaultdict
 
 from ..language import ast
@@ -177,13 +178,20 @@ class _Builder:
         kept, slipped = [], False
         for d in decls:
             operands = {n for n in names_in(d.selection) if n in PRIMITIVES or n in modules}
+            slip = None
             if (d.name in PRIMITIVES and d.name not in modules) or \
                     (not axioms and not slipped and operands):
-                message, span = axiom_slip(self.source.expanded, d.name, d.name_span[1])
-                self.error(span, message, "syntax")
-                slipped = True
+                slip = axiom_slip(self.source.expanded, d.name, d.name_span[1])
+            if slip is None:
+                kept.append(d)
                 continue
-            kept.append(d)
+            self.error(slip[1], slip[0], "syntax")
+            slipped = True
+            if d.name in modules:
+                # it stays the module's declaration, of a selection that says nothing
+                # more: "has 2 rules but no selection" followed it
+                kept.append(ast.ModuleDecl(d.name, ast.Num(1.0, d.selection.span), d.span,
+                                           d.name_span))
         return kept, slipped
 
     def _check_axiom(self, axioms):
@@ -349,7 +357,9 @@ class _Builder:
         """A warning for a constant colour outside 0..1: paint(255, 0, 0), written as
         bytes, drew a colour 255 times too bright, silently (a negative one, black)."""
         values = [self.exprs.constant(x) for x in exprs]
-        if len(values) != 3 or None in values or all(0 <= v <= 1 for v in values):
+        # not finite: the render empties the instance and reports it as a runtime error
+        if len(values) != 3 or None in values or not all(math.isfinite(v) for v in values) \
+                or all(0 <= v <= 1 for v in values):
             return
         shown = ", ".join(f"{v:g}" for v in values)
         why = ("; above 1 shades brighter than the light allows (from bytes 0..255, "

@@ -221,19 +221,22 @@ def unused_modules(graph: Graph) -> list[Diagnostic]:
 
 
 def unselected_rules(graph: Graph) -> list[Diagnostic]:
-    """Rules a selection can never name: it is a constant (`S 1` with two rules), or an
-    if() whose every branch is one (`if(c > 0, 2, 1)` with a rule 3)."""
+    """Rules a selection as written can never name: a number (`S 1` with two rules), or
+    an if() whose every branch is one (`if(c > 0, 2, 1)` with a rule 3). Not a selection
+    that reads a parameter the axiom sets (`S style`: --set style=1 picks the other),
+    nor the rule that finishes the module's instances at pixel size."""
+    from .terminating import terminating_rules
+    finishing = terminating_rules(graph)
     out = []
-    for s in graph.nodes:
-        if s.kind != SELECT or len(s.children) < 2 or graph.exprs.uses_rand(s.exprs[0]):
+    for i, s in enumerate(graph.nodes):
+        if s.kind != SELECT or len(s.children) < 2:
             continue
-        folded = graph.exprs.constant(s.exprs[0])
-        picks = {folded} if folded is not None else _branches(graph.expr_ast[s.exprs[0]])
+        picks = _branches(graph.expr_ast[s.exprs[0]])
         if picks is None:
             continue
         named = {int(vm.round_half_away(v)) for v in picks if math.isfinite(v)}
         for k in range(1, len(s.children) + 1):
-            if k not in named:
+            if k not in named and k - 1 != finishing.get(i):
                 out.append(_diag(graph, "warning", f"rule {k} of '{s.name}' is never selected: "
                                  f"its selection only gives {_listed(sorted(named))}",
                                  s.edge_spans[k - 1], "unselected"))

@@ -18,20 +18,27 @@ _CALL_BEFORE = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)[ \t]*\((?:[^()\n]*\))?[ \t]
 
 def unknown_call(text: str, pos: int):
     """`rotate(30) sphere`, `translate(1,0,0) ...`, `usclae(0.5) S`: a name written with
-    arguments that takes none, just before `pos` (its '(' open or its call complete)."""
+    arguments that takes none, just before `pos` (its '(' open or its call complete).
+    Not on a directive's line (`#sky color (1,1,1)` lacks its '=')."""
     line_start = text.rfind("\n", 0, pos) + 1
     before = text[line_start:pos]
+    if before.lstrip().startswith("#"):
+        return None
     m = _CALL_BEFORE.search(before)
     if m is None and text.startswith("(", pos):
         m = re.search(r"([A-Za-z_][A-Za-z0-9_]*)[ \t]*$", before)
     if m is None:
         m = re.search(r"([A-Za-z_][A-Za-z0-9_]*)[ \t]*\([^()\n]*$", before)
-    if m is None:
+    if m is None or m.group(1) in ("and", "or", "not"):
         return None
     word = m.group(1)
     span = (line_start + m.start(1), line_start + m.end(1))
     if TRANSFORMS.get(word) == 0 or (word in PRIMITIVES and word not in CALLABLE):
-        return f"'{word}' takes no arguments", span
+        # `flipxy (sphere ∪ cube) cone` is a flip of a group: only numbers are arguments
+        args = text[line_start + m.end(1):].lstrip(" \t")[1:].lstrip(" \t")
+        if re.match(r"[-+.0-9]", args):
+            return f"'{word}' takes no arguments", span
+        return None
     if word in CALLABLE:
         return None
     if word.lower() in OPERATOR_WORDS:
@@ -67,7 +74,7 @@ def unknown_directive(text: str, pos: int):
 
 
 def rule_without_number(text: str, pos: int):
-    """`S → sphere`: a rule is `N: S → ...`."""
+    """`S → sphere`: a rule is `N: S → ...`. `pos` is the arrow's (the '-' of '->')."""
     line_start = text.rfind("\n", 0, pos) + 1
     m = re.match(r"[ \t]*([A-Za-z_][A-Za-z0-9_]*)[ \t]*$", text[line_start:pos])
     if m is None:
@@ -95,12 +102,14 @@ def axiom_slip(text: str, name: str, name_end: int):
     if ch == "(":
         return f"'{name}' takes no arguments", (i, i + 1)
     m = re.match(r"[A-Za-z_][A-Za-z0-9_]*", text[i:])
-    if m:
+    if m and m.group(0) not in FUNCTIONS:
         return (f"expected an operator (∪, ∩ or \\) between '{name}' and '{m.group(0)}'",
                 (i, i + m.end()))
-    return (f"a line that starts '{name}' and goes on so declares a module '{name}' "
-            f"with a selection; an axiom needs an operator (∪, ∩ or \\) after its operand",
-            (i, i + 1))
+    if name in PRIMITIVES:
+        return (f"a line that starts '{name}' and goes on so declares a module '{name}' "
+                f"with a selection; an axiom needs an operator (∪, ∩ or \\) after its "
+                f"operand", (i, i + 1))
+    return None
 
 
 CSG_SLIPS = {"-": "the difference of two operands is written '\\' or '∖'",

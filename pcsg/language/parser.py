@@ -226,6 +226,9 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner) -> Dia
             msg = f"unexpected '{ch}': square brackets are not part of the notation"
         elif said := lookalike(ch):
             msg = said
+        elif ch == "#":
+            msg = ("'#' does not start a comment: comments are // to the end of the line, "
+                   "or /* ... */")
         else:
             msg = f"unexpected character {ch!r}"
         return Diagnostic("error", msg, (pos, pos + 1), source, code="syntax")
@@ -260,9 +263,12 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner) -> Dia
                f"line with the operator instead")
     elif said := (unknown_directive(text, tok.start_pos)
                   or (tok.type == "ARROW" and rule_without_number(text, tok.start_pos))
-                  or unknown_call(text, tok.start_pos)):
+                  # '->' where no arrow may stand lexes as '-' and '>'
+                  or (tok.value == ">" and text[tok.start_pos - 1:tok.start_pos] == "-"
+                      and rule_without_number(text, tok.start_pos - 1))
+                  or (not _in_block(joiner) and unknown_call(text, tok.start_pos))):
         msg, span = said
-    elif tok.type == "EQUAL" and assignment_for_comparison(expected):
+    elif tok.type == "EQUAL" and joiner.open_brackets and assignment_for_comparison(expected):
         msg = assignment_for_comparison(expected)
     elif tok.type == "_NL" and joiner.open_brackets:
         msg = f"unexpected end of line, expected {_expected(expected)}"
@@ -272,10 +278,17 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner) -> Dia
     return Diagnostic("error", msg, span, source, notes=notes, code="syntax")
 
 
+def _in_block(joiner: LineJoiner) -> bool:
+    """Inside a calculation block, where names are parameters and functions: a slip
+    there is a missing separator more often than a transformation."""
+    return any(b.type == "LBRACE" for b in joiner.open_brackets)
+
+
 def _open_before(text: str, joiner: LineJoiner, tok: Token) -> list:
-    """A note at the bracket still open from an earlier line: a ')' left out of a
-    rule stopped the parse at the next statement, with nothing pointing back."""
-    if not joiner.open_brackets:
+    """A note at the bracket still open from an earlier line, where the error starts a
+    line: a ')' left out of a rule stopped the parse at the next statement, with nothing
+    pointing back. (Within a group that closes later, lines join too.)"""
+    if not joiner.open_brackets or not _starts_line(text, tok):
         return []
     b = joiner.open_brackets[-1]
     if "\n" not in text[b.start_pos:tok.start_pos]:

@@ -183,6 +183,13 @@ def render_scene(scene: Scene, label: str, opts: Options, deadline: float | None
     return frame, getattr(target, "events", None)
 
 
+def nothing_met(label, met: bool) -> list[str]:
+    """The note for a picture of sky and nothing else, which rendered without a word: a
+    system whose every instance is empty, or a camera turned away."""
+    return [] if met else [f"{label}: warning: no ray met the object: it is empty or out of "
+                           f"the camera's view (`pcsg stats` counts its primitives)"]
+
+
 def strict_failure(errors: list[str]) -> RenderFailed:
     return RenderFailed("--strict: runtime errors in the grammar, nothing written:\n  "
                         + "\n  ".join(errors))
@@ -228,11 +235,7 @@ def render_file(path: Path, out: Path, opts: Options,
     notes, errors = scene.report(events, opts.strict)
     if errors:
         raise strict_failure(errors)
-    if not frame.coverage.any():
-        # a sky and nothing else, which rendered without a word: a system whose every
-        # instance is empty, or a camera turned away
-        notes.append(f"{path}: warning: no ray met the object: it is empty or out of the "
-                     f"camera's view (`pcsg stats` counts its primitives)")
+    notes += nothing_met(path, frame.coverage.any())
     with clock.phase("PNG", "encode, write" + (", depth" if opts.depth is not None else "")):
         write_png(out, frame, opts.alpha)
         if opts.depth is not None:
