@@ -10,6 +10,17 @@ from pcsg.language.suggest import closest
 from .test_checks import warnings_of
 
 
+def diagnostics_of(text: str) -> list:
+    """The diagnostics of a file that does not compile."""
+    with pytest.raises(PcsgError) as e:
+        compile_text(text, "t.pcsg")
+    return e.value.diagnostics
+
+
+def placed(d) -> str:
+    return f"{d.location.line}:{d.location.column}: {d.message}"
+
+
 @pytest.mark.parametrize("name, known, want", [
     ("spher", ["sphere", "cube"], "sphere"),            # a letter left out
     ("Sphere", ["sphere", "cube"], "sphere"),           # case
@@ -36,19 +47,15 @@ def test_the_closest_known_name(name, known, want):
     ("move(iff(1, 1, 0), 0, 0) sphere\n", "unknown function 'iff'; did you mean 'if'?"),
 ])
 def test_a_misspelt_name_gets_the_name_it_misspells(text, message):
-    with pytest.raises(PcsgError) as e:
-        compile_text(text, "t.pcsg")
-    assert any(d.message.startswith(message) for d in e.value.diagnostics), \
-        [d.message for d in e.value.diagnostics]
+    found = diagnostics_of(text)
+    assert any(d.message.startswith(message) for d in found), [d.message for d in found]
 
 
 def test_a_bracket_left_open_on_an_earlier_line_is_pointed_at():
     # the parse stops at the next statement, lines below the bracket
     text = ("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → sphere\n2: S → {c = c-1} (move(1,0,0) S ∪\n"
             "  uscale(0.5) S\n\n1: T → cube\n")
-    with pytest.raises(PcsgError) as e:
-        compile_text(text, "t.pcsg")
-    d = e.value.diagnostics[0]
+    d = diagnostics_of(text)[0]
     assert d.location.line == 7
     (span, note), = d.notes
     assert note == "the '(' opened here is not closed" and text[span[0]] == "("
@@ -57,9 +64,7 @@ def test_a_bracket_left_open_on_an_earlier_line_is_pointed_at():
 
 def test_no_axiom_comes_after_the_error_that_took_it():
     # '#camera fov=' joins the next line: the axiom became fov's value
-    with pytest.raises(PcsgError) as e:
-        compile_text("#camera fov=\nsphere\n", "t.pcsg")
-    assert [d.message for d in e.value.diagnostics] == [
+    assert [d.message for d in diagnostics_of("#camera fov=\nsphere\n")] == [
         "'sphere' is a primitive, not a number",
         "no axiom: a file needs one CSG expression to start from, e.g. '{c = 6} S'"]
 
@@ -150,10 +155,7 @@ def test_a_value_that_is_not_finite_is_said_as_nan_or_inf(capsys, tmp_path):
      "2:5: unexpected character '?': the notation has no 'c ? a : b'; write if(c, a, b)"),
 ])
 def test_a_lookalike_character_is_named_with_what_to_write(text, message):
-    with pytest.raises(PcsgError) as e:
-        compile_text(text, "t.pcsg")
-    d = e.value.diagnostics[0]
-    assert f"{d.location.line}:{d.location.column}: {d.message}" == message
+    assert placed(diagnostics_of(text)[0]) == message
 
 
 def test_a_chained_comparison_is_warned_of():
@@ -197,23 +199,19 @@ def test_check_warns_of_a_derivation_that_meets_its_own_state_again(capsys, tmp_
     ("S\n1: S → sphere # the ball\n", "2:15: '#' does not start a comment"),
 ])
 def test_the_slip_hints_hold_back_where_the_slip_is_another(text, first):
-    with pytest.raises(PcsgError) as e:
-        compile_text(text, "t.pcsg")
-    d = e.value.diagnostics[0]
-    assert f"{d.location.line}:{d.location.column}: {d.message}".startswith(first)
+    d = diagnostics_of(text)[0]
+    assert placed(d).startswith(first)
     if first.startswith("5:19"):
         assert not d.notes
 
 
 def test_an_axiom_slip_leaves_the_module_its_declaration():
     # `S - cube` with two rules: also "has 2 rules but no selection" before
-    with pytest.raises(PcsgError) as e:
-        compile_text("S - cube\n1: S → sphere\n2: S → cube\n", "t.pcsg")
-    assert [d.message[:36] for d in e.value.diagnostics] == [
-        "'-' is not a CSG operator: the diffe"]
-    with pytest.raises(PcsgError) as e:       # a selection reading a module: not a slip
-        compile_text("S if(c > 0, T, 1)\n1: S → sphere\n2: S → T\n1: T → cube\n", "t.pcsg")
-    assert not any("expected an operator" in d.message for d in e.value.diagnostics)
+    assert [d.message[:36] for d in diagnostics_of("S - cube\n1: S → sphere\n2: S → cube\n")] \
+        == ["'-' is not a CSG operator: the diffe"]
+    # a selection reading a module: not a slip
+    found = diagnostics_of("S if(c > 0, T, 1)\n1: S → sphere\n2: S → T\n1: T → cube\n")
+    assert not any("expected an operator" in d.message for d in found)
 
 
 @pytest.mark.parametrize("text", [
