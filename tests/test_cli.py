@@ -582,3 +582,14 @@ def test_stats_json_of_several_files_is_a_list_whatever_fails(capsys, tmp_path, 
 def test_expand_max_chars_below_one_is_a_usage_error(capsys, sierpinski, value):
     code, _, err = run(capsys, "expand", str(sierpinski), "--max-chars", value)
     assert code == 2 and f"--max-chars {value}: give 1 or more" in err
+
+
+def test_expand_says_pixels_were_taken_as_infinite_and_stats_lists_no_pixels(capsys, tmp_path):
+    forest = str(GRAMMARS / "pixel_forest.pcsg")
+    code, _, err = run(capsys, "expand", forest, "-n", "1", "-o", str(tmp_path / "w.pcsg"))
+    assert code == 0 and "selections that read `pixels` took it as +inf" in err
+    code, out, _ = run(capsys, "stats", "--json", forest)
+    assert code == 0 and "pixels" not in json.loads(out)["parameters"]
+    code, _, err = run(capsys, "expand", str(GRAMMARS / "sierpinski.pcsg"), "-n", "1",
+                       "-o", str(tmp_path / "s.pcsg"))
+    assert code == 0 and "pixels" not in err

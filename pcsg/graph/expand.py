@@ -3,6 +3,7 @@ printed as PCSG text. Modules not yet rewritten stay as names, preceded by a
 calculation block that gives them their parameter values."""
 from __future__ import annotations
 
+from ..language.names import PIXELS
 from .derive import Deriver, State, format_value
 from .model import CALC, DIFFERENCE, INTERSECTION, MATERIAL, OPERATOR_SYMBOLS, PAINT, PRIMITIVE, \
     SELECT, TRANSFORM, UNION, Graph
@@ -72,6 +73,9 @@ class _Printer:
         self.out(parts, f"{{{values}}} {node.name}" if values else node.name)
 
 
+PIXELS_TAKEN = ("selections that read `pixels` took it as +inf (there is no camera here), so "
+                "the word is derived as if every instance were large, and a render of it "
+                "keeps that detail far away too")
 REDRAWN = ("the written word's modules draw other numbers from rand() than the file's: rand() "
            "depends on the path from the axiom, which the word starts anew, so below the "
            "modules it leaves the primitives differ (rand(seed) draws the same)")
@@ -120,6 +124,8 @@ def expand_file(graph: Graph, steps: int, max_chars: int = 50_000_000,
     axiom, p = _expand(graph, steps, max_chars)
     if notes is not None and p.modules_left and redraws(graph):
         notes.append(REDRAWN)
+    if notes is not None and steps > 0 and PIXELS in graph.params:
+        notes.append(PIXELS_TAKEN)
     if p.modules_left == 0:
         # The rules stay in the file and read parameters that only the old axiom assigned:
         # keep those assignments, or the file would read undefined names.
