@@ -1,6 +1,7 @@
 """The pcsg command line: check, expand, stats, graph, --set, exit codes."""
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -120,6 +121,16 @@ def test_graph_dot(capsys, sierpinski):
     assert 'shape=diamond' in out and 'label="S\\nif(c > 0, 2, 1)"' in out
     assert out.count("style=dashed") == 4            # the four cycles back to S
     assert 'label="c = c - 1"' in out
+
+
+def test_graph_marks_the_operand_a_difference_takes_away(capsys, tmp_path):
+    src = tmp_path / "d.pcsg"
+    src.write_text("sphere \\ cube\n", encoding="utf-8")
+    code, out, _ = run(capsys, "graph", str(src))
+    node = {label: n for n, label in re.findall(r'(n\d+) \[label="(\w+|\\\\)"', out)}
+    minus = node["\\\\"]                      # the \ node, its label escaped for dot
+    assert code == 0 and f'{minus} -> {node["cube"]} [label="−"];' in out
+    assert f'{minus} -> {node["sphere"]};' in out
 
 
 def test_unreadable_inputs(capsys, tmp_path):

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from ..language.unparse import unparse_arith
 from .checks import reachable
-from .model import CALC, MATERIAL, OPERATOR_SYMBOLS, PAINT, PRIMITIVE, SELECT, TRANSFORM, Graph
+from .model import (CALC, DIFFERENCE, MATERIAL, OPERATOR_SYMBOLS, PAINT, PRIMITIVE, SELECT,
+                    TRANSFORM, Graph)
 
 _STYLE = {
     SELECT: 'shape=diamond, style=filled, fillcolor="#f6d36b"',
@@ -81,6 +82,8 @@ def to_dot(graph: Graph) -> str:
             attrs = []
             if n.kind == SELECT:
                 attrs.append(f'label="{k + 1}"')
+            elif n.kind == DIFFERENCE and k > 0:
+                attrs.append('label="−"')      # which operand is taken away
             if (i, k) in back:
                 attrs.append('style=dashed, constraint=false, color="#a04040"')
             lines.append(f"  n{i} -> n{c}" + (f" [{', '.join(attrs)}]" if attrs else "") + ";")
