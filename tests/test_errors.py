@@ -89,3 +89,11 @@ def test_all_errors_of_a_file_are_reported_in_order():
     e = pytest.raises(PcsgError, compile_text, text, "x.pcsg").value
     where = [(d.location.line, d.location.column) for d in e.diagnostics]
     assert where == sorted(where) and len(where) == 3
+
+
+def test_the_caret_stands_under_its_token_after_wide_characters():
+    # 日本語 takes six columns of a terminal: the caret stood three left of 'cubee'
+    e = pytest.raises(PcsgError, compile_text, "/* 日本語 */ sphere ∪ cubee\n", "t.pcsg").value
+    line, caret = e.diagnostics[0].format().splitlines()[1:3]
+    wide = line.index("/*") + len("/* 日本語 */ sphere ∪ ") + 3     # three cells more
+    assert caret.index("^") == wide and caret.count("^") == len("cubee")

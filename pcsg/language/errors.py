@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import unicodedata
 from dataclasses import dataclass, field
 
 from .source import Source
@@ -81,7 +82,16 @@ def _excerpt(src: Source, span, original=None) -> list[str]:
         lo = max(0, col - 60)
         text, col = text[lo:lo + 160], col - lo
     gutter = f"{start.line:>5} | "
-    return [gutter + text, " " * (len(gutter) - 2) + "| " + " " * (col - 1) + "^" * max(1, width)]
+    # in a terminal's columns: a CJK character takes two, and the caret stood left of its
+    # token after one (column numbers stay characters)
+    lead = _cells(text[:col - 1])
+    run = _cells(text[col - 1:col - 1 + width]) if width > 0 else 1
+    return [gutter + text, " " * (len(gutter) - 2) + "| " + " " * lead + "^" * max(1, run)]
+
+
+def _cells(text: str) -> int:
+    """The terminal columns `text` takes: two for wide and full-width characters."""
+    return sum(2 if unicodedata.east_asian_width(ch) in "WF" else 1 for ch in text)
 
 
 class PcsgError(Exception):
