@@ -97,3 +97,17 @@ def test_the_caret_stands_under_its_token_after_wide_characters():
     line, caret = e.diagnostics[0].format().splitlines()[1:3]
     wide = line.index("/*") + len("/* 日本語 */ sphere ∪ ") + 3     # three cells more
     assert caret.index("^") == wide and caret.count("^") == len("cubee")
+
+
+def test_a_file_with_old_mac_line_ends_has_its_lines(tmp_path):
+    # a lone CR ended no line: the file was one line, its errors at 1:N
+    src = tmp_path / "cr.pcsg"
+    src.write_bytes("{c = 1} S\rS if(c > 0, 2, 1)\r1: S → sphere\r2: S → {c = c-1} cubee\r"
+                    .encode("utf-8"))
+    e = pytest.raises(PcsgError, compile_file, src).value
+    loc = e.diagnostics[0].location
+    assert (loc.line, loc.column) == (4, 18) and "cubee" in e.diagnostics[0].message
+    crlf = tmp_path / "crlf.pcsg"                  # and CRLF stays as it was
+    crlf.write_bytes(src.read_bytes().replace(b"\r", b"\r\n"))
+    loc = pytest.raises(PcsgError, compile_file, crlf).value.diagnostics[0].location
+    assert (loc.line, loc.column) == (4, 18)

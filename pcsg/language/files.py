@@ -37,9 +37,12 @@ def decode(data: bytes, name: str) -> str:
         raise PcsgError([Diagnostic("error", "this is a binary file, not PCSG text", None,
                                     Source(name, ""), code="encoding")])
     try:
-        return data.decode("utf-8-sig")
+        text = data.decode("utf-8-sig")
     except UnicodeDecodeError as e:
         text = data[:e.start].decode("utf-8", "replace")
         src = Source(name, text)
         raise PcsgError([Diagnostic("error", f"not UTF-8 text (byte 0x{data[e.start]:02x})", None,
                                     src, code="encoding", original=len(text))]) from None
+    # old Mac line ends, a lone CR: one line of the whole file, every error at 1:N. One
+    # character for one, so every offset stays
+    return text.replace("\r\n", "\0").replace("\r", "\n").replace("\0", "\r\n")
