@@ -95,7 +95,13 @@ class _Expander:
         line_end = text.find("\n", directive_end)
         line_end = len(text) if line_end < 0 else line_end
         if m is None or m.end() > line_end:
-            self.error(start, "#define needs a name")
+            # at what stands where the name goes (`#define 3 sphere`), else at #define
+            rest = text[directive_end:line_end]
+            what = directive_end + len(rest) - len(rest.lstrip())
+            found = rest.strip()
+            self.error(what if found else start, "#define needs a name" + (
+                f", and '{found.split()[0]}' is none (a name starts with a letter or '_')"
+                if found else ""))
             return self._blank(start, line_end)
         name, after = m.group(1), m.end()
         rest = text[after:line_end]
