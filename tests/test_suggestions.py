@@ -229,3 +229,12 @@ def test_a_tiled_picture_of_nothing_says_so(capsys, tmp_path):
     assert main(["render", str(src), "--size", "40x30", "--tiles", "3",
                  "-o", str(tmp_path / "a.png")]) == 0
     assert "warning: no ray met the object" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("text, message", [
+    ("X\n#define X sphere\n", "1:1: undefined name 'X' (a macro defined below, at 2:9: a macro "
+                              "stands for its text only after its #define)"),
+    ("{c = K} sphere\n#define K 2\n", "1:6: undefined name 'K' (a macro defined below, at 2:9"),
+])
+def test_a_macro_read_before_its_define_is_said_to_be_below(text, message):
+    assert placed(diagnostics_of(text)[0]).startswith(message)

@@ -92,7 +92,8 @@ class _Builder:
             self._check_axiom(axioms)
         self.params = self._collect_params(stmts)
         self._apply_overrides(axioms)
-        self.exprs = ExprTable(self.params, self.error, self._initial_constants(axioms, stmts))
+        self.exprs = ExprTable(self.params, self.error, self._initial_constants(axioms, stmts),
+                               self.source.defined_below)
         self.material_names: list[str] = []
         self.scene = build_scene([s for s in stmts if isinstance(s, ast.Directive)],
                                  self._constant, self.error)
@@ -385,6 +386,8 @@ class _Builder:
             hint = did_you_mean(e.name, [*self.modules, *self.named, *PRIMITIVES])
             what = f"undefined name '{e.name}'{hint} (not a module, named expression or " \
                    f"primitive: {', '.join(PRIMITIVES)})"
+            if not hint and (below := self.source.defined_below(e.name)):
+                what = f"undefined name '{e.name}'{below}"
         self.error(e.span, what, "undefined")
         return self.primitive_node_for_errors()
 

@@ -68,9 +68,11 @@ class ExprTable:
     to nan so that compilation goes on and collects them all.
     """
 
-    def __init__(self, params: dict[str, int], report, constants: dict[str, float] | None = None):
+    def __init__(self, params: dict[str, int], report, constants: dict[str, float] | None = None,
+                 unknown=lambda name: ""):
         self.params = params
         self.report = report
+        self.unknown = unknown          # what else to say of an undefined name
         # parameters known to hold one value everywhere (the caller may still add to them)
         self.constants = {} if constants is None else constants
         self._code: list[tuple[int, int]] = []
@@ -175,7 +177,8 @@ class ExprTable:
                 self.report(n.span, f"'{n.name}' is {RESERVED[n.name]}, not a number",
                             'undefined-name')
                 return _NAN
-            hint = did_you_mean(n.name, [*self.params, *self.constants, 'pi'])
+            hint = (did_you_mean(n.name, [*self.params, *self.constants, 'pi'])
+                    or self.unknown(n.name))
             self.report(n.span, f"undefined name '{n.name}'{hint}", 'undefined-name')
             return _NAN
         if isinstance(n, ast.Unary):

@@ -168,7 +168,8 @@ def preprocess(text: str, file: str) -> tuple[Source, list[Diagnostic]]:
         ex.errors.append(Diagnostic(
             "error", f"macros expand to more than {MAX_USES:,} uses or {MAX_EXPANSION:,} "
                      f"characters; nested macros multiply", None, source, code="macro"))
-    expanded = Source(file, text, "".join(ex.out), ex.pieces)
+    expanded = Source(file, text, "".join(ex.out), ex.pieces,
+                      {name: m.defined for name, m in ex.macros.items()})
     for d in ex.errors:
         d.source = expanded
     return expanded, ex.errors

@@ -34,6 +34,17 @@ class Source:
     text: str                       # the original file
     expanded: str = ""              # after #define
     pieces: list[Piece] = field(default_factory=list)
+    macros: dict[str, int] = field(default_factory=dict)    # name -> where it is defined
+
+    def defined_below(self, name: str) -> str:
+        """', a macro defined below, at L:C, ...' where `name`, undefined where it is
+        read, is a macro the file defines after that read; else ''."""
+        at = self.macros.get(name)
+        if at is None:
+            return ""
+        loc = self.location(at)
+        return (f" (a macro defined below, at {loc.line}:{loc.column}: a macro stands for its "
+                f"text only after its #define)")
 
     def __post_init__(self):
         self._line_starts = [0] + [i + 1 for i, ch in enumerate(self.text) if ch == "\n"]
