@@ -141,10 +141,17 @@ class _Walker:
         self.volumes: dict = {}
         self.matrices: dict = {}   # T-node memo key -> its matrix, kept across rounds
         self.faults: set = set()   # (kind, T-node) of the maps that emptied an instance
+        # the depth bound below which the tracer finishes an instance with its
+        # terminating rule (terminating.py), where the derivation reaches it: those are
+        # bounded as the tracer draws them, keyed by their level down to it
+        self.cut: int | None = None
+        self.finishing = terminating_rules(graph)
         self.reset()
 
     def reset(self):
         self.memo: dict = {}
+        self.below: dict = {}      # memo key -> the derivation levels under it
+        self.deepest = 0           # the deepest S-node level the round reached
         self.hits = 0
         self.active: set = set()
         self.reentered: set = set()
@@ -157,9 +164,12 @@ class _Walker:
             self.record(i, b)
             return b
         key = self.key(i, state, h)
+        if self.cut is not None:
+            key = (key, min(level, self.cut))
         hit = self.memo.get(key)
         if hit is not None:
             self.hits += 1
+            self.deepest = max(self.deepest, level + self.below[key])
             return hit
         if key in self.active:
             self.reentered.add(key)
@@ -168,9 +178,13 @@ class _Walker:
                 (len(self.memo) >= self.probe and self.hits < len(self.memo) // 50):
             raise TooManyStates
         self.active.add(key)
+        outer, self.deepest = self.deepest, level
         if n.kind == SELECT:
             b = self.nothing
-            for r in self.rules(i, state, h):
+            rules = self.rules(i, state, h)
+            if self.cut is not None and level >= self.cut and self.finishing.get(i, -1) >= 0:
+                rules = [self.finishing[i]]
+            for r in rules:
                 b = self.unite(b, self.box(n.children[r], state, self.d.edge(h, i, r),
                                            level + 1))
             b = self.volumes.get(i, b)
@@ -200,6 +214,8 @@ class _Walker:
             b = self.box(n.children[0], state, h, level)
         self.active.discard(key)
         self.memo[key] = b
+        self.below[key] = self.deepest - level
+        self.deepest = max(outer, self.deepest)
         self.record(i, b)
         return b
 
@@ -249,7 +265,7 @@ class _Walker:
         return sorted(found)
 
 
-def _memoised(graph: Graph, faults: set | None = None
+def _memoised(graph: Graph, faults: set | None = None, max_depth: int | None = None
               ) -> tuple[np.ndarray, dict, StateTable | None]:
     """Exact boxes by the memoised walk, iterated to a fixed point over re-entered
     states; TooManyStates when memoising cannot help. A re-entered state that stays
@@ -272,13 +288,29 @@ def _memoised(graph: Graph, faults: set | None = None
     for _ in range(MAX_ROUNDS):
         new = round_()
         if not new:
-            return w.boxes, {}, state_table(graph, w.memo, w.key, terminating_rules(graph))
+            if max_depth is not None and w.deepest >= max_depth:
+                return _cut_boxes(graph, w.faults, max_depth), {}, None
+            return w.boxes, {}, state_table(graph, w.memo, w.key, w.finishing)
         if all(k in w.estimate and _same(as_box(new[k]), as_box(w.estimate[k])) for k in new):
             if any(_empty(as_box(v)) for v in new.values()):
                 return (*_attractor_boxes(w, round_), None)
             return w.boxes, {k: w.estimate[k] for k in new}, None
         w.estimate.update(new)
     raise TooManyStates
+
+
+def _cut_boxes(graph: Graph, faults: set, depth: int) -> np.ndarray:
+    """The boxes of a finite derivation deeper than the tracer's depth bound, which
+    finishes the instances at it with their terminating rule: a 1x1x1 cube for a run of
+    halvings whose full derivation is a line, which the full derivation's boxes left out
+    (rays missed it). Keyed by level down to the bound, so no boxes by state for the
+    tracer."""
+    w = _Walker(graph)
+    w.faults, w.cut = faults, depth
+    w.reset()
+    state, h = w.d.initial()
+    w.box(graph.root, state, h, 0)
+    return w.boxes
 
 
 def _attractor_boxes(w: _Walker, round_) -> tuple[np.ndarray, dict]:
@@ -440,7 +472,7 @@ def bound(graph: Graph, max_depth: int = 64, budget: int = BOUNDS_BUDGET, poll=N
     faults: set = set()
     try:
         with recursion_limit(20 * MAX_LEVELS):
-            boxes, hulls, states = _memoised(graph, faults)
+            boxes, hulls, states = _memoised(graph, faults, max_depth)
         problems += fault_warnings(graph, graph, [(k, 0, f) for k, f in sorted(faults)],
                                    counted=False)
         return boxes, "memoised", problems, states, hulls, max_depth, graph
