@@ -26,14 +26,24 @@ from .trace.walk import R_HIT, R_MAT, R_N, R_PAINT, R_T, R_WIDTH
 BATCH = 1 << 16             # rays per kernel call: bounds the per-chunk event arrays
 
 
-@dataclass
+@dataclass(eq=False)      # of arrays: == was "the truth value of an array is ambiguous"
 class Hits:
+    """What `Traced.trace` found for each ray (views of one array)."""
     t: np.ndarray               # (N,) distance along the given direction; inf where missed
     normal: np.ndarray          # (N, 3) unit world normal (zeros where missed)
     paint: np.ndarray           # (N, 3) paint(r,g,b) in force at the hit; nan if none
     material: np.ndarray        # (N,) index into Traced.material_names, -1 if none
     hit: np.ndarray             # (N,) bool
     events: np.ndarray = field(repr=False, default=None)   # trace.nodes.no_events layout
+
+
+def _rays(values, what: str) -> np.ndarray:
+    """(N, 3) float64, C-contiguous: a (3, 2) array was read as two rays of garbage."""
+    a = np.asarray(values)
+    if a.dtype.kind not in "biuf" or not (a.shape == (3,) or (a.ndim == 2 and a.shape[1] == 3)):
+        raise ValueError(f"{what} must be real numbers of shape (N, 3), or (3,) for one ray; "
+                         f"got {a.dtype} {a.shape}")
+    return np.ascontiguousarray(a.reshape(-1, 3), dtype=np.float64)
 
 
 def _pad(boxes: np.ndarray) -> np.ndarray:
@@ -107,12 +117,15 @@ class Traced:
 
     def trace(self, origins, directions, tmin: float = 1e-9, tmax: float = np.inf,
               any_hit: bool = False, lod: float = 0.0, packets: bool = True) -> Hits:
-        """Trace rays o + t d. `lod` is the pixel footprint in radians (0: no level of
-        detail); `any_hit` stops at the first hit found (shadow rays). With `packets`,
-        neighbouring rays walk the graph together (trace/packet.py): the same hits, but
-        on a surface that two primitives share exactly, either may show."""
-        o = np.ascontiguousarray(np.asarray(origins, dtype=np.float64).reshape(-1, 3))
-        d = np.ascontiguousarray(np.asarray(directions, dtype=np.float64).reshape(-1, 3))
+        """Trace rays o + t d: origins and directions (N, 3), or (3,) for one ray, any
+        real dtype. The nearest hit with tmin < t < tmax (t in units of each direction's
+        length); a ray that starts inside a solid of an ∩ or \\ reports where it leaves
+        it (under a union, the nearest surface of any operand). `lod` is the pixel
+        footprint in radians (0: no level of detail); `any_hit` stops at the first hit
+        found (shadow rays). With `packets`, neighbouring rays walk the graph together
+        (trace/packet.py): the same hits, but on a surface that two primitives share
+        exactly, either may show. Misses have t = inf and hit False."""
+        o, d = _rays(origins, "origins"), _rays(directions, "directions")
         if o.shape != d.shape:
             raise ValueError(f"origins {o.shape} and directions {d.shape} differ")
         n = len(o)
@@ -198,5 +211,6 @@ def loads(text: str, file: str = "<string>", max_depth: int = MAX_DEPTH,
           stack_depth: int | None = None, interval_rows: int = INTERVAL_ROWS,
           max_instances: int = MAX_INSTANCES, bounds_budget: int = BOUNDS_BUDGET,
           **overrides: float) -> Traced:
+    """`load` for PCSG text; `file` names it in error messages."""
     return Traced(compile_text(text, file, overrides), max_depth, stack_depth, interval_rows,
                   max_instances, bounds_budget)

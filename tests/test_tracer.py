@@ -375,3 +375,25 @@ def test_padding_widens_every_finite_side_by_its_hair():
     assert np.all(whole[:, :3][finite[:, :3]] < boxes[:, :3][finite[:, :3]])
     assert np.all(whole[:, 3:][finite[:, 3:]] > boxes[:, 3:][finite[:, 3:]])
     assert np.array_equal(whole[~finite], boxes[~finite])
+
+
+def test_a_ray_from_inside_a_union_stops_at_the_inner_surface_unless_intersected():
+    # the documented limit (README, "How the tracer works"): under a union the nearest
+    # surface of any operand; inside an ∩ the solid's exit, as the reference's
+    import pcsg
+    o, d = [[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]]
+    assert pcsg.loads("sphere ∪ move(0.5, 0, 0) sphere").trace(o, d).t[0] == 1.0
+    whole = pcsg.loads("(sphere ∪ move(0.5, 0, 0) sphere) ∩ uscale(10) cube").trace(o, d)
+    assert whole.t[0] == pytest.approx(1.5)
+
+
+@pytest.mark.parametrize("shape", [(3, 2), (2, 3, 3), (1, 2), (4,)])
+def test_rays_of_another_shape_are_refused(shape):
+    # a (3, 2) array was read as two rays of garbage
+    import pcsg
+    obj = pcsg.loads("sphere")
+    with pytest.raises(ValueError, match=r"must be real numbers of shape \(N, 3\)"):
+        obj.trace(np.zeros(shape), np.ones(shape))
+    assert obj.trace([0, 0, 5], [0, 0, -1]).t[0] == 4.0          # (3,): one ray
+    hits = obj.trace([0, 0, 5], [0, 0, -1])
+    assert hits == hits and hits != obj.trace([0, 0, 5], [0, 0, -1])   # identity, not arrays
