@@ -428,7 +428,10 @@ def _header(camera: Camera, lighting: Lighting, size, graph) -> str:
         area = ""
         if lt.radius > 0 and lighting.shadow_samples > 1:
             s = 2 * lt.radius
-            area = f" area_light <{_num(s)}, 0, 0>, <0, {_num(s)}, 0>, 3, 3 circular orient"
+            # about as many rays as --shadow-samples: a k x k grid, k at least 2 (it
+            # was 3 x 3 whatever the option)
+            k = max(2, round(math.sqrt(lighting.shadow_samples)))
+            area = f" area_light <{_num(s)}, 0, 0>, <0, {_num(s)}, 0>, {k}, {k} circular orient"
         shadows = "" if lighting.shadows else " shadowless"
         lines.append(f"light_source {{ {_vec(lt.position)} color rgb {_vec(lt.color)}{area}"
                      f"{shadows} }}")

@@ -194,3 +194,12 @@ def test_glass_reflects_by_fresnel_in_povray_too(tmp_path):
     text = export(tmp_path, src).read_text()
     assert "reflection { 0.1, 0.9 fresnel on } conserve_energy" in text
     assert "interior { ior 1.5 }" in text and "reflection 0.7 }" in text
+
+
+@pytest.mark.parametrize("samples, grid", [(4, 2), (8, 3), (16, 4), (64, 8)])
+def test_an_area_light_has_about_as_many_rays_as_shadow_samples(tmp_path, samples, grid):
+    # it was a 3 x 3 grid whatever --shadow-samples said
+    src = tmp_path / "l.pcsg"
+    src.write_text("#light at=(3, -2, 8) radius=0.5\nsphere\n", encoding="utf-8")
+    text = export(tmp_path, src, "--shadow-samples", str(samples)).read_text()
+    assert f", {grid}, {grid} circular orient" in text
