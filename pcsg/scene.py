@@ -71,10 +71,11 @@ def _known(words) -> str:
     return ", ".join(sorted(words))
 
 
-def build_scene(directives: list[ast.Directive], constants, report) -> Scene:
+def build_scene(directives: list[ast.Directive], constants, report,
+                warn=lambda span, message, code: None) -> Scene:
     """Evaluate directives; `constants(node)` compiles a parameter-free expression to a float
     (reporting its own errors, and then None); `report(span, message, code)` reports the
-    rest."""
+    rest, and `warn` what is legal but most likely not meant."""
     scene = Scene()
     seen: dict[str, ast.Directive] = {}
     for d in directives:
@@ -139,5 +140,11 @@ def build_scene(directives: list[ast.Directive], constants, report) -> Scene:
         elif d.name in scene.materials:
             report(d.kind_span, f"material '{d.name}' is defined twice", "directive")
         else:
-            scene.materials[d.name] = {**MATERIAL_DEFAULTS, **values}
+            scene.materials[d.name] = m = {**MATERIAL_DEFAULTS, **values}
+            if m["reflect"] + m["transmit"] > 1:
+                # shade.fresnel_split: reflection takes its share first
+                warn(d.kind_span, f"material '{d.name}': reflect + transmit is "
+                                  f"{m['reflect'] + m['transmit']:g}, over 1: it reflects "
+                                  f"{m['reflect']:g} and more, and lets through what is left",
+                     "material")
     return scene

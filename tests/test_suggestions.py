@@ -238,3 +238,11 @@ def test_a_tiled_picture_of_nothing_says_so(capsys, tmp_path):
 ])
 def test_a_macro_read_before_its_define_is_said_to_be_below(text, message):
     assert placed(diagnostics_of(text)[0]).startswith(message)
+
+
+def test_a_material_that_reflects_and_lets_through_more_than_comes_is_warned_of():
+    w = warnings_of("#material m reflect=0.6 transmit=0.8\nmaterial(m) sphere\n")
+    assert [(x.code, x.message) for x in w] == [
+        ("material", "material 'm': reflect + transmit is 1.4, over 1: it reflects 0.6 and "
+                     "more, and lets through what is left")]
+    assert not warnings_of("#material m reflect=0.2 transmit=0.8\nmaterial(m) sphere\n")

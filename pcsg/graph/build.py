@@ -96,7 +96,7 @@ class _Builder:
                                self.source.defined_below)
         self.material_names: list[str] = []
         self.scene = build_scene([s for s in stmts if isinstance(s, ast.Directive)],
-                                 self._constant, self.error)
+                                 self._constant, self.error, self.warn)
 
         # S-nodes first, so that rule bodies can point at them before they are filled.
         self.modules = {}
