@@ -13,6 +13,7 @@ from .suggest import closest
 # what may be written NAME( ... ): transformations, paint, material, fractals, functions
 CALLABLE = (*TRANSFORMS, "paint", "material", "mandelbulb", "julia", *FUNCTIONS)
 OPERATOR_WORDS = {"union": "∪", "intersection": "∩", "difference": "\\"}
+HASH_COMMENT = "'#' does not start a comment: comments are // to the end of the line, or /* ... */"
 _CALL_BEFORE = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)[ \t]*\((?:[^()\n]*\))?[ \t]*$")
 
 
@@ -61,8 +62,7 @@ def unknown_directive(text: str, pos: int):
     word = m.group(1)
     start = line_start + m.start(0) + (len(m.group(0)) - len(m.group(0).lstrip()))
     if word is None:
-        return ("'#' does not start a comment: comments are // to the end of the line, "
-                "or /* ... */", (start, start + 1))
+        return HASH_COMMENT, (start, start + 1)
     from ..scene import DIRECTIVES         # not at import: scene imports the graph's model
     directives = (*DIRECTIVES, "define")
     if word in directives:

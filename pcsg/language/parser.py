@@ -12,8 +12,8 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 from . import ast
 from .errors import Diagnostic, PcsgError
 from .files import read_source_text
-from .mistakes import (assignment_for_comparison, lookalike, rule_without_number, unknown_call,
-                       unknown_directive)
+from .mistakes import (HASH_COMMENT, assignment_for_comparison, lookalike, rule_without_number,
+                       unknown_call, unknown_directive)
 from .names import RESERVED
 from .postlex import LineJoiner
 from .preprocess import preprocess
@@ -227,8 +227,7 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner) -> Dia
         elif said := lookalike(ch):
             msg = said
         elif ch == "#":
-            msg = ("'#' does not start a comment: comments are // to the end of the line, "
-                   "or /* ... */")
+            msg = HASH_COMMENT
         else:
             msg = f"unexpected character {ch!r}"
         return Diagnostic("error", msg, (pos, pos + 1), source, code="syntax")
