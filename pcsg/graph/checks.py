@@ -226,7 +226,7 @@ def unselected_rules(graph: Graph) -> list[Diagnostic]:
     that reads a parameter the axiom sets (`S style`: --set style=1 picks the other),
     nor the rule that finishes the module's instances at pixel size."""
     from .terminating import terminating_rules
-    finishing = terminating_rules(graph)
+    finishing = None            # worked out where a selection is written as numbers only
     out = []
     for i, s in enumerate(graph.nodes):
         if s.kind != SELECT or len(s.children) < 2:
@@ -234,6 +234,7 @@ def unselected_rules(graph: Graph) -> list[Diagnostic]:
         picks = _branches(graph.expr_ast[s.exprs[0]])
         if picks is None:
             continue
+        finishing = terminating_rules(graph) if finishing is None else finishing
         named = {int(vm.round_half_away(v)) for v in picks if math.isfinite(v)}
         for k in range(1, len(s.children) + 1):
             if k not in named and k - 1 != finishing.get(i):
