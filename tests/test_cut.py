@@ -51,11 +51,15 @@ def _cut_pair(graph, depth):
 # its boxes left out (the memoised bounds ignored the depth bound; rays missed them)
 HALVINGS = ("{c = 40} S\nS if(c > 0, 2, 1)\n1: S → cube\n"
             "2: S → {c = c-1} (move(0.5,0,0) uscale(0.5) S ∪ move(-0.5,0,0) uscale(0.5) S)\n")
+# and beside a graftal, whose re-entered states the bounds reach a fixed point over
+HALVINGS_AND_A_GRAFTAL = ("{c = 40} (S ∪ move(0, 0, 3) F)\n" + HALVINGS.split("\n", 1)[1]
+                          + "F 1\n1: F → (uscale(0.5) F ∪ move(1,0,0) uscale(0.5) F ∪ "
+                            "move(0,1,0) uscale(0.5) sphere)\n")
 CASES = [("fern", 1), ("fern", 2), ("fern", 3), ("fern in a ball", 3),
          ("fern with a flat pinna", 3), ("cifs_temple", 2), ("sympodial_tree", 4),
-         ("sierpinski", 3), ("halvings", 1), ("halvings", 3)]
+         ("sierpinski", 3), ("halvings", 1), ("halvings and a graftal", 1)]
 TEXTS = {"fern in a ball": _fern_in_a_ball, "fern with a flat pinna": _fern_with_a_flat_pinna,
-         "halvings": lambda: HALVINGS}
+         "halvings": lambda: HALVINGS, "halvings and a graftal": lambda: HALVINGS_AND_A_GRAFTAL}
 
 
 @pytest.mark.parametrize("name,depth", CASES)
@@ -176,3 +180,14 @@ def test_export_leaves_out_what_a_singular_map_empties(tmp_path, capsys):
     written = int(re.search(r": (\d+) primitives", printed.out).group(1))
     assert left > 0 and written + left == 4 ** 3 + 1
     assert "nan" not in out.read_text()
+
+
+def test_a_deep_system_whose_states_recur_at_many_levels_keeps_its_memoised_bounds():
+    # bounded again with its levels in the keys, a system deeper than the depth bound
+    # whose states recur at many levels ran out of states: the instance walk, its budget
+    # spent, refinement capped at depth 25 and a warning
+    fib = ("{c = 90} S\nS if(c > 0, 2, 1)\n1: S → cube\n2: S → {c = c-1} (move(0,0.5,0) "
+           "uscale(0.7) S ∪ {c = c-1} move(1,0,0) rotz(20) uscale(0.5) S)\n")
+    traced = Traced(compile_text(fib))
+    assert traced.bounds_method == "memoised" and traced.max_depth == 64
+    assert not traced.warnings

@@ -141,17 +141,22 @@ class _Walker:
         self.volumes: dict = {}
         self.matrices: dict = {}   # T-node memo key -> its matrix, kept across rounds
         self.faults: set = set()   # (kind, T-node) of the maps that emptied an instance
-        # the depth bound below which the tracer finishes an instance with its
-        # terminating rule (terminating.py), where the derivation reaches it: those are
-        # bounded as the tracer draws them, keyed by their level down to it
-        self.cut: int | None = None
+        # where the derivation goes deeper than the tracer's depth bound, the tracer
+        # finishes the instances at the bound with their terminating rule
+        # (terminating.py): with `finish_too` every S-node's bound holds that rule's
+        # geometry as well as the selected one's, at any level (keyed by level, the
+        # states of a deep system recurring at many levels were too many to memoise)
+        self.finish_too = False
         self.finishing = terminating_rules(graph)
         self.reset()
 
     def reset(self):
         self.memo: dict = {}
-        self.below: dict = {}      # memo key -> the derivation levels under it
-        self.deepest = 0           # the deepest S-node level the round reached
+        # memo key -> the levels from it to the deepest S-node with a terminating rule
+        # under it (None: none), and the deepest such level the round reached: where that
+        # reaches the depth bound, the tracer finishes instances there
+        self.below: dict = {}
+        self.deepest = -1
         self.hits = 0
         self.active: set = set()
         self.reentered: set = set()
@@ -164,12 +169,11 @@ class _Walker:
             self.record(i, b)
             return b
         key = self.key(i, state, h)
-        if self.cut is not None:
-            key = (key, min(level, self.cut))
         hit = self.memo.get(key)
         if hit is not None:
             self.hits += 1
-            self.deepest = max(self.deepest, level + self.below[key])
+            if self.below[key] is not None:
+                self.deepest = max(self.deepest, level + self.below[key])
             return hit
         if key in self.active:
             self.reentered.add(key)
@@ -178,12 +182,13 @@ class _Walker:
                 (len(self.memo) >= self.probe and self.hits < len(self.memo) // 50):
             raise TooManyStates
         self.active.add(key)
-        outer, self.deepest = self.deepest, level
+        finishes = n.kind == SELECT and self.finishing.get(i, -1) >= 0
+        outer, self.deepest = self.deepest, (level if finishes else -1)
         if n.kind == SELECT:
             b = self.nothing
             rules = self.rules(i, state, h)
-            if self.cut is not None and level >= self.cut and self.finishing.get(i, -1) >= 0:
-                rules = [self.finishing[i]]
+            if self.finish_too and finishes and self.finishing[i] not in rules:
+                rules = [*rules, self.finishing[i]]
             for r in rules:
                 b = self.unite(b, self.box(n.children[r], state, self.d.edge(h, i, r),
                                            level + 1))
@@ -214,7 +219,7 @@ class _Walker:
             b = self.box(n.children[0], state, h, level)
         self.active.discard(key)
         self.memo[key] = b
-        self.below[key] = self.deepest - level
+        self.below[key] = self.deepest - level if self.deepest >= 0 else None
         self.deepest = max(outer, self.deepest)
         self.record(i, b)
         return b
@@ -267,6 +272,20 @@ class _Walker:
 
 def _memoised(graph: Graph, faults: set | None = None, max_depth: int | None = None
               ) -> tuple[np.ndarray, dict, StateTable | None]:
+    """_memoised_walk's boxes; where the derivation reaches the tracer's depth bound
+    `max_depth`, walked again with the terminating rules' geometry in every S-node's
+    bound (pcsg.loads(..., max_depth=1) of 40 halvings of a cube, a line in full, drew
+    nothing where its two cut cubes stand: their boxes were the line's)."""
+    found, deepest = _memoised_walk(graph, faults, False)
+    if max_depth is not None and deepest >= max_depth:
+        (boxes, _, states), _ = _memoised_walk(graph, faults, True)
+        # no hulls: the bounding spheres of graftals (graph/spheres.py) would be walked
+        # from them without the terminating rules, and boxes bound their graftals too
+        found = boxes, {}, states
+    return found
+
+
+def _memoised_walk(graph: Graph, faults: set | None, finish_too: bool):
     """Exact boxes by the memoised walk, iterated to a fixed point over re-entered
     states; TooManyStates when memoising cannot help. A re-entered state that stays
     empty (a graftal: no primitive below its cycle) is bounded as an IFS attractor.
@@ -276,6 +295,7 @@ def _memoised(graph: Graph, faults: set | None = None, max_depth: int | None = N
     (graph/states.py). `faults` gets (kind, T-node) where a map with non-finite
     arguments (NONFINITE) or a singular one (SINGULAR) emptied an instance."""
     w = _Walker(graph)
+    w.finish_too = finish_too
     if faults is not None:
         w.faults = faults
 
@@ -288,29 +308,13 @@ def _memoised(graph: Graph, faults: set | None = None, max_depth: int | None = N
     for _ in range(MAX_ROUNDS):
         new = round_()
         if not new:
-            if max_depth is not None and w.deepest >= max_depth:
-                return _cut_boxes(graph, w.faults, max_depth), {}, None
-            return w.boxes, {}, state_table(graph, w.memo, w.key, w.finishing)
+            return (w.boxes, {}, state_table(graph, w.memo, w.key, w.finishing)), w.deepest
         if all(k in w.estimate and _same(as_box(new[k]), as_box(w.estimate[k])) for k in new):
             if any(_empty(as_box(v)) for v in new.values()):
-                return (*_attractor_boxes(w, round_), None)
-            return w.boxes, {k: w.estimate[k] for k in new}, None
+                return (*_attractor_boxes(w, round_), None), w.deepest
+            return (w.boxes, {k: w.estimate[k] for k in new}, None), w.deepest
         w.estimate.update(new)
     raise TooManyStates
-
-
-def _cut_boxes(graph: Graph, faults: set, depth: int) -> np.ndarray:
-    """The boxes of a finite derivation deeper than the tracer's depth bound, which
-    finishes the instances at it with their terminating rule: a 1x1x1 cube for a run of
-    halvings whose full derivation is a line, which the full derivation's boxes left out
-    (rays missed it). Keyed by level down to the bound, so no boxes by state for the
-    tracer."""
-    w = _Walker(graph)
-    w.faults, w.cut = faults, depth
-    w.reset()
-    state, h = w.d.initial()
-    w.box(graph.root, state, h, 0)
-    return w.boxes
 
 
 def _attractor_boxes(w: _Walker, round_) -> tuple[np.ndarray, dict]:
