@@ -40,7 +40,9 @@ class Hits:
 def _rays(values, what: str) -> np.ndarray:
     """(N, 3) float64, C-contiguous: a (3, 2) array was read as two rays of garbage."""
     a = np.asarray(values)
-    if a.dtype.kind not in "biuf" or not (a.shape == (3,) or (a.ndim == 2 and a.shape[1] == 3)):
+    if a.size == 0 and a.dtype.kind in "iuf":
+        return np.empty((0, 3))
+    if a.dtype.kind not in "iuf" or not (a.shape == (3,) or (a.ndim == 2 and a.shape[1] == 3)):
         raise ValueError(f"{what} must be real numbers of shape (N, 3), or (3,) for one ray; "
                          f"got {a.dtype} {a.shape}")
     return np.ascontiguousarray(a.reshape(-1, 3), dtype=np.float64)

@@ -107,7 +107,12 @@ def test_a_file_with_old_mac_line_ends_has_its_lines(tmp_path):
     e = pytest.raises(PcsgError, compile_file, src).value
     loc = e.diagnostics[0].location
     assert (loc.line, loc.column) == (4, 18) and "cubee" in e.diagnostics[0].message
+    text = src.read_bytes().decode("utf-8")                 # and as a string, loads's way
+    loc = pytest.raises(PcsgError, compile_text, text, "t").value.diagnostics[0].location
+    assert (loc.line, loc.column) == (4, 18)
     crlf = tmp_path / "crlf.pcsg"                  # and CRLF stays as it was
     crlf.write_bytes(src.read_bytes().replace(b"\r", b"\r\n"))
-    loc = pytest.raises(PcsgError, compile_file, crlf).value.diagnostics[0].location
+    e = pytest.raises(PcsgError, compile_file, crlf).value
+    loc = e.diagnostics[0].location
     assert (loc.line, loc.column) == (4, 18)
+    assert "\r" not in e.diagnostics[0].format()            # the excerpt without its CR

@@ -396,4 +396,5 @@ def test_rays_of_another_shape_are_refused(shape):
         obj.trace(np.zeros(shape), np.ones(shape))
     assert obj.trace([0, 0, 5], [0, 0, -1]).t[0] == 4.0          # (3,): one ray
     hits = obj.trace([0, 0, 5], [0, 0, -1])
+    assert obj.trace([], []).t.shape == (0,)                      # no rays
     assert hits == hits and hits != obj.trace([0, 0, 5], [0, 0, -1])   # identity, not arrays

@@ -43,6 +43,12 @@ def decode(data: bytes, name: str) -> str:
         src = Source(name, text)
         raise PcsgError([Diagnostic("error", f"not UTF-8 text (byte 0x{data[e.start]:02x})", None,
                                     src, code="encoding", original=len(text))]) from None
-    # old Mac line ends, a lone CR: one line of the whole file, every error at 1:N. One
-    # character for one, so every offset stays
+    return text
+
+
+def line_ends(text: str) -> str:
+    """A lone CR (old Mac line ends) as LF: it ended no line, and a file of them was one
+    line, every error at 1:N. One character for one, so every offset stays; CRLF stays."""
+    if "\r" not in text:
+        return text
     return text.replace("\r\n", "\0").replace("\r", "\n").replace("\0", "\r\n")

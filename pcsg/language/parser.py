@@ -11,7 +11,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 
 from . import ast
 from .errors import Diagnostic, PcsgError
-from .files import read_source_text
+from .files import line_ends, read_source_text
 from .mistakes import (HASH_COMMENT, assignment_for_comparison, lookalike, rule_without_number,
                        unknown_call, unknown_directive)
 from .names import RESERVED
@@ -152,7 +152,7 @@ def _lark() -> tuple[Lark, LineJoiner]:
 
 def parse(text: str, file: str = "<string>") -> tuple[ast.Program, Source]:
     """Parse PCSG text; raises PcsgError with every macro error or the first syntax error."""
-    source, errors = preprocess(text, file)
+    source, errors = preprocess(line_ends(text), file)
     if errors:
         raise PcsgError(errors)
     parser, joiner = _lark()

@@ -100,7 +100,7 @@ class _Expander:
             what = directive_end + len(rest) - len(rest.lstrip())
             found = rest.strip()
             self.error(what if found else start, "#define needs a name" + (
-                f", and '{found.split()[0]}' is none (a name starts with a letter or '_')"
+                f", and '{found.split()[0]}' is none (a name starts with an ASCII letter or '_')"
                 if found else ""))
             return self._blank(start, line_end)
         name, after = m.group(1), m.end()

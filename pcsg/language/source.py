@@ -79,4 +79,5 @@ class Source:
     def line_text(self, line: int) -> str:
         start = self._line_starts[line - 1]
         end = self.text.find("\n", start)
-        return self.text[start:] if end < 0 else self.text[start:end]
+        # without a CRLF line's CR, which a terminal shows as a return to column 1
+        return (self.text[start:] if end < 0 else self.text[start:end]).rstrip("\r")
