@@ -150,9 +150,11 @@ def _stats_text(r: dict) -> str:
         count = ("endless: a graftal, refined to pixel size when rendered (`pcsg export "
                  "--max-depth N` writes it cut at depth N)")
     else:
+        by_kind = r["primitives_by_kind"]
+        # one kind named too: "89 in the complete derivation" did not say of what
         count = f"{r['primitives']:,} in the complete derivation" + (
-            f" ({', '.join(f'{n:,} {k}' for k, n in r['primitives_by_kind'].items())})"
-            if len(r["primitives_by_kind"]) > 1 else "")
+            f" ({', '.join(f'{n:,} {k}' for k, n in by_kind.items())})" if len(by_kind) > 1
+            else f" ({next(iter(by_kind))})" if by_kind else "")
     lines = [
         f"{r['file']}",
         f"  nodes        {r['nodes']} ({kinds})",

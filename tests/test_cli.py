@@ -99,7 +99,7 @@ def test_expand_refuses_huge_output(capsys, sierpinski):
 
 def test_stats_text_and_json(capsys, sierpinski):
     code, out, err = run(capsys, "stats", str(sierpinski))
-    assert "primitives   4,096 in the complete derivation" in out
+    assert "primitives   4,096 in the complete derivation (tetrahedron)" in out
     code, out, err = run(capsys, "stats", str(sierpinski), "--json", "--set", "c=8")
     data = json.loads(out)
     assert data["primitives"] == 4 ** 8 and data["modules"] == {"S": 2}
