@@ -267,8 +267,9 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner) -> Dia
                       and rule_without_number(text, tok.start_pos - 1))
                   or (not _in_block(joiner) and unknown_call(text, tok.start_pos))):
         msg, span = said
-    elif tok.type == "EQUAL" and joiner.open_brackets and assignment_for_comparison(expected):
-        msg = assignment_for_comparison(expected)
+    elif tok.type == "EQUAL" and joiner.open_brackets and \
+            (said := assignment_for_comparison(expected)):
+        msg = said
     elif tok.type == "_NL" and joiner.open_brackets:
         msg = f"unexpected end of line, expected {_expected(expected)}"
     else:

@@ -6,9 +6,9 @@ from collections.abc import Iterable
 
 
 # what other CSG tools (POV-Ray, OpenSCAD) call what the notation writes otherwise
+# (the operators' words, union(a, b) and the like: mistakes.OPERATOR_WORDS)
 ALIASES = {"translate": "move", "rotate": "rot", "color": "paint", "colour": "paint",
-           "box": "cube", "ball": "sphere", "pyramid": "tetrahedron", "union": "∪",
-           "intersection": "∩", "difference": "\\"}
+           "box": "cube", "ball": "sphere", "pyramid": "tetrahedron"}
 
 
 def closest(name: str, known: Iterable[str]) -> str | None:
