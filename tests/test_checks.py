@@ -103,3 +103,44 @@ class TestContraction:
     def test_contracting_cycle_is_clean(self):
         assert warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
                            "2: S → sphere ∪ {n = n-1} move(2,0,0) uscale(0.9) S") == []
+
+
+class TestUnusedDefinitions:
+    """Definitions nothing reads: a misspelt use leaves its definition unread, and a
+    leftover is dead text the reader has to skip."""
+
+    def placed(self, text):
+        return [(w.location.line, w.location.column, w.code, w.message)
+                for w in warnings_of(text)]
+
+    def test_named_expression_never_read(self):
+        assert self.placed("leaf = sphere\nhelper = cube\nleaf\n") == \
+            [(2, 1, "unused", "named expression 'helper' is never used")]
+
+    def test_named_expression_read_only_by_another_counts_as_read(self):
+        assert self.placed("a = sphere\nb = move(1,0,0) a\nb\n") == []
+
+    def test_macro_never_expanded(self):
+        text = "#define BIG uscale(2)\n#define UNUSED move(1,0,0)\nBIG sphere\n"
+        assert self.placed(text) == [(2, 9, "unused", "macro 'UNUSED' is never used")]
+
+    def test_macro_read_only_by_an_unused_macro_is_unused_too(self):
+        text = "#define A uscale(2)\n#define B A sphere\nsphere\n"
+        assert [w[3] for w in self.placed(text)] == ["macro 'A' is never used",
+                                                     "macro 'B' is never used"]
+
+    def test_macro_read_in_a_comment_only_is_unused(self):
+        assert [w[3] for w in self.placed("#define A uscale(2)\n// A\nsphere\n")] == \
+            ["macro 'A' is never used"]
+
+    def test_macro_that_renames_a_reserved_word(self):
+        # legal: the text is replaced before names mean anything; said, since every
+        # later 'sphere' silently becomes a cube
+        w = self.placed("#define sphere cube\nsphere\n")
+        assert w == [(1, 9, "reserved", "macro 'sphere' replaces a primitive of that name: "
+                                         "every 'sphere' below stands for this text")]
+
+    def test_the_samples_define_nothing_unused(self):
+        for path in GRAMMARS.glob("*.pcsg"):
+            assert not [w for w in compile_file(path).warnings if w.code in ("unused", "reserved")
+                        and "module" not in w.message], path

@@ -27,12 +27,13 @@ class _Builder:
         self.source = source
         self.overrides = dict(overrides)
         self.errors: list[Diagnostic] = []
-        self.warnings: list[Diagnostic] = []
+        self.warnings: list[Diagnostic] = list(source.warnings)   # the macros'
         self.nodes: list[Node] = []
         self.expr_ast: list = []
         self.primitive_nodes: dict[str, int] = {}
         self.named_nodes: dict[str, int] = {}
         self.named_building: list[str] = []
+        self.named_read: set[str] = set()
 
     # ---- reporting
     def error(self, span, message, code, notes=()):
@@ -114,6 +115,9 @@ class _Builder:
             if name not in self.modules:
                 self.named_ref(name, named.name_span)
         root = self.csg(axioms[0].expr) if axioms else -1
+        for name, named in self.named.items():
+            if name not in self.named_read and name not in self.modules and axioms:
+                self.warn(named.name_span, f"named expression '{name}' is never used", "unused")
         if self.errors:
             raise PcsgError(sorted(self.errors, key=sort_key))
         return Graph(self.source, self.nodes, root, self.params, self.modules, self.exprs,
@@ -372,6 +376,7 @@ class _Builder:
         if e.name in self.modules:
             return self.modules[e.name]
         if e.name in self.named:
+            self.named_read.add(e.name)
             return self.named_ref(e.name, e.span)
         if e.name in PRIMITIVES:
             if e.name not in self.primitive_nodes:

@@ -10,6 +10,7 @@ import re
 from dataclasses import dataclass
 
 from .errors import Diagnostic
+from .names import RESERVED
 from .source import Piece, Source
 
 # Numbers are matched so that the `e5` of `1e5` is never taken for a name.
@@ -42,6 +43,8 @@ class _Expander:
         self.pieces: list[Piece] = []
         self.length = 0
         self.errors: list[Diagnostic] = []
+        self.warnings: list[Diagnostic] = []
+        self.used: set[str] = set()
         self.uses = 0
 
     def emit(self, start: int, end: int, uses: tuple):
@@ -56,6 +59,17 @@ class _Expander:
     def error(self, offset: int, message: str):
         self.errors.append(Diagnostic("error", message, None, self.source, code="macro",
                                       original=offset))
+
+    def warn(self, offset: int, message: str, code: str):
+        self.warnings.append(Diagnostic("warning", message, None, self.source, code=code,
+                                        original=offset))
+
+    def unused(self):
+        """Macros no text below their #define reads: a misspelt use leaves one unread
+        (and reports an undefined name where it stands), a leftover is dead text."""
+        for name, macro in self.macros.items():
+            if name not in self.used:
+                self.warn(macro.defined, f"macro '{name}' is never used", "unused")
 
     def expand(self, start: int, end: int, uses: tuple, active: frozenset, top: bool):
         """Copy text[start:end], replacing macro names (and, at top level, consuming #define)."""
@@ -74,6 +88,7 @@ class _Expander:
                 continue
             if kind == "name" and m.group() in self.macros and m.group() not in active:
                 macro = self.macros[m.group()]
+                self.used.add(macro.name)
                 self.uses += 1
                 if self.uses > MAX_USES:
                     raise _TooLarge
@@ -122,6 +137,12 @@ class _Expander:
             self.error(m.start(1), f"macro '{name}' is defined twice (first at {first})")
         else:
             self.macros[name] = Macro(name, body, m.start(1))
+            if name in RESERVED:
+                # legal (the text is replaced before any name means anything), and it
+                # silently changes what every later use of the word is
+                self.warn(m.start(1), f"macro '{name}' replaces {RESERVED[name]} of that "
+                                      f"name: every '{name}' below stands for this text",
+                          "reserved")
         return self._blank(start, end)
 
     def _blank(self, start: int, end: int) -> int:
@@ -164,12 +185,13 @@ def preprocess(text: str, file: str) -> tuple[Source, list[Diagnostic]]:
     ex = _Expander(text, source)
     try:
         ex.expand(0, len(text), (), frozenset(), top=True)
+        ex.unused()
     except _TooLarge:
         ex.errors.append(Diagnostic(
             "error", f"macros expand to more than {MAX_USES:,} uses or {MAX_EXPANSION:,} "
                      f"characters; nested macros multiply", None, source, code="macro"))
     expanded = Source(file, text, "".join(ex.out), ex.pieces,
-                      {name: m.defined for name, m in ex.macros.items()})
-    for d in ex.errors:
+                      {name: m.defined for name, m in ex.macros.items()}, ex.warnings)
+    for d in ex.errors + ex.warnings:
         d.source = expanded
     return expanded, ex.errors

@@ -35,6 +35,7 @@ class Source:
     expanded: str = ""              # after #define
     pieces: list[Piece] = field(default_factory=list)
     macros: dict[str, int] = field(default_factory=dict)    # name -> where it is defined
+    warnings: list = field(default_factory=list)            # the #define expansion's
 
     def defined_below(self, name: str) -> str:
         """', a macro defined below, at L:C, ...' where `name`, undefined where it is
