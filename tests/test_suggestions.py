@@ -185,13 +185,14 @@ def test_check_warns_of_a_derivation_that_meets_its_own_state_again(capsys, tmp_
 @pytest.mark.parametrize("text, first", [
     # a group that closes on a later line: no note that it is open
     ("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → sphere\n2: S → {c = c-1} (move(1,0,0) S ∪\n"
-     "   move(-1,0,0) S S ∪\n   move(0,1,0) S)\n", "5:19: unexpected 'S'"),
+     "   move(-1,0,0) S S ∪\n   move(0,1,0) S)\n",
+     "5:19: expected an operator (∪, ∩ or \\) between 'S' and 'S'"),
     # a directive without its '=' is no transformation
     ("#sky color (1, 1, 1)\nsphere\n", "1:12: unexpected '('"),
     # in a calculation block the slip is a separator left out
     ("{a = 1; c = 1 - not (a) b = 2} sphere\n", "1:25: unexpected 'b'"),
     # a flip of a group takes no arguments, but is not given any: an operator is missing
-    ("flipxy (sphere ∪ cube) cone\n", "1:24: unexpected 'cone'"),
+    ("flipxy (sphere ∪ cube) cone\n", "1:24: expected an operator (∪, ∩ or \\) before 'cone'"),
     # '=' outside brackets is no comparison
     ("let seg = sphere\nseg\n", "1:9: unexpected '='"),
     # ASCII arrow, and a '#' comment after a statement

@@ -112,6 +112,22 @@ def axiom_slip(text: str, name: str, name_end: int):
     return None
 
 
+def missing_operator(text: str, tok_type: str, tok_value: str, pos: int, expected):
+    """`1: S → sphere - cube`, `… sphere cube`: after a whole operand, where only a CSG
+    operator or the statement's end may follow (the axiom's own slips are `axiom_slip`'s,
+    since an axiom that goes on so parses as a module's declaration)."""
+    if "UNION" not in expected:
+        return None
+    if tok_value in CSG_SLIPS:
+        return f"'{tok_value}' is not a CSG operator: {CSG_SLIPS[tok_value]}", (pos, pos + 1)
+    if tok_type not in ("NAME", "TRANSFORM", "FLIP", "FRACTAL", "PAINT", "MATERIAL"):
+        return None
+    m = re.search(r"([A-Za-z_][A-Za-z0-9_]*|\))[ \t]*$", text[max(0, pos - 200):pos])
+    between = f"between '{m.group(1)}' and" if m and m.group(1) != ")" else "before"
+    return (f"expected an operator (∪, ∩ or \\) {between} '{tok_value}'",
+            (pos, pos + len(tok_value)))
+
+
 CSG_SLIPS = {"-": "the difference of two operands is written '\\' or '∖'",
              "+": "a union is written '∪' or '|'"}
 

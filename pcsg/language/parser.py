@@ -12,8 +12,8 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 from . import ast
 from .errors import Diagnostic, PcsgError
 from .files import line_ends, read_source_text
-from .mistakes import (HASH_COMMENT, assignment_for_comparison, lookalike, rule_without_number,
-                       unknown_call, unknown_directive)
+from .mistakes import (HASH_COMMENT, assignment_for_comparison, lookalike, missing_operator,
+                       rule_without_number, unknown_call, unknown_directive)
 from .names import RESERVED
 from .postlex import LineJoiner
 from .preprocess import preprocess
@@ -151,7 +151,8 @@ def _lark() -> tuple[Lark, LineJoiner]:
 
 
 def parse(text: str, file: str = "<string>") -> tuple[ast.Program, Source]:
-    """Parse PCSG text; raises PcsgError with every macro error or the first syntax error."""
+    """Parse PCSG text; raises PcsgError with every macro error, or with the syntax errors
+    (the first, and those of the statements after it: see `_syntax_errors`)."""
     source, errors = preprocess(line_ends(text), file)
     if errors:
         raise PcsgError(errors)
@@ -159,7 +160,7 @@ def parse(text: str, file: str = "<string>") -> tuple[ast.Program, Source]:
     try:
         program = parser.parse(source.expanded)
     except UnexpectedInput as e:
-        raise PcsgError([_syntax_error(e, source, joiner)]) from None
+        raise PcsgError(_syntax_errors(e, source, parser, joiner)) from None
     return program, source
 
 
@@ -211,8 +212,93 @@ def _describe(tok: Token) -> str:
     return f"'{tok.value}'"
 
 
-def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner) -> Diagnostic:
+MAX_SYNTAX_ERRORS = 10
+RECOVER_CHARS = 250_000       # text past an error parsed again, at most (a parse per error)
+_JOINING_ENDS = ("∪", "|", "∩", "&", "\\", "∖", "→", "->", "=", "(", ",", "{")
+_STATEMENT_HEAD = re.compile(r"[0-9]+[ \t]*:[ \t]*[A-Za-z_][A-Za-z0-9_]*[ \t]*(→|->)"
+                             r"|#(camera|light|sky|material)\b")
+# comments (skipped whole), brackets and line ends
+_BRACKETS = re.compile(r"//[^\n]*|/\*.*?(?:\*/|\Z)|[(){}\n]", re.S)
+
+
+def _syntax_errors(first: UnexpectedInput, source: Source, parser, joiner) -> list[Diagnostic]:
+    """The first syntax error, and those of the statements after it. LALR stops at its
+    first error; a file with three slips would take three runs of `check`. The parse
+    resumes at the next line that starts a statement (see `_resume_at`) with everything
+    before it blanked, so that positions stay put; a statement cut in two by a wrong
+    guess could only add an error, and where the guess is unsure no guess is made."""
     text = source.expanded
+    found = [_syntax_error(first, source, joiner)]
+    e = first
+    while len(found) < MAX_SYNTAX_ERRORS:
+        at = _error_offset(e)
+        resume = None if at is None else _resume_at(text, at, len(joiner.open_brackets))
+        if resume is None or len(text) - resume > RECOVER_CHARS:
+            break
+        rest = _blanked(text, resume)
+        try:
+            parser.parse(rest)
+            break
+        except UnexpectedInput as again:
+            e = again
+            found.append(_syntax_error(e, source, joiner, rest))
+    return found
+
+
+def _error_offset(e: UnexpectedInput):
+    """Where the text after the error starts (the joiner has counted the token's own
+    bracket), or None at the file's end, after which nothing is left."""
+    if isinstance(e, UnexpectedCharacters):
+        return e.pos_in_stream
+    if isinstance(e, UnexpectedEOF) or e.token.type == "$END":
+        return None
+    return e.token.end_pos
+
+
+def _resume_at(text: str, at: int, open_brackets: int):
+    """The start of the first line after `at` that surely starts a statement: one that
+    starts with a rule's head or a directive (neither can stand inside another statement),
+    or one where the brackets open at the error are closed, with in its first column a
+    character a statement starts with (not a continuation's indentation, nor a closing
+    bracket), outside a comment, after a line that does not end with an operator, arrow,
+    '=' or open bracket that would join the two."""
+    depth = open_brackets
+    for m in _BRACKETS.finditer(text, at):
+        if m.group() == "\n":
+            line = m.end()
+            if _STATEMENT_HEAD.match(text, line):
+                return line
+            ch = text[line:line + 1]
+            if depth <= 0 and ch and (ch.isalnum() or ch in "_{(#") and \
+                    not _joins_next(text, line):
+                return line
+        elif m.group() in "({":
+            depth += 1
+        elif m.group() in ")}":
+            depth -= 1
+    return None
+
+
+def _joins_next(text: str, line: int) -> bool:
+    """Whether the last line with code before `line` ends so that it joins the next."""
+    end = line - 1
+    while end > 0:
+        start = text.rfind("\n", 0, end) + 1
+        code = text[start:end].split("//", 1)[0].rstrip()
+        if code:
+            return code.endswith(_JOINING_ENDS)
+        end = start - 1
+    return False
+
+
+def _blanked(text: str, upto: int) -> str:
+    head = text[:upto]
+    return "".join(c if c in "\r\n" else " " for c in head) + text[upto:]
+
+
+def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner,
+                  text: str | None = None) -> Diagnostic:
+    text = source.expanded if text is None else text
     notes = []
     if isinstance(e, UnexpectedCharacters):
         pos = e.pos_in_stream
@@ -265,7 +351,8 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner) -> Dia
                   # '->' where no arrow may stand lexes as '-' and '>'
                   or (tok.value == ">" and text[tok.start_pos - 1:tok.start_pos] == "-"
                       and rule_without_number(text, tok.start_pos - 1))
-                  or (not _in_block(joiner) and unknown_call(text, tok.start_pos))):
+                  or (not _in_block(joiner) and unknown_call(text, tok.start_pos))
+                  or missing_operator(text, tok.type, tok.value, tok.start_pos, expected)):
         msg, span = said
     elif tok.type == "EQUAL" and joiner.open_brackets and \
             (said := assignment_for_comparison(expected)):
