@@ -94,13 +94,20 @@ def _write(text: str, output: str | None):
     write_atomic(Path(output), text.encode("utf-8"))
 
 
-def _output_directory(output: str):
-    """-o into a directory that is not there: said as such (the error named the
-    temporary file beside the output)."""
+def _make_directory(path: Path, output: str):
+    from .output import make_directory
+    if problem := make_directory(path):
+        raise UsageError(f"-o {output}: {problem}")
+
+
+def _output_directory(output: str, option: str = "-o"):
+    """An output into a directory that is not there, said as such (the error named the
+    temporary file beside the output), by every command that writes one."""
     parent = Path(output).parent
     if not parent.is_dir():
-        what = "does not exist" if not parent.exists() else "is not a directory"
-        raise UsageError(f"-o {output}: {parent} {what}")
+        what = (f"the directory {parent} does not exist" if not parent.exists()
+                else f"{parent} is not a directory")
+        raise UsageError(f"{option} {output}: {what}")
 
 
 def cmd_expand(args) -> int:
@@ -293,7 +300,7 @@ def cmd_sweep(args) -> int:
                          f"directory, and this is a file")
     # the file's errors and unknown names once, not once for every image
     _compile(args.file, {**fixed, name: values[0]})
-    out_dir.mkdir(parents=True, exist_ok=True)
+    _make_directory(out_dir, args.output)
     jobs = []
     for value, out in zip(values, sweep_outputs(args.file, out_dir, name, values)):
         opts = _options(args, {**fixed, name: value})
@@ -317,7 +324,7 @@ def _outputs(files: list[str], output: str | None) -> list[Path]:
     out = Path(output)
     if out.is_dir() or output.endswith(("/", "\\")) or (len(files) > 1 and not out.suffix):
         paths = _distinct(files, [out / n for n in names])
-        out.mkdir(parents=True, exist_ok=True)
+        _make_directory(out, output)
         return paths
     if len(files) > 1:
         raise UsageError(f"-o {output}: several files need a directory, e.g. -o renders/")
@@ -325,8 +332,7 @@ def _outputs(files: list[str], output: str | None) -> list[Path]:
         # PNG bytes in x.jpg, which a viewer going by the name then refused
         raise UsageError(f"-o {output}: pcsg writes PNG images; name the file "
                          f"{out.with_suffix('.png').name}")
-    if not out.parent.exists():
-        raise UsageError(f"-o {output}: the directory {out.parent} does not exist")
+    _output_directory(output)
     return [out]
 
 
@@ -388,8 +394,7 @@ def cmd_export(args) -> int:
     from .render.shade import make_lighting
     from .tracer import Traced
     out = Path(args.pov)
-    if not out.parent.exists():
-        raise UsageError(f"--pov {args.pov}: the directory {out.parent} does not exist")
+    _output_directory(args.pov, "--pov")
     for problem in (bounces_problem(args.bounces), size_problem(args.size),
                     shadow_samples_problem(args.shadow_samples)):
         if problem:

@@ -50,3 +50,19 @@ def open_atomic(path: Path, mode: str = "wb"):
 def write_atomic(path: Path, data: bytes) -> None:
     with open_atomic(path) as f:
         f.write(data)
+
+
+def make_directory(path: Path) -> str | None:
+    """Makes the directory `path` with its parents; what stands in the way, said for an
+    option's message (Python's 'Not a directory: x/y' named neither the file nor why),
+    or None."""
+    path = Path(path)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        return None
+    except (FileExistsError, NotADirectoryError):
+        blocking = next((p for p in (path, *path.parents) if p.exists() and not p.is_dir()),
+                        path)
+        return f"{blocking} is a file, not a directory"
+    except OSError as e:
+        return f"cannot make the directory {path}: {e.strerror or e}"

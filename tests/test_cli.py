@@ -153,10 +153,31 @@ def test_output_directory_missing(capsys, sierpinski, tmp_path, command):
     # the message named the temporary file beside the output
     out = tmp_path / "no" / "g.txt"
     code, _, err = run(capsys, command, str(sierpinski), "-o", str(out))
-    assert code == 2 and f"-o {out}: {out.parent} does not exist" in err and ".part" not in err
+    assert code == 2 and f"-o {out}: the directory {out.parent} does not exist" in err and ".part" not in err
     (tmp_path / "file").write_text("x")
     code, _, err = run(capsys, command, str(sierpinski), "-o", str(tmp_path / "file" / "g"))
     assert code == 2 and "is not a directory" in err
+
+
+@pytest.mark.parametrize("argv, output", [
+    (["render", "{f}", "-o", "{d}/file/sub/"], "-o {d}/file/sub/"),          # a directory
+    (["render", "{f}", "{g}", "-o", "{d}/file/many"], "-o {d}/file/many"),   # a batch
+    (["render", "{f}", "-o", "{d}/file/x.png"], "-o {d}/file/x.png"),
+    (["export", "{f}", "--pov", "{d}/file/x.pov"], "--pov {d}/file/x.pov"),
+    (["sweep", "{f}", "--set", "c=1..2", "-o", "{d}/file/sweep"], "-o {d}/file/sweep"),
+    (["animate", "{f}", "--frames", "2", "--path", "4,0,0 0,4,0", "-o", "{d}/file/frames"],
+     "-o {d}/file/frames"),
+])
+def test_an_output_under_a_file_is_a_usage_error(capsys, sierpinski, tmp_path, argv, output):
+    # Python's "Not a directory: x/sub", exit 1, named neither the option nor the file
+    (tmp_path / "file").write_text("x")
+    other = tmp_path / "t.pcsg"
+    other.write_text("sphere\n")
+    fill = {"f": str(sierpinski), "g": str(other), "d": str(tmp_path)}
+    code, _, err = run(capsys, *[a.format(**fill) for a in argv], "--size", "8x6")
+    assert code == 2
+    assert f"{output.format(**fill)}: " in err and f"{tmp_path / 'file'} is" in err
+    assert "Traceback" not in err
 
 
 def test_console_script_runs_without_traceback(tmp_path):

@@ -25,6 +25,7 @@ from ..language.errors import PcsgError, labelled
 from .job import Options, RenderFailed, render_file, traced_for
 from .path import bezier
 from ..resume import Manifest, output_key
+from ..output import make_directory
 
 TIME = "t"
 
@@ -224,7 +225,8 @@ def animate(anim: Animation) -> int:
     if anim.out_dir.exists() and not anim.out_dir.is_dir():
         raise BadAnimation(f"-o {anim.out_dir}: not a directory")
     jobs, timed = plan(anim)
-    anim.out_dir.mkdir(parents=True, exist_ok=True)
+    if problem := make_directory(anim.out_dir):
+        raise BadAnimation(f"-o {anim.out_dir}: {problem}")
     manifest = Manifest(anim.out_dir)
     for name in manifest.forget_others({j.png.name for j in jobs}):
         (anim.out_dir / name).unlink(missing_ok=True)   # frames of a longer earlier run
