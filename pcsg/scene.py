@@ -141,6 +141,8 @@ def build_scene(directives: list[ast.Directive], constants, report,
             report(d.kind_span, f"material '{d.name}' is defined twice", "directive")
         else:
             scene.materials[d.name] = m = {**MATERIAL_DEFAULTS, **values}
+            if "color" in values:
+                scene.coloured.add(d.name)
             if m["reflect"] + m["transmit"] > 1:
                 # shade.fresnel_split: reflection takes its share first
                 warn(d.kind_span, f"material '{d.name}': reflect + transmit is "

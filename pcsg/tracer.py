@@ -31,7 +31,8 @@ class Hits:
     """What `Traced.trace` found for each ray (views of one array)."""
     t: np.ndarray               # (N,) distance along the given direction; inf where missed
     normal: np.ndarray          # (N, 3) unit world normal (zeros where missed)
-    paint: np.ndarray           # (N, 3) paint(r,g,b) in force at the hit; nan if none
+    paint: np.ndarray           # (N, 3) the colour in force at the hit: the innermost
+                                #   paint(r,g,b) or material with a color=; nan if none
     material: np.ndarray        # (N,) index into Traced.material_names, -1 if none
     hit: np.ndarray             # (N,) bool
     events: np.ndarray = field(repr=False, default=None)   # trace.nodes.no_events layout

@@ -49,7 +49,7 @@ def test_tree_structure_keeps_operators_and_order():
     names = [r.nodes[c].name for c in diff.children]
     assert names == ["sphere", "cube", "cone"]
     cyl = r.nodes[root.children[1]]
-    assert cyl.material == 0 and cyl.paint is None
+    assert cyl.material == 0 and cyl.paint == (1.0, 0.8, 0.0)     # gold's own colour
     assert r.nodes[diff.children[0]].paint == (1.0, 0.0, 0.0)
     np.testing.assert_array_equal(r.nodes[diff.children[1]].matrix[:3, 3], [1, 0, 0])
     assert LEAF == -1

@@ -31,9 +31,10 @@ Flat = namedtuple("Flat", [
     "expr_count",    # int32[n]
     "expr_ids",      # int32[k]     selection | arguments | assigned values
     "term_rule",     # int32[n]     S-nodes: the rule that ends soonest, -1 if none
-    "fixed",         # int8[n]      T- and paint nodes whose arguments are constants: 1, with
+    "fixed",         # int8[n]      T- and paint nodes whose arguments are constants, and
+                     #              material nodes with a colour of their own: 1, with
     "fixed_map",     # float64[n,24]  [L (9) | t (3) | L^-1 (9) | unused (3)], row-major;
-                     #                paint: [r, g, b | unused]
+                     #                paint and material: [r, g, b | unused]
     "then",          # int32[n]     T-nodes: the T-node below whose map they compose with
                      #              their own at run time (_compose_chains), -1: none
     "origin",        # int32[n]     a `matrix` node written for a run (graph/fuse.py): the
@@ -246,6 +247,13 @@ def _fixed_nodes(graph: Graph):
             if all(a is not None for a in args) and np.isfinite(args).all():
                 fixed[i] = 1
                 maps[i, :3] = args
+            continue
+        if node.kind == MATERIAL:
+            # notation §8: of paint and material the innermost colours, so a material
+            # with a color= of its own paints over the paint above it
+            if node.name in graph.scene.coloured:
+                fixed[i] = 1
+                maps[i, :3] = graph.scene.materials[node.name]["color"]
             continue
         m = fixed_matrix(graph, i)
         if m is None:

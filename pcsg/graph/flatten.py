@@ -18,7 +18,7 @@ from .stats import MAX_LEVELS
 class Instance:
     primitive: str
     matrix: np.ndarray            # 4x4, world from the primitive's object frame
-    paint: tuple | None           # the innermost paint(r, g, b) above it
+    paint: tuple | None           # the innermost paint(r, g, b) or coloured material above it
     material: str | None          # the innermost material(NAME) above it
     path: tuple                   # CSG operators above it: ((node, child number), ...)
     args: tuple = ()              # a fractal's arguments
@@ -154,6 +154,8 @@ def _derived(graph: Graph, cut: Cut | None) -> Iterator[tuple[Instance, tuple | 
                 m = np.full((4, 4), np.nan)
         elif n.kind == MATERIAL:
             material = n.name
+            if material in graph.scene.coloured:    # notation §8: the innermost colours
+                paint = tuple(graph.scene.materials[material]["color"])
         if n.kind in OPERATORS.values():
             for k in reversed(range(len(n.children))):   # reversed: left operand first out
                 c = n.children[k]

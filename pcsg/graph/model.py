@@ -36,6 +36,7 @@ class Scene:
     sky: dict = field(default_factory=dict)
     occlusion: dict = field(default_factory=dict)
     materials: dict[str, dict] = field(default_factory=dict)
+    coloured: set[str] = field(default_factory=set)   # materials with a color= of their own
 
 
 @dataclass

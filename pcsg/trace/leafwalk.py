@@ -115,6 +115,9 @@ def leaves(flat, max_levels, cut, fr, hs, world, paint, chain, params, stack, ar
                     world[f, :] = np.nan
         elif kind == MATERIAL:
             fr[f, MAT] = flat.code[node]
+            if flat.fixed[node]:    # its own colour paints over a paint above (flat.py)
+                for k in range(3):
+                    paint[f, k] = flat.fixed_map[node, k]
         if kind == CALC or kind == TRANSFORM or kind == PAINT or kind == MATERIAL:
             fr[f, NODE] = flat.children[first]
             continue

@@ -109,6 +109,10 @@ def step_unary(flat, node, kind, F, I, H, f, params, slot_base, S, ev):
         I[f, DPAINT] = -1           # it paints over a passed one
     elif kind == MATERIAL:
         I[f, MAT] = flat.code[node]
+        if flat.fixed[node]:        # its own colour, which paints over a paint above
+            for c in range(3):
+                F[f, PAINT + c] = flat.fixed_map[node, c]
+            I[f, DPAINT] = -1
     I[f, NODE] = flat.children[flat.child_start[node]]
     return True
 
