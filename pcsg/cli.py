@@ -85,13 +85,24 @@ def cmd_check(args) -> int:
     return EXIT_ERRORS if failed else EXIT_OK
 
 
-def _write(text: str, output: str | None):
+def _write(text: str, output: str | None, source: str):
     if output is None:
         sys.stdout.write(text)
         return
     _output_directory(output)
+    _not_an_input(output, "-o", [source])
     from .output import write_atomic
     write_atomic(Path(output), text.encode("utf-8"))
+
+
+def _not_an_input(output: str | Path, option: str, inputs):
+    """An output named like one of the command's inputs (a slip of the shell's history:
+    `export s.pcsg --pov s.pcsg`) would replace it; refused before anything is written."""
+    target = Path(output).resolve()
+    for given in inputs:
+        if Path(given).resolve() == target:
+            raise UsageError(f"{option} {output}: that is {given}, which this command reads; "
+                             f"name another file")
 
 
 def _make_directory(path: Path, output: str):
@@ -123,7 +134,7 @@ def cmd_expand(args) -> int:
         text = expand_file(graph, args.steps, args.max_chars, notes)
     except ExpansionTooLarge as e:
         raise UsageError(str(e)) from None
-    _write(text, args.output)
+    _write(text, args.output, args.file)
     for note in notes:
         print(f"{args.file}: warning: {note}", file=sys.stderr)
     return EXIT_OK
@@ -191,7 +202,7 @@ def cmd_graph(args) -> int:
     from .graph.dot import to_dot
     graph = _compile(args.file, args.overrides)
     _report(None, graph.warnings)
-    _write(to_dot(graph), args.output)
+    _write(to_dot(graph), args.output, args.file)
     return EXIT_OK
 
 
@@ -235,14 +246,31 @@ def _distributed(args) -> bool:
     return args.workers is not None or bool(args.scheduler) or args.tiles > 1
 
 
+def _depth_output(depth: str, files: list[str], outputs: list[Path]):
+    """--depth FILE.npy, checked as -o is: `--depth same.png` replaced the picture with
+    an array, and `--depth s.pcsg` the grammar."""
+    path = Path(depth)
+    if path.suffix.lower() != ".npy":
+        raise UsageError(f"--depth {depth}: the depths are written as a NumPy array; name "
+                         f"the file {path.with_suffix('.npy').name}")
+    _output_directory(depth, "--depth")
+    _not_an_input(depth, "--depth", files)
+    if path.resolve() in {Path(o).resolve() for o in outputs}:
+        raise UsageError(f"--depth {depth}: that is the image -o writes; name another file")
+
+
 def cmd_render(args) -> int:
     from .render.job import RenderFailed, render_file
     files = expand_globs(args.files)
     opts = _options(args)
     distributed = _distributed(args)
     outputs = _outputs(files, args.output)
+    for out in outputs:
+        _not_an_input(out, "-o", files)
     if opts.depth is not None and len(files) > 1:
         raise UsageError("--depth names one file; render one .pcsg file with it")
+    if opts.depth is not None:
+        _depth_output(str(opts.depth), files, outputs)
     if distributed and args.timings:
         raise UsageError("--timings times renders in this process; drop --workers, "
                          "--scheduler and --tiles to use it")
@@ -395,6 +423,7 @@ def cmd_export(args) -> int:
     from .tracer import Traced
     out = Path(args.pov)
     _output_directory(args.pov, "--pov")
+    _not_an_input(args.pov, "--pov", [args.file])
     for problem in (bounces_problem(args.bounces), size_problem(args.size),
                     shadow_samples_problem(args.shadow_samples)):
         if problem:

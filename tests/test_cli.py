@@ -625,3 +625,27 @@ def test_expand_says_pixels_were_taken_as_infinite_and_stats_lists_no_pixels(cap
     code, _, err = run(capsys, "expand", str(GRAMMARS / "sierpinski.pcsg"), "-n", "1",
                        "-o", str(tmp_path / "s.pcsg"))
     assert code == 0 and "pixels" not in err
+
+
+@pytest.mark.parametrize("argv, said", [
+    (["render", "{f}", "-o", "{d}/same.png", "--depth", "{d}/same.png"],
+     "--depth {d}/same.png: the depths are written as a NumPy array; name the file same.npy"),
+    (["render", "{f}", "-o", "{d}/x.png", "--depth", "{f}"],
+     "--depth {f}: the depths are written as a NumPy array; name the file s.npy"),
+    (["render", "{f}", "-o", "{d}/x.png", "--depth", "{d}/no/x.npy"],
+     "--depth {d}/no/x.npy: the directory {d}/no does not exist"),
+    (["render", "{f}", "-o", "{f}"], "-o {f}: that is {f}, which this command reads"),
+    (["export", "{f}", "--pov", "{f}"], "--pov {f}: that is {f}, which this command reads"),
+    (["graph", "{f}", "-o", "{f}"], "-o {f}: that is {f}, which this command reads"),
+    (["expand", "{f}", "-o", "{f}"], "-o {f}: that is {f}, which this command reads"),
+])
+def test_an_output_over_an_input_or_the_image_is_refused(capsys, sierpinski, tmp_path, argv,
+                                                         said):
+    # `--depth same.png` replaced the picture with an array and `--pov s.pcsg` the grammar,
+    # with exit 0; a --depth into a missing directory failed after writing the image
+    fill = {"f": str(sierpinski), "d": str(tmp_path)}
+    grammar = sierpinski.read_bytes()
+    code, _, err = run(capsys, *[a.format(**fill) for a in argv])
+    assert code == 2 and said.format(**fill) in err
+    assert sierpinski.read_bytes() == grammar
+    assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob("*.npy"))
