@@ -24,6 +24,15 @@ class TestDefiniteAssignment:
         assert errs[0].message.startswith("parameter 'd' may be read before it is assigned")
         assert (errs[0].location.line, errs[0].location.column) == (3, 13)
 
+    def test_a_paint_reads_the_blocks_above_it_not_below(self):
+        # the axiom's constants were folded into the paint from the block below it: no
+        # error, and a render and expand used c = 1
+        errs = errors_of("paint(c, 1, 0) {c = 1} sphere\n")
+        assert [(e.location.line, e.location.column, e.code) for e in errs] == [(1, 7, "unassigned")]
+        graph = compile_text("{c = 0.2} paint(c, 1, 0) {d = 1} paint(d, 0, 0) sphere\n")
+        paints = [n for n in graph.nodes if n.kind_name == "paint"]
+        assert sorted(graph.exprs.constant(n.exprs[0]) for n in paints) == [0.2, 1.0]
+
     def test_shared_named_expression_needs_it_on_all_uses(self):
         compile_text("{r = 1} A ∪ {r = 2} move(1,0,0) A\nA = uscale(r) sphere")
         errs = errors_of("{r = 1} A ∪ move(1,0,0) A\nA = uscale(r) sphere")

@@ -271,9 +271,15 @@ class _Builder:
         if not axioms or self.errors:
             return {}
         head, e = [], axioms[0].expr
+        # a paint's arguments read what the blocks above it assigned, not those below:
+        # `paint(c, 1, 0) {c = 1} sphere` read c = 1, and passed as assigned
+        paint_reads: dict[int, set[str]] = {}
         while isinstance(e, (ast.Calc, ast.Paint, ast.Material)):
             if isinstance(e, ast.Calc):
                 head += e.assigns
+            elif isinstance(e, ast.Paint):
+                paint_reads.setdefault(len(head), set()).update(
+                    *(names_in(a) for a in e.args))
             e = e.operand
         counts = defaultdict(int)
         for a in _assignments(stmts):
@@ -284,8 +290,8 @@ class _Builder:
         now: dict[str, float] = {}
         read_before: set[str] = set()        # a read before the assignment must stay an error
         probe = ExprTable(self.params, lambda *_: None, now)
-        for a in head:
-            read_before |= names_in(a.value)
+        for k, a in enumerate(head):
+            read_before |= paint_reads.get(k, set()) | names_in(a.value)
             value = None if a.name in read_before else probe.constant(probe.add(a.value))
             if value is None:
                 now.pop(a.name, None)
