@@ -119,9 +119,10 @@ class _Expander:
                 if found else ""))
             return self._blank(start, line_end)
         name, after = m.group(1), m.end()
-        rest = text[after:line_end]
+        line_end = _line_end(text, after)
+        rest = _code_of(text[after:line_end])
         body_start = after + len(rest) - len(rest.lstrip())
-        stripped = _strip_comment(rest).strip()
+        stripped = rest.strip()
         if stripped.startswith("{"):
             end = self._block_end(body_start, name)
             body = (body_start, end)
@@ -172,8 +173,23 @@ class _TooLarge(Exception):
     pass
 
 
-def _strip_comment(line: str) -> str:
-    m = re.search(r"//|/\*", line)
+_LINE_PARTS = re.compile(r"/\*.*?(?:\*/|\Z)|//[^\n]*|\n", re.S)
+
+
+def _line_end(text: str, start: int) -> int:
+    """The end of the line from `start`, where a comment that opens on it and closes on
+    a later line goes on to that line's end, as in C (the comment is a space)."""
+    for m in _LINE_PARTS.finditer(text, start):
+        if m.group() == "\n":
+            return m.start()
+    return len(text)
+
+
+def _code_of(line: str) -> str:
+    """The line with its comments as blanks (so that offsets stay put), up to a `//`:
+    `#define R /* half */ 0.5` is 0.5, not nothing."""
+    line = re.sub(r"/\*.*?(?:\*/|\Z)", lambda m: " " * len(m.group()), line, flags=re.S)
+    m = re.search(r"//", line)
     return line if m is None else line[:m.start()]
 
 

@@ -1,0 +1,32 @@
+"""`#define` (notation §2): the replacement is the rest of the line, comments being
+spaces as in C."""
+import pytest
+
+from pcsg.compiler import compile_text
+from pcsg.graph.expand import expand_file
+from pcsg.language.errors import PcsgError
+
+
+def expanded(text: str) -> str:
+    return expand_file(compile_text(text, "t.pcsg"), 1).strip().splitlines()[-1]
+
+
+@pytest.mark.parametrize("define", [
+    "#define R /* half */ 0.5",           # a comment before the replacement: it was empty
+    "#define R 0.5 /* half */ // and more",
+    "#define R /* a comment\n   that goes on */ 0.5",      # closed on the next line, as in C
+])
+def test_comments_in_a_replacement_are_spaces(define):
+    assert expanded(f"{define}\nmove(R, 0, 0) sphere\n") == "move(0.5, 0, 0) sphere"
+
+
+def test_a_block_after_a_comment_is_the_replacement():
+    # the block was taken from the next line instead, and the use said "undefined name 'a'"
+    assert expanded("#define B /* set */ {a = 2}\nB move(a, 0, 0) sphere\n") == \
+        "{a = 2} (move(2, 0, 0) sphere)"
+
+
+def test_lines_keep_their_numbers_after_a_comment_over_two_lines():
+    with pytest.raises(PcsgError) as e:
+        compile_text("#define R /* a\n b */ 0.5\nmove(R, 0, 0) sphere\nfoo\n", "t.pcsg")
+    assert [(d.location.line, d.location.column) for d in e.value.diagnostics] == [(4, 1)]
