@@ -44,6 +44,19 @@ class TestDefiniteAssignment:
 
 
 class TestTermination:
+    def test_a_cycle_through_a_module_whose_selection_changes_ends(self):
+        # S → T → S, where T's block counts down what S reads: T was warned of as a graftal
+        text = ("{c = 3} S\nS if(c > 0, 2, 1)\n1: S → sphere\n"
+                "2: S → move(1,0,0) uscale(0.5) T\n1: T → {c = c - 1} S\n")
+        assert [w for w in warnings_of(text) if w.code == "endless"] == []
+        # without the countdown, S is the one warned of, once
+        w = [w for w in warnings_of(text.replace("{c = c - 1} ", "")) if w.code == "endless"]
+        assert [x.message.split(" can")[0] for x in w] == ["'S'"]
+
+    def test_a_cycle_through_a_rule_never_selected_is_no_cycle(self):
+        w = warnings_of("{c = 2} S\nS 1\n1: S → sphere\n2: S → {c = c - 1} S\n")
+        assert [x.code for x in w] == ["unselected"]
+
     def test_fig3a_as_printed_never_terminates(self):
         w = [x for x in warnings_of(FIG3A_AS_PRINTED) if x.code == "endless"]
         assert len(w) == 1

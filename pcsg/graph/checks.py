@@ -231,17 +231,25 @@ def unselected_rules(graph: Graph) -> list[Diagnostic]:
     for i, s in enumerate(graph.nodes):
         if s.kind != SELECT or len(s.children) < 2:
             continue
-        picks = _branches(graph.expr_ast[s.exprs[0]])
-        if picks is None:
+        named = _named_rules(graph, i)
+        if named is None:
             continue
         finishing = terminating_rules(graph) if finishing is None else finishing
-        named = {int(vm.round_half_away(v)) for v in picks if math.isfinite(v)}
         for k in range(1, len(s.children) + 1):
             if k not in named and k - 1 != finishing.get(i):
                 out.append(_diag(graph, "warning", f"rule {k} of '{s.name}' is never selected: "
                                  f"its selection only gives {_listed(sorted(named))}",
                                  s.edge_spans[k - 1], "unselected"))
     return out
+
+
+def _named_rules(graph: Graph, i: int) -> set[int] | None:
+    """The rule numbers S-node i's selection can give where it is written as numbers (a
+    number, or an if() of numbers); None where it computes them."""
+    picks = _branches(graph.expr_ast[graph.nodes[i].exprs[0]])
+    if picks is None:
+        return None
+    return {int(vm.round_half_away(v)) for v in picks if math.isfinite(v)}
 
 
 def _branches(node) -> set[float] | None:
@@ -277,7 +285,14 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
             n = nodes[i]
             if n.kind == CALC and i != m and reads & set(n.targets):
                 continue         # this path changes what the selection reads
+            if n.kind == SELECT and i != m and _reads_parameters(graph, n):
+                # the cycle may end at this module (S → T → S, where T's block changes
+                # what S reads); where it does not, that module's own check says so
+                continue
+            named = _named_rules(graph, i) if n.kind == SELECT else None
             for k, c in enumerate(n.children):
+                if named is not None and k + 1 not in named:
+                    continue     # a rule the selection never names: no cycle through it
                 if c == m:
                     closing.append((i, k))
                 elif c not in seen:
@@ -309,6 +324,14 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
                        f"size, `export` needs --max-depth N")
         out.append(_diag(graph, "warning", message, spans[0], "endless", notes))
     return out
+
+
+def _reads_parameters(graph: Graph, s) -> bool:
+    """Whether S-node s's selection is written with parameters or rand() (folded to a
+    constant or not: where nothing changes them, its own check says so)."""
+    sel = s.exprs[0]
+    return graph.exprs.uses_rand(sel) or bool(graph.exprs.reads(sel)) or any(
+        name in graph.params for name in names_in(graph.expr_ast[sel]))
 
 
 def non_contracting_cycles(graph: Graph) -> list[Diagnostic]:
