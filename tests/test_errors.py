@@ -116,3 +116,20 @@ def test_a_file_with_old_mac_line_ends_has_its_lines(tmp_path):
     loc = e.diagnostics[0].location
     assert (loc.line, loc.column) == (4, 18)
     assert "\r" not in e.diagnostics[0].format()            # the excerpt without its CR
+
+
+@pytest.mark.parametrize("text, said", [
+    # read as a number: they were "undefined name 'N'", though defined
+    ("N ∪ move(N, 0, 0) cube\nN = sphere\n",
+     ["1:10: 'N' is a named expression, a CSG operand, not a number"]),
+    ("{c = 1} S\nS T\n1: S → sphere\n1: T → cube\n",
+     ["2:3: 'T' is a module, a CSG operand, not a number"]),
+    # a module declared without rules: its declaration says so, its use says nothing more
+    # (it said "undefined name 'S'" first, contradicting it)
+    ("S\nS 1\n", ["2:1: 'S' is declared as a module but has no rules (write them as "
+                  "'1: S → ...')"]),
+])
+def test_a_name_defined_as_something_else_is_said_as_such(text, said):
+    e = pytest.raises(PcsgError, compile_text, text, "t.pcsg")
+    assert [f"{d.location.line}:{d.location.column}: {d.message}"
+            for d in e.value.diagnostics] == said

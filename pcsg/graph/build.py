@@ -34,6 +34,7 @@ class _Builder:
         self.named_nodes: dict[str, int] = {}
         self.named_building: list[str] = []
         self.named_read: set[str] = set()
+        self.ruleless: set[str] = set()     # declared modules without rules (said there)
 
     # ---- reporting
     def error(self, span, message, code, notes=()):
@@ -94,7 +95,7 @@ class _Builder:
         self.params = self._collect_params(stmts)
         self._apply_overrides(axioms)
         self.exprs = ExprTable(self.params, self.error, self._initial_constants(axioms, stmts),
-                               self.source.defined_below)
+                               self.source.defined_below, self._operand_kind)
         self.material_names: list[str] = []
         self.scene = build_scene([s for s in stmts if isinstance(s, ast.Directive)],
                                  self._constant, self.error, self.warn)
@@ -138,6 +139,7 @@ class _Builder:
             elif d.name not in by_module:
                 self.error(d.name_span, f"'{d.name}' is declared as a module but has no rules "
                                         f"(write them as '1: {d.name} → ...')", "no-rules")
+                self.ruleless.add(d.name)
             declared.setdefault(d.name, d)
         out = {}
         for name, rs in by_module.items():
@@ -388,6 +390,8 @@ class _Builder:
             if e.name not in self.primitive_nodes:
                 self.primitive_nodes[e.name] = self.add(Node(PRIMITIVE, name=e.name, span=e.span))
             return self.primitive_nodes[e.name]
+        if e.name in self.ruleless:
+            return self.primitive_node_for_errors()     # its declaration's error says why
         if e.name in self.params:
             what = f"'{e.name}' is a parameter; a CSG operand must be a module, a named " \
                    f"expression or a primitive"
@@ -423,6 +427,13 @@ class _Builder:
             self.error(e.span, why, "fractal-arguments")
             return self.primitive_node_for_errors()
         return self.add(Node(PRIMITIVE, name=e.name, exprs=exprs, span=e.span))
+
+    def _operand_kind(self, name: str) -> str | None:
+        """What a CSG operand's name read as a number is (`move(N, 0, 0)`, N a named
+        expression, was an "undefined name")."""
+        if name in self.rules or name in self.ruleless:
+            return "a module"
+        return "a named expression" if name in self.named else None
 
     def primitive_node_for_errors(self) -> int:
         return self.add(Node(PRIMITIVE, name="sphere"))

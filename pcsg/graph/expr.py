@@ -69,10 +69,11 @@ class ExprTable:
     """
 
     def __init__(self, params: dict[str, int], report, constants: dict[str, float] | None = None,
-                 unknown=lambda name: ""):
+                 unknown=lambda name: "", operand=lambda name: None):
         self.params = params
         self.report = report
         self.unknown = unknown          # what else to say of an undefined name
+        self.operand = operand          # what a CSG operand's name is, or None
         # parameters known to hold one value everywhere (the caller may still add to them)
         self.constants = {} if constants is None else constants
         self._code: list[tuple[int, int]] = []
@@ -175,6 +176,10 @@ class ExprTable:
                 return _NAN
             if n.name in RESERVED:
                 self.report(n.span, f"'{n.name}' is {RESERVED[n.name]}, not a number",
+                            'undefined-name')
+                return _NAN
+            if kind := self.operand(n.name):
+                self.report(n.span, f"'{n.name}' is {kind}, a CSG operand, not a number",
                             'undefined-name')
                 return _NAN
             hint = (did_you_mean(n.name, [*self.params, *self.constants, 'pi'])
