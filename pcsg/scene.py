@@ -40,13 +40,15 @@ RANGES.update({("material", "reflect"): _FRACTION, ("material", "transmit"): _FR
 
 
 def camera_degenerate(eye, at, up) -> str | None:
-    """'same' where eye is at, 'parallel' where up lies along the view from eye to at
-    (or is zero), else None: the one test of #camera here and of every camera the
-    renderer places (render/camera.py)."""
+    """'same' where eye is at, 'zero' where up is, 'parallel' where up lies along the
+    view from eye to at, else None: the one test of #camera here and of every camera
+    the renderer places (render/camera.py)."""
+    ux, uy, uz = (float(u) for u in up)
+    if not (ux or uy or uz):
+        return "zero"
     view = [float(a) - float(e) for a, e in zip(at, eye)]
     if not any(view):
         return "same"
-    ux, uy, uz = (float(u) for u in up)
     vx, vy, vz = view
     cross = (vy * uz - vz * uy, vz * ux - vx * uz, vx * uy - vy * ux)
     if math.hypot(*cross) <= 1e-12 * math.hypot(*view) * math.hypot(ux, uy, uz):
@@ -56,6 +58,8 @@ def camera_degenerate(eye, at, up) -> str | None:
 
 def _camera_problem(camera: dict) -> str | None:
     """What keeps a #camera with both eye and at from being placed."""
+    if not any(camera.get("up", DEFAULT_UP)):
+        return "#camera: up is (0, 0, 0), no direction: give one such as (0, 0, 1)"
     if "eye" not in camera or "at" not in camera:
         return None
     what = camera_degenerate(camera["eye"], camera["at"], camera.get("up", DEFAULT_UP))

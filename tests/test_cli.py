@@ -433,6 +433,17 @@ def test_a_camera_that_cannot_be_placed_fails_cleanly(capsys, tmp_path, text, op
     assert not out.exists()
 
 
+def test_an_up_of_zero_is_no_direction(capsys, tmp_path):
+    # it was "parallel to its viewing direction", from render only, without a place
+    path = tmp_path / "c.pcsg"
+    path.write_text("#camera eye=(1, 2, 3) up=(0, 0, 0)\nsphere\n", encoding="utf-8")
+    assert main(["check", str(path)]) == 1
+    assert "c.pcsg:1:1: error: #camera: up is (0, 0, 0), no direction" in capsys.readouterr().err
+    path.write_text("sphere\n", encoding="utf-8")
+    assert main(["render", str(path), "--up", "0,0,0", "-o", str(tmp_path / "c.png")]) == 2
+    assert "--up 0,0,0 is no direction" in capsys.readouterr().err
+
+
 def test_an_animation_of_an_object_too_large_to_frame_fails_cleanly(capsys, tmp_path):
     path = tmp_path / "c.pcsg"
     path.write_text("move(1e300, 0, 0) sphere ∪ move(-1e300, 0, 0) sphere\n",

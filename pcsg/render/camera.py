@@ -47,6 +47,9 @@ class Camera:
         what = camera_degenerate(self.eye, self.at, self.up)
         if what == "same":
             raise CameraError(f"the camera's eye and at are the same point {_point(self.eye)}")
+        if what == "zero":
+            raise CameraError("the camera's up is (0, 0, 0), no direction: give one such as "
+                              "0,0,1")
         if what == "parallel":
             raise CameraError(f"the camera's up {_point(self.up)} is parallel to its "
                               f"viewing direction: give another up")

@@ -101,6 +101,8 @@ def check_options(o: Options) -> str | None:
     if o.light is not None and not all(math.isfinite(v) for v in o.light):
         point = ",".join(f"{v:g}" for v in o.light)
         return f"--light {point}: give a point with finite coordinates"
+    if o.up is not None and not any(o.up):
+        return "--up 0,0,0 is no direction: give one such as 0,0,1"
     if o.fov is not None and not 0 < o.fov < 180:
         return f"--fov {o.fov}: the vertical field of view is between 0 and 180 degrees"
     return None
