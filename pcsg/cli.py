@@ -164,7 +164,10 @@ def cmd_stats(args) -> int:
 def _stats_text(r: dict) -> str:
     kinds = ", ".join(f"{v} {k}" for k, v in r["node_kinds"].items() if v)
     modules = ", ".join(f"{m} ({n} rule{'s' if n != 1 else ''})" for m, n in r["modules"].items())
-    if r.get("endless"):
+    if r.get("not_counted"):
+        count = (f"not counted: {r['not_counted']}; a render refines it to pixel size or "
+                 f"--max-depth")
+    elif r.get("endless"):
         count = ("endless: a graftal, refined to pixel size when rendered (`pcsg export "
                  "--max-depth N` writes it cut at depth N)")
     else:

@@ -1,4 +1,6 @@
 """stats counts, expand round trips, and the flat reference expansion agree."""
+import json
+
 import numpy as np
 import pytest
 
@@ -44,7 +46,7 @@ class TestCounts:
         with pytest.raises(PcsgError) as e:
             count_primitives(g)
         assert e.value.diagnostics[0].message.startswith(
-            "the derivation never ends: 'S' is still being rewritten after 10000 levels")
+            "the derivation goes deeper than 10000 levels: 'S' is still being rewritten there")
 
     def test_repeating_state_is_reported(self):
         g = compile_text("{n = 1} S\nS if(n > 0, 2, 1)\n1: S → sphere\n2: S → {n = n} S")
@@ -141,3 +143,23 @@ def test_a_module_comes_before_a_named_expression_of_its_name():
     (w,) = g.warnings
     assert w.code == "shadowed" and (w.location.line, w.location.column) == (2, 1)
     assert "it names the module, and the named expression is never used" in w.message
+
+
+@pytest.mark.parametrize("text, why", [
+    # counts up forever: valid (notation §9), and stats failed with exit 1
+    ("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → sphere\n2: S → {c = c + 1} (sphere ∪ move(2, 0, 0) "
+     "uscale(0.5) S)\n", "the derivation goes deeper than 10000 levels: 'S' is still being "
+                         "rewritten there (c = 10001)"),
+    # finite, but deeper than the count follows: it said "never ends"
+    ("{c = 20000} S\nS if(c > 0, 2, 1)\n1: S → sphere\n2: S → {c = c - 1} (sphere ∪ "
+     "move(0.001, 0, 0) uscale(0.9) S)\n", "the derivation goes deeper than 10000 levels"),
+    ("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → sphere\n2: S → {c = c} uscale(0.5) S\n",
+     "the derivation never ends: 'S' repeats with the same parameters (c = 1)"),
+])
+def test_stats_of_a_derivation_it_cannot_count_says_why(capsys, tmp_path, text, why):
+    from pcsg.cli import main
+    src = tmp_path / "t.pcsg"
+    src.write_text(text, encoding="utf-8")
+    assert main(["stats", str(src), "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert r["primitives"] is None and r["endless"] and r["not_counted"].startswith(why)

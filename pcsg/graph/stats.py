@@ -73,11 +73,13 @@ class _Counter:
         if hit is not None:
             return hit
         if key in self.active:
-            raise Endless(self._endless(node_id, state, "repeats with the same parameters",
-                                        "repeats"))
+            raise Endless(self._endless(node_id, state, "the derivation never ends",
+                                        "repeats with the same parameters", "repeats"))
         if node.kind == SELECT and (level >= MAX_LEVELS or len(self.memo) > self.max_states):
-            raise Endless(self._endless(node_id, state, f"is still being rewritten after "
-                                                        f"{min(level, MAX_LEVELS)} levels"))
+            # deep, or endless: a count that ends after 20 000 levels is not endless
+            raise Endless(self._endless(
+                node_id, state, f"the derivation goes deeper than {min(level, MAX_LEVELS)} "
+                                f"levels", "is still being rewritten there"))
         self.active.add(key)
         if node.kind == SELECT:
             cut = self.cut is not None and level + 1 > self.cut.depth
@@ -101,12 +103,11 @@ class _Counter:
         self.memo[key] = total
         return total
 
-    def _endless(self, node_id, state, what, code="endless") -> Diagnostic:
+    def _endless(self, node_id, state, lead, what, code="endless") -> Diagnostic:
         node = self.g.nodes[node_id]
         name = node.name if node.kind == SELECT else KIND_NAMES[node.kind]
         values = ", ".join(f"{k} = {readable(v)}" for k, v in state.items(self.g))
-        return Diagnostic("error", f"the derivation never ends: '{name}' {what} "
-                                   f"({values or 'no parameters'})",
+        return Diagnostic("error", f"{lead}: '{name}' {what} ({values or 'no parameters'})",
                           node.span, self.g.source, code=code)
 
 
@@ -132,11 +133,13 @@ def graph_stats(graph: Graph, count: bool = True) -> dict:
             out["primitives"] = sum(by_kind.values())
             out["primitives_by_kind"] = by_kind
         except PcsgError as e:
-            # a graftal's derivation never ends by design: the tracer refines it to
-            # pixel size; anything else that never ends is still an error
-            if not (graftal and all(d.code in ENDLESS for d in e.diagnostics)):
+            # a derivation that never ends (a graftal's by design) is a valid system: the
+            # tracer refines it to pixel size (notation §9); stats says why it has no count
+            if not all(d.code in ENDLESS for d in e.diagnostics):
                 raise
             out["endless"] = True
+            if not graftal:
+                out["not_counted"] = e.diagnostics[0].message
     if graftal:
         out["bounding_volumes"] = report(bounding_volumes(graph))
     return out
