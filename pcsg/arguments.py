@@ -29,6 +29,15 @@ class Parser(argparse.ArgumentParser):
     """argparse's parser, with negative vectors and sizes read as values. Its sub-command
     parsers are of this class too (add_subparsers makes them of the parent's type)."""
 
+    def parse_args(self, args=None, namespace=None):
+        """An unknown option is said by its command's parser, with that command's usage:
+        `pcsg sweep ... --timings` printed the top level's "usage: pcsg COMMAND ..."."""
+        args, extra = self.parse_known_args(args, namespace)
+        if extra:
+            command = getattr(self, "commands", {}).get(getattr(args, "command", None), self)
+            command.error(f"unrecognized arguments: {' '.join(extra)}")
+        return args
+
     def _parse_optional(self, arg_string):
         if NEGATIVE.match(arg_string):
             return None
@@ -47,6 +56,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"pcsg {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
+    p.commands = sub.choices
 
     c = sub.add_parser("check", parents=[common], help="check files; errors as file:line:col")
     c.add_argument("files", nargs="+", metavar="FILE")

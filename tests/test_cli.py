@@ -660,3 +660,16 @@ def test_an_output_over_an_input_or_the_image_is_refused(capsys, sierpinski, tmp
     assert code == 2 and said.format(**fill) in err
     assert sierpinski.read_bytes() == grammar
     assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob("*.npy"))
+
+
+@pytest.mark.parametrize("argv", [["render", "{f}", "--bogus"],
+                                  ["sweep", "{f}", "--set", "c=1..2", "--timings"],
+                                  ["animate", "{f}", "--timings"]])
+def test_an_unknown_option_is_said_by_its_command(capsys, sierpinski, argv):
+    # the top level said it, with its own usage line: "usage: pcsg [-h] [--version] COMMAND"
+    with pytest.raises(SystemExit) as e:
+        main([a.format(f=sierpinski) for a in argv])
+    err = capsys.readouterr().err
+    assert e.value.code == 2
+    assert f"pcsg {argv[0]}: error: unrecognized arguments: {argv[-1]}" in err
+    assert f"usage: pcsg {argv[0]} " in err
