@@ -162,7 +162,10 @@ class Traced:
                 label = f"'{n.name}'" if n.kind == SELECT else KIND_NAMES[n.kind]
                 if n.span is not None:
                     label += f" at {g.source.locate(n.span[0])}"
-                names.append(f"{label}, depth up to {events[N_EVENTS + kind, i]}")
+                # at the depth limit that is the limit's own next level, which read as
+                # past it ("--max-depth 1 ... depth up to 2")
+                names.append(label if kind == EV_DEPTH else
+                             f"{label}, depth up to {events[N_EVENTS + kind, i]}")
             return ", ".join(names), int(events[kind].sum())
 
         lines = []
@@ -170,18 +173,22 @@ class Traced:
         ends = ("with their terminating rule, or as their bounding volume where none ends"
                 if (self.flat.term_rule[self.flat.kind == SELECT] < 0).any() else
                 "with their terminating rule")
+        # the counts are of rays' visits: one instance met by 400 rays counts 400 (they
+        # read as instances: "410 instances were empty" of a file of one)
         texts = {
-            EV_LOD: "level of detail: {n:,} instances smaller than a pixel were finished "
-                    + ends + " ({w})",
-            EV_DEPTH: ("depth limit: {n:,} instances reached --max-depth {d} and were finished "
-                       + ends + " ({w}); raise --max-depth to refine further"
+            EV_LOD: "level of detail: instances smaller than a pixel were finished " + ends
+                    + " ({w}; {n:,} ray visits)",
+            EV_DEPTH: ("depth limit: instances at --max-depth {d} were finished " + ends
+                       + " ({w}; {n:,} ray visits); raise --max-depth to refine further"
                        if self.max_depth == self.asked_depth else
-                       "depth limit: {n:,} instances reached depth {d}, where the bounds stop, "
-                       "and were finished " + ends + " ({w})"),
-            EV_SELECTION: "{n:,} instances were empty because a selection was not a valid rule "
-                          "number ({w})",
-            EV_SINGULAR: "{n:,} instances were empty because of a singular transformation ({w})",
-            EV_NONFINITE: "{n:,} instances were empty because of a non-finite argument ({w})",
+                       "depth limit: instances at depth {d}, where the bounds stop, were "
+                       "finished " + ends + " ({w}; {n:,} ray visits)"),
+            EV_SELECTION: "instances were empty because a selection was not a valid rule "
+                          "number ({w}; {n:,} ray visits)",
+            EV_SINGULAR: "instances were empty because of a singular transformation ({w}; "
+                         "{n:,} ray visits)",
+            EV_NONFINITE: "instances were empty because of a non-finite argument ({w}; {n:,} "
+                          "ray visits)",
             EV_STACK: "walk stack full {n:,} times ({w}); the rays lost what lay beyond; "
                       "raise --stack-depth (now {s})",
             EV_INTERVALS: "interval lists full {n:,} times ({w}): an ∩ or \\ subtree has "

@@ -177,3 +177,20 @@ def test_the_bounds_budget_decides_how_deep_a_large_system_is_bounded(capsys, tm
     err = capsys.readouterr().err
     assert "too many to bound one by one" in err and "--bounds-budget 150,000" in err
     assert (tmp_path / "full.png").exists() and (tmp_path / "cut.png").exists()
+
+
+def test_event_counts_are_said_as_ray_visits(tmp_path):
+    # one instance met by many rays read "410 instances were empty", and the depth limit's
+    # own next level "--max-depth 1 ... depth up to 2", as if past the limit
+    obj = pcsg.loads("paint(0/0, 1, 1) sphere ∪ move(3, 0, 0) cube\n")
+    o = np.tile([[0.0, -5.0, 0.0]], (50, 1))
+    obj.trace(o, np.tile([[0.0, 1.0, 0.0]], (50, 1)))
+    (line,) = obj.describe_events(obj.events)
+    assert line == ("instances were empty because of a non-finite argument (paint at "
+                    "<string>:1:1, depth up to 0; 50 ray visits)")
+    deep = pcsg.loads(SIERPINSKI, max_depth=1)
+    deep.trace(np.array([[3.0, -4.0, 2.0]]), np.array([[-3.0, 4.0, -2.0]]))
+    (line,) = deep.describe_events(deep.events)
+    assert line.startswith("depth limit: instances at --max-depth 1 were finished with their "
+                           "terminating rule ('S' at ")
+    assert "depth up to" not in line and line.endswith("raise --max-depth to refine further")

@@ -93,6 +93,8 @@ def test_a_parameter_that_is_also_a_named_expression_is_warned_of():
                            "its operand"),
     ("rot(30, 0, 0, 0) sphere", "the axis or the normal of this transformation is zero: it "
                                 "empties its operand"),
+    ("paint(0/0, 1, 1) sphere", "the colour of this paint is not finite: it empties its "
+                                "operand"),
 ])
 def test_check_warns_of_a_constant_map_that_empties_its_operand(capsys, tmp_path, axiom,
                                                                 message):

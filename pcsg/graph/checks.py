@@ -12,7 +12,7 @@ from ..language.names import FLAT_PRIMITIVES, PIXELS, UNION_ONLY_PRIMITIVES
 from .expr import PIXELS_ONLY_IN_SELECTIONS
 from ..trace import vm
 from .derive import Deriver, names_in
-from .model import CALC, DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, Graph
+from .model import CALC, DIFFERENCE, INTERSECTION, PAINT, PRIMITIVE, SELECT, TRANSFORM, Graph
 
 PROBE_NODES = 2_000           # node visits of the contraction probe (every compile runs it)
 PROBE_REPEATS = 8             # a non-contracting cycle taken this often on one path is reported
@@ -79,10 +79,15 @@ def constant_maps(graph: Graph) -> list[Diagnostic]:
     live = reachable(graph)
     out = []
     for i, n in enumerate(graph.nodes):
-        if n.kind != TRANSFORM or not live[i]:
+        if n.kind not in (TRANSFORM, PAINT) or not live[i]:
             continue
         args = [graph.exprs.constant(e) for e in n.exprs]
         if any(a is None for a in args):
+            continue
+        if n.kind == PAINT:         # a colour that is not a number: the tracer empties it
+            if not all(math.isfinite(a) for a in args):
+                out.append(_diag(graph, "warning", "the colour of this paint is not finite: "
+                                 "it empties its operand", n.span, FAULTS[0][1]))
             continue
         with np.errstate(all="ignore"):
             m = matrix(n.name, args)
