@@ -163,3 +163,18 @@ def test_stats_of_a_derivation_it_cannot_count_says_why(capsys, tmp_path, text, 
     assert main(["stats", str(src), "--json"]) == 0
     r = json.loads(capsys.readouterr().out)
     assert r["primitives"] is None and r["endless"] and r["not_counted"].startswith(why)
+
+
+def test_the_written_word_keeps_only_what_it_reaches():
+    # the modules the word had expanded stayed in the file, "never used": check --werror
+    # refused the file expand wrote
+    text = ("{c = 2} S\nS if(c > 0, 2, 1)\n1: S → leaf\n2: S → {c = c - 1} (T ∪ move(2, 0, 0) S)\n"
+            "1: T → stem\nleaf = sphere\nstem = cube\nspare = cone\n1: U → cone\n")
+    full = expand_file(compile_text(text, "t.pcsg"), 10)
+    assert [w.message for w in compile_text(full, "w.pcsg").warnings] == []
+    assert "1: S" not in full and "1: T" not in full and "leaf =" not in full
+    # one step leaves S and T named: they stay, with what their rules read
+    one = expand_file(compile_text(text, "t.pcsg"), 1)
+    assert [w.message for w in compile_text(one, "w.pcsg").warnings] == []
+    assert all(s in one for s in ("1: S", "2: S", "S if(", "1: T", "leaf =", "stem ="))
+    assert "spare" not in one and "U →" not in one

@@ -22,6 +22,7 @@ class _Printer:
         self.max_chars = max_chars
         self.size = 0
         self.modules_left = 0
+        self.left: set[str] = set()     # the modules the word still names
 
     def out(self, parts: list, text: str):
         parts.append(text)
@@ -69,6 +70,7 @@ class _Printer:
 
     def _module(self, node, state: State, parts: list, need: int):
         self.modules_left += 1
+        self.left.add(node.name)
         values = "; ".join(f"{k} = {format_value(v)}" for k, v in state.items(self.g))
         self.out(parts, f"{{{values}}} {node.name}" if values else node.name)
 
@@ -135,4 +137,59 @@ def expand_file(graph: Graph, steps: int, max_chars: int = 50_000_000,
     text = graph.source.expanded
     start, end = graph.axiom_span
     header = f"// {graph.source.file} after {steps} derivation step{'s' if steps != 1 else ''}\n"
-    return header + text[:start] + axiom + text[end:].rstrip("\n") + "\n"
+    before, after = _unreached_cut(text, graph.source.file, p.left, (start, end))
+    return header + before + axiom + after.rstrip("\n") + "\n"
+
+
+def _unreached_cut(text: str, file: str, left: set[str], axiom: tuple[int, int]):
+    """The file before and after its axiom, without the rules, declarations and named
+    expressions the word no longer reaches from the modules it names (`left`): the
+    written word's file warned that the modules it had expanded were never used, so
+    `check --werror` refused it. The file's text is parsed again (the graph keeps no
+    statements); the word, which may be large, is not."""
+    from ..language import ast
+    from ..language.parser import parse
+    statements = parse(text, file)[0].statements
+    bodies: dict[str, list] = {}
+    for st in statements:
+        if isinstance(st, ast.Rule):
+            bodies.setdefault(st.module, []).append(st.body)
+        elif isinstance(st, ast.Named):
+            bodies.setdefault(st.name, []).append(st.body)
+    reached, todo = set(), set(left)
+    while todo:
+        name = todo.pop()
+        if name not in reached:
+            reached.add(name)
+            for body in bodies.get(name, ()):
+                todo |= _operands(body)
+    cut = [st.span for st in statements if isinstance(st, (ast.Rule, ast.ModuleDecl, ast.Named))
+           and (st.module if isinstance(st, ast.Rule) else st.name) not in reached]
+    before, after = text[:axiom[0]], text[axiom[1]:]
+    for a, b in sorted(cut, reverse=True):
+        # the whole lines of a statement that starts its line, its comment included
+        line = text.rfind("\n", 0, a) + 1
+        if not text[line:a].strip():
+            a = line
+            b = text.find("\n", b)
+            b = len(text) if b < 0 else b + 1
+        if b <= axiom[0]:
+            before = before[:a] + before[b:]
+        elif a >= axiom[1]:
+            after = after[:a - axiom[1]] + after[b - axiom[1]:]
+    return before, after
+
+
+def _operands(e) -> set[str]:
+    """The names a CSG expression reads as operands."""
+    from ..language import ast
+    out, stack = set(), [e]
+    while stack:
+        e = stack.pop()
+        if isinstance(e, ast.Ref):
+            out.add(e.name)
+        elif isinstance(e, ast.CsgOp):
+            stack += [e.left, e.right]
+        elif isinstance(e, (ast.Transform, ast.Calc, ast.Paint, ast.Material)):
+            stack.append(e.operand)
+    return out
