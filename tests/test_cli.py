@@ -673,3 +673,14 @@ def test_an_unknown_option_is_said_by_its_command(capsys, sierpinski, argv):
     assert e.value.code == 2
     assert f"pcsg {argv[0]}: error: unrecognized arguments: {argv[-1]}" in err
     assert f"usage: pcsg {argv[0]} " in err
+
+
+def test_an_ao_distance_without_occlusion_is_said(capsys, sierpinski, tmp_path):
+    # it was ignored without a word: the picture the same bytes as without it
+    out = str(tmp_path / "s.png")
+    assert main(["render", str(sierpinski), "-o", out, "--size", "16x12", "--ao-distance",
+                 "0.5"]) == 0
+    assert "--ao-distance does nothing without ambient occlusion" in capsys.readouterr().err
+    assert main(["render", str(sierpinski), "-o", out, "--size", "16x12", "--ao-distance",
+                 "0.5", "--ao", "2"]) == 0
+    assert "--ao-distance" not in capsys.readouterr().err

@@ -55,6 +55,10 @@ def test_a_bracket_left_open_ends_the_report_where_no_statement_surely_starts():
 def test_the_report_stops_at_its_limit():
     text = "S\n" + "".join(f"{k}: S → cube cube\n" for k in range(1, 30))
     assert len(reported(text)) == MAX_SYNTAX_ERRORS
+    with pytest.raises(PcsgError) as e:
+        compile_text(text, "t.pcsg")
+    assert e.value.diagnostics[-1].notes == [
+        (None, "the report stops at 10 syntax errors; more may follow")]
 
 
 def test_a_statement_joined_to_the_next_line_is_one_error():

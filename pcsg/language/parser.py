@@ -242,6 +242,9 @@ def _syntax_errors(first: UnexpectedInput, source: Source, parser, joiner) -> li
         except UnexpectedInput as again:
             e = again
             found.append(_syntax_error(e, source, joiner, rest))
+    if len(found) == MAX_SYNTAX_ERRORS:
+        found[-1].notes.append((None, f"the report stops at {MAX_SYNTAX_ERRORS} syntax "
+                                      f"errors; more may follow"))
     return found
 
 

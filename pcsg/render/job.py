@@ -158,6 +158,10 @@ def prepare_scene(graph: Graph, opts: Options, poll=None) -> Scene:
     traced = traced_for(graph, opts, poll)
     notes += [w.format(show_source=False) for w in traced.warnings
               if w not in graph.warnings]
+    occluded = opts.ao if opts.ao is not None else graph.scene.occlusion.get("samples", 0)
+    if opts.ao_distance is not None and not occluded:
+        notes.append("warning: --ao-distance does nothing without ambient occlusion "
+                     "(--ao N, or #occlusion in the file)")
     return Scene(graph, traced, notes)
 
 
