@@ -20,6 +20,7 @@ from .arguments import parser  # noqa: E402
 from .interrupt import redeliver_in_finalizers, release_compiler_lock  # noqa: E402
 from .language import prefetch  # noqa: E402
 from .language.errors import PcsgError, labelled  # noqa: E402
+from .language.names import PIXELS  # noqa: E402
 from .limits import (MAX_DEPTH, bounces_problem, shadow_samples_problem,  # noqa: E402
                      size_problem)
 from .timings import Timings, note_startup  # noqa: E402
@@ -78,11 +79,15 @@ def cmd_check(args) -> int:
             failed += 1
         elif not args.quiet:
             n = len(graph.warnings)
-            print(f"{path}: ok ({len(graph.nodes)} nodes, {len(graph.modules)} module"
-                  f"{'s' if len(graph.modules) != 1 else ''}, {len(graph.params)} parameter"
-                  f"{'s' if len(graph.params) != 1 else ''}"
-                  + (f", {n} warning{'s' if n != 1 else ''}" if n else "") + ")")
+            params = len([p for p in graph.params if p != PIXELS])     # the tracer's
+            print(f"{path}: ok ({_counted(len(graph.nodes), 'node')}, "
+                  f"{_counted(len(graph.modules), 'module')}, {_counted(params, 'parameter')}"
+                  + (f", {_counted(n, 'warning')}" if n else "") + ")")
     return EXIT_ERRORS if failed else EXIT_OK
+
+
+def _counted(n: int, word: str) -> str:
+    return f"{n} {word}{'' if n == 1 else 's'}"
 
 
 def _write(text: str, output: str | None, source: str):

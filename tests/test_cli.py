@@ -43,6 +43,17 @@ def test_check_ok_and_errors(capsys, tmp_path, sierpinski):
     assert err.startswith(f"{bad}:2:8: error: undefined name 'foo'")
 
 
+def test_check_counts_in_words(capsys, tmp_path):
+    # "1 nodes", and `pixels`, which the tracer fills, counted as a parameter
+    one = tmp_path / "one.pcsg"
+    one.write_text("sphere\n", encoding="utf-8")
+    assert run(capsys, "check", str(one))[1].strip() == \
+        f"{one}: ok (1 node, 0 modules, 0 parameters)"
+    one.write_text("S\nS if(pixels > 2, 2, 1)\n1: S → sphere\n2: S → uscale(0.5) S ∪ cube\n",
+                   encoding="utf-8")
+    assert "1 module, 0 parameters" in run(capsys, "check", str(one))[1]
+
+
 def test_check_samples_and_quoted_globs(capsys):
     code, out, err = run(capsys, "check", str(GRAMMARS / "*.pcsg"))
     assert code == 0, err
