@@ -133,3 +133,13 @@ def test_a_name_defined_as_something_else_is_said_as_such(text, said):
     e = pytest.raises(PcsgError, compile_text, text, "t.pcsg")
     assert [f"{d.location.line}:{d.location.column}: {d.message}"
             for d in e.value.diagnostics] == said
+
+
+def test_an_error_in_a_block_opened_lines_above_points_at_it():
+    # a '}' left out: the next statement read as an assignment, "expected '='", and
+    # nothing said where the block began
+    e = pytest.raises(PcsgError, compile_text, "{c = 1\nS\n1: S → sphere\n", "t.pcsg")
+    d = e.value.diagnostics[0]
+    assert (d.location.line, d.location.column) == (2, 2)
+    assert [(d.source.locate(span[0]).line, text) for span, text in d.notes] == [
+        (1, "in the calculation block opened here, whose lines are assignments until its '}'")]

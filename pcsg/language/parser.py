@@ -378,10 +378,17 @@ def _open_before(text: str, joiner: LineJoiner, tok: Token) -> list:
     """A note at the bracket still open from an earlier line, where the error starts a
     line: a ')' left out of a rule stopped the parse at the next statement, with nothing
     pointing back. (Within a group that closes later, lines join too.)"""
-    if not joiner.open_brackets or not _starts_line(text, tok):
+    if not joiner.open_brackets:
         return []
     b = joiner.open_brackets[-1]
     if "\n" not in text[b.start_pos:tok.start_pos]:
+        return []
+    if b.type == "LBRACE":
+        # a block's lines are assignments: a '}' left out read the next statement as one
+        # ("expected '='"), whether or not the error starts its line
+        return [((b.start_pos, b.end_pos), "in the calculation block opened here, whose "
+                                           "lines are assignments until its '}'")]
+    if not _starts_line(text, tok):
         return []
     return [((b.start_pos, b.end_pos), f"the '{b.value}' opened here is not closed")]
 
