@@ -176,3 +176,16 @@ def test_averaged_normals_shade_the_fern_more_smoothly(fern):
         cos = np.sum(n[:, 1:] * n[:, :-1], axis=2)[both]
         turn.append(np.mean(np.arccos(np.clip(cos, -1, 1))))
     assert turn[0] < 0.9 * turn[1], turn          # measured: 0.35 against 0.43 rad
+
+
+def test_the_reference_render_of_a_graftal_is_cut_where_the_tracer_is(tmp_path, capsys):
+    # it ignored --max-depth, expanded to 10 000 levels and failed after seconds
+    from pcsg.cli import main
+    fern = str(GRAMMARS / "barnsley_fern.pcsg")
+    out = tmp_path / "f.png"
+    assert main(["render", fern, "--reference", "--size", "20x15", "-o", str(out), "-q"]) == 1
+    assert "--reference: 'FERN' has no rule that ends" in capsys.readouterr().err
+    assert not out.exists()
+    assert main(["render", fern, "--reference", "--max-depth", "2", "--size", "20x15",
+                 "-o", str(out), "-q"]) == 0
+    assert out.exists()

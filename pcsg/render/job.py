@@ -253,8 +253,18 @@ class _ReferenceTarget:
     """`--reference`: the same picture from the brute-force expansion (small orders)."""
 
     def __init__(self, traced: Traced):
+        """Cut where the tracer's walk stops (--max-depth), as the tracer is: without the
+        cut a graftal's expansion ran to 10 000 levels and failed after seconds."""
+        from ..graph.cut import cut_of
         from ..trace.reference import Reference
-        self.ref = Reference(traced.graph)
+        cut = cut_of(traced)
+        if cut.graftal and traced.asked_depth >= MAX_DEPTH:
+            g = traced.graph
+            s = next(i for i, n in enumerate(g.nodes) if cut.select[i] and cut.term[i] < 0)
+            raise RenderFailed(f"--reference: '{g.nodes[s].name}' has no rule that ends, so "
+                               f"its expansion never does: give --max-depth N (a small N) to "
+                               f"end it where the tracer does at that depth")
+        self.ref = Reference(traced.graph, cut=cut)
 
     def trace(self, origins, directions, tmin=1e-9, tmax=math.inf, any_hit=False, lod=0.0):
         r = self.ref.trace(origins, directions, tmin=tmin, tmax=tmax, exits=True)
