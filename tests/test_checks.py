@@ -53,6 +53,17 @@ class TestTermination:
         w = [w for w in warnings_of(text.replace("{c = c - 1} ", "")) if w.code == "endless"]
         assert [x.message.split(" can")[0] for x in w] == ["'S'"]
 
+    def test_a_cycle_that_grows_in_some_direction_is_reported(self):
+        # it shrinks in y and z, so "shrinks in no direction" passed it; its bounds reach
+        # 1e12 in x and the picture framed to them showed nothing
+        w = warnings_of("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → sphere\n"
+                        "2: S → {c = c + 1} (sphere ∪ move(2, 0, 0) scale(1.5, 0.5, 0.5) S)\n")
+        assert [x.code for x in w] == ["non-contracting"]
+        assert "grow it in some direction (scale 1.5 per cycle at most)" in w[0].message
+        # the terrain's scale(0.5, 0.5, 1) keeps z and grows nothing: not reported
+        assert warnings_of("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → sphere\n2: S → {c = c + 1} "
+                           "(sphere ∪ move(2, 0, 0) scale(0.5, 0.5, 1) S)\n") == []
+
     def test_a_cycle_through_a_rule_never_selected_is_no_cycle(self):
         w = warnings_of("{c = 2} S\nS 1\n1: S → sphere\n2: S → {c = c - 1} S\n")
         assert [x.code for x in w] == ["unselected"]
@@ -105,12 +116,14 @@ class TestContraction:
         assert warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
                            "2: S → sphere ∪ {n = n-1} move(2,0,0) scale(0.5,0.5,1) S") == []
 
-    def test_a_cycle_that_shrinks_along_no_axis_but_some_direction_is_not_reported(self):
+    def test_a_cycle_that_shrinks_along_no_axis_but_some_direction_grows_in_another(self):
         # scale after a turn: every axis keeps a length of 1 or more (1.12, 1.12, 1), and
-        # the map still halves one direction; its least singular value (an SVD) says so
-        assert warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
-                           "2: S → sphere ∪ {n = n-1} move(2,0,0) scale(0.5,1.5,1) rotz(45) S"
-                           ) == []
+        # the map still halves one direction (its least singular value, an SVD, says so);
+        # it was not reported, but it grows 1.5 times in another, so it does not contract
+        w = warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
+                        "2: S → sphere ∪ {n = n-1} move(2,0,0) scale(0.5,1.5,1) rotz(45) S")
+        assert [x.code for x in w] == ["non-contracting"]
+        assert "(scale 1.5 per cycle at most)" in w[0].message
         w = warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
                         "2: S → sphere ∪ {n = n-1} move(2,0,0) scale(1.1,1.5,1) rotz(45) S")
         assert [x.code for x in w] == ["non-contracting"] and "scale 1 " in w[0].message

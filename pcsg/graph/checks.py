@@ -365,12 +365,23 @@ def _least_scale(rel) -> float:
     return float(np.linalg.svd(rel, compute_uv=False)[-1])
 
 
+def _most_scale(rel) -> float:
+    """The largest singular value of rel (where its Frobenius norm, which bounds it, is
+    over 1: most cycles shrink in every direction and cost no SVD)."""
+    frobenius = float(np.sqrt((rel * rel).sum()))
+    if not frobenius > 1 + 1e-9:
+        return frobenius
+    return float(np.linalg.svd(rel, compute_uv=False)[0])
+
+
 def _probe(graph: Graph) -> list[Diagnostic]:
     """Walk the derivation for a while with real parameter values; a module instance
     nested PROBE_REPEATS times in itself with transformations that shrink it in no
     direction (smallest singular value ≥ 1 between successive instances: moves,
-    rotations, growth) is reported, since neither hyper-bounding boxes nor the pixel-size
-    level of detail can cut it. A cycle that shrinks along some axes only (the terrain's
+    rotations, growth), or that grow it in some (the largest above 1: scale(1.5, 0.5,
+    0.5), whose bounds reach 1e12 and whose picture, framed to them, came out empty), is
+    reported, since neither hyper-bounding boxes nor the pixel-size level of detail can
+    cut it. A cycle that shrinks along some axes only (the terrain's
     scale(0.5,0.5,1)) is not: its boxes narrow along those, and whether the probe's
     few thousand visits went deep enough to see it repeat eight times was a matter of
     the order it walked in (the terrain was reported at cnt 12, not at 8 to 11)."""
@@ -392,13 +403,18 @@ def _probe(graph: Graph) -> list[Diagnostic]:
                 if prev is not None:
                     rel = np.linalg.solve(prev[0], lin) if np.linalg.det(prev[0]) != 0 else lin
                     least = _least_scale(rel)
-                    repeats = prev[1] + 1 if not least < 1 - 1e-9 else 0
+                    most = _most_scale(rel) if least < 1 - 1e-9 else 1.0
+                    grows = most > 1 + 1e-9
+                    repeats = prev[1] + 1 if grows or not least < 1 - 1e-9 else 0
                     if repeats >= PROBE_REPEATS and i not in reported and edge is not None:
+                        how = (f"that grow it in some direction (scale {most:.3g} per cycle "
+                               f"at most):" if grows else
+                               f"that shrink it in no direction (scale {least:.3g} per cycle "
+                               f"at least):")
                         reported[i] = _diag(graph, "warning", f"'{n.name}' calls itself here "
                                             f"{repeats} times in a row through transformations "
-                                            f"that shrink it in no direction (scale {least:.3g} "
-                                            f"per cycle at least): bounding boxes and the level "
-                                            f"of detail cannot stop it", edge, "non-contracting")
+                                            f"{how} bounding boxes and the level of detail "
+                                            f"cannot stop it", edge, "non-contracting")
                 seen = {**seen, i: (lin, repeats)}
                 r = d.select(i, state, h)
                 stack.append((n.children[r], state, d.edge(h, i, r), lin, seen, n.edge_spans[r]))
