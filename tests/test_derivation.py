@@ -178,3 +178,14 @@ def test_the_written_word_keeps_only_what_it_reaches():
     assert [w.message for w in compile_text(one, "w.pcsg").warnings] == []
     assert all(s in one for s in ("1: S", "2: S", "S if(", "1: T", "leaf =", "stem ="))
     assert "spare" not in one and "U →" not in one
+
+
+def test_a_word_that_leaves_graftal_modules_says_its_picture_differs():
+    # the fern's written word rendered 628 of 19 200 pixels otherwise, without a word
+    from pcsg.graph.expand import GRAFTAL_LEFT
+    notes: list[str] = []
+    expand_file(compile_file(GRAMMARS / "barnsley_fern.pcsg"), 2, notes=notes)
+    assert GRAFTAL_LEFT in notes
+    notes.clear()
+    expand_file(compile_file(GRAMMARS / "sierpinski.pcsg"), 2, notes=notes)
+    assert notes == []

@@ -83,6 +83,12 @@ REDRAWN = ("the written word's modules draw other numbers from rand() than the f
            "modules it leaves the primitives differ (rand(seed) draws the same)")
 
 
+GRAFTAL_LEFT = ("the word leaves graftal modules, which a render refines from where they "
+                "stand: --max-depth counts from the new axiom, and their shading averages the "
+                "boxes on each ray's path from it, so its picture differs a little from the "
+                "file's (`stats` and `export --max-depth N` count from the new axiom too)")
+
+
 def redraws(graph: Graph) -> bool:
     """Whether some expression calls rand() without a seed: its numbers depend on the
     instance's path from the axiom."""
@@ -128,6 +134,10 @@ def expand_file(graph: Graph, steps: int, max_chars: int = 50_000_000,
         notes.append(REDRAWN)
     if notes is not None and steps > 0 and PIXELS in graph.params:
         notes.append(PIXELS_TAKEN)
+    if notes is not None and steps > 0 and p.modules_left:
+        from .volumes import graftal_nodes
+        if graftal_nodes(graph):
+            notes.append(GRAFTAL_LEFT)
     if p.modules_left == 0:
         # The rules stay in the file and read parameters that only the old axiom assigned:
         # keep those assignments, or the file would read undefined names.
