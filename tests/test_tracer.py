@@ -256,7 +256,7 @@ def test_too_many_instances_to_bound_stop_refining_where_the_bounds_stop(monkeyp
         depth_events += got.events[EV_DEPTH].sum()
     assert depth_events > 0
     line = [x for x in obj.describe_events(obj.events) if x.startswith("depth limit")][0]
-    assert f"reached depth {obj.max_depth}, where the bounds stop" in line
+    assert f"instances at depth {obj.max_depth}, where the bounds stop" in line
 
 
 def test_a_system_that_ends_within_the_budget_is_not_cut(monkeypatch):
