@@ -283,6 +283,12 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
         if PIXELS in table.reads(s.exprs[0]):
             continue             # it ends where the instances become small enough
         reads = {graph.params[p] for p in table.reads(s.exprs[0])}
+        # a module whose rule is fixed (one rule, a graftal's, or a number) recurs only as
+        # far as the modules on its cycles let it: where one of them reads parameters, that
+        # one's own check decides (S → T → S, where T's block counts down what S reads,
+        # made T "a graftal"). A module that reads parameters is endless where they never
+        # change on a cycle, whatever the modules between choose on the way round.
+        fixed_rule = not _reads_parameters(graph, s)
         closing = []             # (parent, child number) of edges that close such a cycle
         seen, stack = {m}, [m]
         while stack:
@@ -290,9 +296,7 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
             n = nodes[i]
             if n.kind == CALC and i != m and reads & set(n.targets):
                 continue         # this path changes what the selection reads
-            if n.kind == SELECT and i != m and _reads_parameters(graph, n):
-                # the cycle may end at this module (S → T → S, where T's block changes
-                # what S reads); where it does not, that module's own check says so
+            if n.kind == SELECT and i != m and fixed_rule and _reads_parameters(graph, n):
                 continue
             named = _named_rules(graph, i) if n.kind == SELECT else None
             for k, c in enumerate(n.children):
@@ -365,6 +369,11 @@ def _least_scale(rel) -> float:
     return float(np.linalg.svd(rel, compute_uv=False)[-1])
 
 
+def _relative(before, lin):
+    """The map from an earlier instance's frame to a later one's."""
+    return np.linalg.solve(before, lin) if np.linalg.det(before) != 0 else lin
+
+
 def _most_scale(rel) -> float:
     """The largest singular value of rel (where its Frobenius norm, which bounds it, is
     over 1: most cycles shrink in every direction and cost no SVD)."""
@@ -390,7 +399,7 @@ def _probe(graph: Graph) -> list[Diagnostic]:
     reported: dict[int, Diagnostic] = {}
     budget = [PROBE_NODES]
     state, h = d.initial()
-    # stack items: (node, state, hash, world-from-local linear map, {module: (map, repeats)}, edge)
+    # stack items: (node, state, hash, world-from-local linear map, {module: (map, repeats, map where the run began)}, edge)
     stack = [(graph.root, state, h, np.eye(3), {}, None)]
     while stack and budget[0] > 0:
         i, state, h, lin, seen, edge = stack.pop()
@@ -399,23 +408,30 @@ def _probe(graph: Graph) -> list[Diagnostic]:
         try:
             if n.kind == SELECT:
                 prev = seen.get(i)
-                repeats = 0
+                repeats, first = 0, lin
                 if prev is not None:
-                    rel = np.linalg.solve(prev[0], lin) if np.linalg.det(prev[0]) != 0 else lin
+                    rel = _relative(prev[0], lin)
                     least = _least_scale(rel)
-                    most = _most_scale(rel) if least < 1 - 1e-9 else 1.0
-                    grows = most > 1 + 1e-9
+                    grows = least < 1 - 1e-9 and _most_scale(rel) > 1 + 1e-9
                     repeats = prev[1] + 1 if grows or not least < 1 - 1e-9 else 0
-                    if repeats >= PROBE_REPEATS and i not in reported and edge is not None:
-                        how = (f"that grow it in some direction (scale {most:.3g} per cycle "
-                               f"at most):" if grows else
+                    first = prev[2] if repeats else lin
+                    if grows and repeats >= PROBE_REPEATS:
+                        # a turn with an uneven scale, or a shear, grows one direction per
+                        # cycle and still shrinks every one over a few: the run's whole map
+                        # decides (rotz(90) scale(1.5, 0.5, 0.5) is 0.75 in x and y per two)
+                        most = _most_scale(_relative(first, lin))
+                        grows = most > 1 + 1e-9
+                    if repeats >= PROBE_REPEATS and i not in reported and edge is not None \
+                            and (grows or not least < 1 - 1e-9):
+                        how = (f"that grow it in some direction (scale {most:.3g} over "
+                               f"{repeats} cycles):" if grows else
                                f"that shrink it in no direction (scale {least:.3g} per cycle "
                                f"at least):")
                         reported[i] = _diag(graph, "warning", f"'{n.name}' calls itself here "
                                             f"{repeats} times in a row through transformations "
                                             f"{how} bounding boxes and the level of detail "
                                             f"cannot stop it", edge, "non-contracting")
-                seen = {**seen, i: (lin, repeats)}
+                seen = {**seen, i: (lin, repeats, first)}
                 r = d.select(i, state, h)
                 stack.append((n.children[r], state, d.edge(h, i, r), lin, seen, n.edge_spans[r]))
                 continue
