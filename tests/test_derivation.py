@@ -189,3 +189,12 @@ def test_a_word_that_leaves_graftal_modules_says_its_picture_differs():
     notes.clear()
     expand_file(compile_file(GRAMMARS / "sierpinski.pcsg"), 2, notes=notes)
     assert notes == []
+
+
+def test_a_statement_left_out_takes_its_comment_along():
+    # a comment over two lines after a rule the word no longer reaches: its second line
+    # stayed, and the file did not parse
+    text = ("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → sphere\n2: S → {c = c - 1} (cube ∪ move(2,0,0) S)\n"
+            "1: U → cone /* U is a spare,\n   kept for later */\n")
+    word = expand_file(compile_text(text, "t.pcsg"), 1)
+    assert "kept for later" not in word and compile_text(word, "w.pcsg").warnings == []

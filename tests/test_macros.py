@@ -20,6 +20,12 @@ def test_comments_in_a_replacement_are_spaces(define):
     assert expanded(f"{define}\nmove(R, 0, 0) sphere\n") == "move(0.5, 0, 0) sphere"
 
 
+def test_a_comment_before_the_name_is_a_space():
+    # "#define needs a name"
+    assert expanded("#define /* radius */ R 0.5\nmove(R, 0, 0) sphere\n") == \
+        "move(0.5, 0, 0) sphere"
+
+
 def test_a_block_after_a_comment_is_the_replacement():
     # the block was taken from the next line instead, and the use said "undefined name 'a'"
     assert expanded("#define B /* set */ {a = 2}\nB move(a, 0, 0) sphere\n") == \
@@ -30,3 +36,11 @@ def test_lines_keep_their_numbers_after_a_comment_over_two_lines():
     with pytest.raises(PcsgError) as e:
         compile_text("#define R /* a\n b */ 0.5\nmove(R, 0, 0) sphere\nfoo\n", "t.pcsg")
     assert [(d.location.line, d.location.column) for d in e.value.diagnostics] == [(4, 1)]
+
+
+def test_a_comment_never_closed_on_a_define_line_is_said():
+    # it took the rest of the file into the macro: "no axiom"
+    with pytest.raises(PcsgError) as e:
+        compile_text("#define R 0.5 /* unclosed\n{c = R} S\n1: S → uscale(c) sphere\n", "t.pcsg")
+    assert [(d.location.line, d.location.column, d.message) for d in e.value.diagnostics] == [
+        (1, 15, "comment opened with '/*' is never closed")]

@@ -159,6 +159,7 @@ def _unreached_cut(text: str, file: str, left: set[str], axiom: tuple[int, int])
     statements); the word, which may be large, is not."""
     from ..language import ast
     from ..language.parser import parse
+    from ..language.preprocess import line_end as _line_end
     statements = parse(text, file)[0].statements
     bodies: dict[str, list] = {}
     for st in statements:
@@ -181,8 +182,7 @@ def _unreached_cut(text: str, file: str, left: set[str], axiom: tuple[int, int])
         line = text.rfind("\n", 0, a) + 1
         if not text[line:a].strip():
             a = line
-            b = text.find("\n", b)
-            b = len(text) if b < 0 else b + 1
+            b = min(_line_end(text, b) + 1, len(text))  # a comment it opens included
         if b <= axiom[0]:
             before = before[:a] + before[b:]
         elif a >= axiom[1]:

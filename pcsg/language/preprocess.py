@@ -106,10 +106,11 @@ class _Expander:
     def define(self, start: int, directive_end: int) -> int:
         """Register a #define; emit its newlines so that line numbers stay put."""
         text = self.text
-        m = _NAME.match(text, directive_end)
         line_end = text.find("\n", directive_end)
         line_end = len(text) if line_end < 0 else line_end
-        if m is None or m.end() > line_end:
+        # comments are spaces before the name too (`#define /* c */ R 0.5`)
+        m = _NAME.match(_code_of(text[directive_end:line_end]))
+        if m is None:
             # at what stands where the name goes (`#define 3 sphere`), else at #define
             rest = text[directive_end:line_end]
             what = directive_end + len(rest) - len(rest.lstrip())
@@ -118,8 +119,11 @@ class _Expander:
                 f", and '{found.split()[0]}' is none (a name starts with an ASCII letter or '_')"
                 if found else ""))
             return self._blank(start, line_end)
-        name, after = m.group(1), m.end()
-        line_end = _line_end(text, after)
+        name, name_at, after = m.group(1), directive_end + m.start(1), directive_end + m.end()
+        line_end = _define_end(text, after)
+        if line_end < 0:
+            self.error(-line_end - 1, "comment opened with '/*' is never closed")
+            return self._blank(start, len(text))
         rest = _code_of(text[after:line_end])
         body_start = after + len(rest) - len(rest.lstrip())
         stripped = rest.strip()
@@ -135,13 +139,13 @@ class _Expander:
             body = (body_start, body_start + len(stripped))
         if name in self.macros:
             first = self.source.location(self.macros[name].defined)
-            self.error(m.start(1), f"macro '{name}' is defined twice (first at {first})")
+            self.error(name_at, f"macro '{name}' is defined twice (first at {first})")
         else:
-            self.macros[name] = Macro(name, body, m.start(1))
+            self.macros[name] = Macro(name, body, name_at)
             if name in RESERVED:
                 # legal (the text is replaced before any name means anything), and it
                 # silently changes what every later use of the word is
-                self.warn(m.start(1), f"macro '{name}' replaces {RESERVED[name]} of that "
+                self.warn(name_at, f"macro '{name}' replaces {RESERVED[name]} of that "
                                       f"name: every '{name}' below stands for this text",
                           "reserved")
         return self._blank(start, end)
@@ -176,12 +180,21 @@ class _TooLarge(Exception):
 _LINE_PARTS = re.compile(r"/\*.*?(?:\*/|\Z)|//[^\n]*|\n", re.S)
 
 
-def _line_end(text: str, start: int) -> int:
+def line_end(text: str, start: int) -> int:
     """The end of the line from `start`, where a comment that opens on it and closes on
     a later line goes on to that line's end, as in C (the comment is a space)."""
+    end = _define_end(text, start)
+    return end if end >= 0 else len(text)
+
+
+def _define_end(text: str, start: int) -> int:
+    """line_end, or -1 - the offset of a comment that opens there and never closes
+    (which took the rest of the file into the macro)."""
     for m in _LINE_PARTS.finditer(text, start):
         if m.group() == "\n":
             return m.start()
+        if m.group().startswith("/*") and not m.group().endswith("*/"):
+            return -1 - m.start()
     return len(text)
 
 
