@@ -137,7 +137,8 @@ def graph_stats(graph: Graph, count: bool = True) -> dict:
             # tracer refines it to pixel size (notation §9); stats says why it has no count
             if not all(d.code in ENDLESS for d in e.diagnostics):
                 raise
-            out["endless"] = True
+            # deeper than the count follows is not endless: a count of 30 000 levels ends
+            out["endless"] = graftal or any(d.code == "repeats" for d in e.diagnostics)
             if not graftal:
                 out["not_counted"] = e.diagnostics[0].message
     if graftal:
