@@ -65,3 +65,16 @@ def test_a_statement_joined_to_the_next_line_is_one_error():
     # the ∪ joins the next rule to this one: its error is the only one
     assert [line[:8] for line in reported("S\n1: S → sphere ∪\n2: S → cube\n3: S → cone\n")] \
         == ["3:1: une"]
+
+
+def test_the_line_after_an_unexpected_line_end_is_parsed_again():
+    # the line end's token took the next line with it, whose slip went unsaid
+    assert [line[:5] for line in reported(
+        "{c = 3} S\n1: S → rotx(30)\nx = sphere cube\ny = sphere sphere\n")] == \
+        ["2:16:", "3:12:", "4:12:"]
+
+
+def test_no_missing_operator_is_guessed_across_a_line_a_bracket_joined():
+    # "expected an operator between 'sphere' and 'y'": the '(' left open is the slip
+    assert reported("{c = 3} S\nx = (sphere\ny = cube\n")[0] == \
+        "3:1: unexpected 'y', expected ')', '\\', '∩', '∪'"

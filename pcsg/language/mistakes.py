@@ -122,7 +122,10 @@ def missing_operator(text: str, tok_type: str, tok_value: str, pos: int, expecte
         return f"'{tok_value}' is not a CSG operator: {CSG_SLIPS[tok_value]}", (pos, pos + 1)
     if tok_type not in ("NAME", "TRANSFORM", "FLIP", "FRACTAL", "PAINT", "MATERIAL"):
         return None
-    m = re.search(r"([A-Za-z_][A-Za-z0-9_]*|\))[ \t]*$", text[max(0, pos - 200):pos])
+    before = text[max(0, pos - 200):pos].rstrip(" \t")
+    if before.endswith("\n"):
+        return None     # lines joined inside a bracket: the bracket is the slip more often
+    m = re.search(r"([A-Za-z_][A-Za-z0-9_]*|\))\Z", before)
     between = f"between '{m.group(1)}' and" if m and m.group(1) != ")" else "before"
     return (f"expected an operator (∪, ∩ or \\) {between} '{tok_value}'",
             (pos, pos + len(tok_value)))

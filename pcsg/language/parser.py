@@ -255,7 +255,8 @@ def _error_offset(e: UnexpectedInput):
         return e.pos_in_stream
     if isinstance(e, UnexpectedEOF) or e.token.type == "$END":
         return None
-    return e.token.end_pos
+    # a line end's token takes the newline and the next line's indentation with it
+    return e.token.start_pos if e.token.type == "_NL" else e.token.end_pos
 
 
 def _resume_at(text: str, at: int, open_brackets: int):
