@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import sys
 
 from . import __version__
 from .distributed.sweep import sweep_set
@@ -32,9 +33,13 @@ class Parser(argparse.ArgumentParser):
     def parse_args(self, args=None, namespace=None):
         """An unknown option is said by its command's parser, with that command's usage:
         `pcsg sweep ... --timings` printed the top level's "usage: pcsg COMMAND ..."."""
-        args, extra = self.parse_known_args(args, namespace)
+        given = list(sys.argv[1:] if args is None else args)
+        args, extra = self.parse_known_args(given, namespace)
         if extra:
-            command = getattr(self, "commands", {}).get(getattr(args, "command", None), self)
+            name = getattr(args, "command", None)
+            command = getattr(self, "commands", {}).get(name, self)
+            if name in given and extra[0] in given and given.index(extra[0]) < given.index(name):
+                command = self          # `pcsg --bogus check ...`: before the command
             command.error(f"unrecognized arguments: {' '.join(extra)}")
         return args
 

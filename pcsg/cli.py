@@ -122,7 +122,7 @@ def _output_directory(output: str, option: str = "-o"):
     parent = Path(output).parent
     if not parent.is_dir():
         what = (f"the directory {parent} does not exist" if not parent.exists()
-                else f"{parent} is not a directory")
+                else f"{parent} is a file, not a directory")
         raise UsageError(f"{option} {output}: {what}")
 
 
@@ -254,7 +254,7 @@ def _distributed(args) -> bool:
     return args.workers is not None or bool(args.scheduler) or args.tiles > 1
 
 
-def _depth_output(depth: str, files: list[str], outputs: list[Path]):
+def _depth_output(depth: str, files: list[str]):
     """--depth FILE.npy, checked as -o is: `--depth same.png` replaced the picture with
     an array, and `--depth s.pcsg` the grammar."""
     path = Path(depth)
@@ -263,8 +263,6 @@ def _depth_output(depth: str, files: list[str], outputs: list[Path]):
                          f"the file {path.with_suffix('.npy').name}")
     _output_directory(depth, "--depth")
     _not_an_input(depth, "--depth", files)
-    if path.resolve() in {Path(o).resolve() for o in outputs}:
-        raise UsageError(f"--depth {depth}: that is the image -o writes; name another file")
 
 
 def cmd_render(args) -> int:
@@ -272,13 +270,16 @@ def cmd_render(args) -> int:
     files = expand_globs(args.files)
     opts = _options(args)
     distributed = _distributed(args)
-    outputs = _outputs(files, args.output)
-    for out in outputs:
-        _not_an_input(out, "-o", files)
     if opts.depth is not None and len(files) > 1:
         raise UsageError("--depth names one file; render one .pcsg file with it")
     if opts.depth is not None:
-        _depth_output(str(opts.depth), files, outputs)
+        _depth_output(str(opts.depth), files)       # before -o's directory is made
+    outputs = _outputs(files, args.output)
+    for out in outputs:
+        _not_an_input(out, "-o", files)
+    if opts.depth is not None and opts.depth.resolve() == outputs[0].resolve():
+        raise UsageError(f"--depth {opts.depth}: that is the image -o writes; name another "
+                         f"file")
     if distributed and args.timings:
         raise UsageError("--timings times renders in this process; drop --workers, "
                          "--scheduler and --tiles to use it")

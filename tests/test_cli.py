@@ -167,7 +167,7 @@ def test_output_directory_missing(capsys, sierpinski, tmp_path, command):
     assert code == 2 and f"-o {out}: the directory {out.parent} does not exist" in err and ".part" not in err
     (tmp_path / "file").write_text("x")
     code, _, err = run(capsys, command, str(sierpinski), "-o", str(tmp_path / "file" / "g"))
-    assert code == 2 and "is not a directory" in err
+    assert code == 2 and "is a file, not a directory" in err
 
 
 @pytest.mark.parametrize("argv, output", [
@@ -673,6 +673,12 @@ def test_an_output_over_an_input_or_the_image_is_refused(capsys, sierpinski, tmp
     assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob("*.npy"))
 
 
+def test_an_unknown_option_before_the_command_is_the_top_level_s(capsys, sierpinski):
+    with pytest.raises(SystemExit):
+        main(["--bogus", "check", str(sierpinski)])
+    assert "pcsg: error: unrecognized arguments: --bogus" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("argv", [["render", "{f}", "--bogus"],
                                   ["sweep", "{f}", "--set", "c=1..2", "--timings"],
                                   ["animate", "{f}", "--timings"]])
@@ -695,3 +701,10 @@ def test_an_ao_distance_without_occlusion_is_said(capsys, sierpinski, tmp_path):
     assert main(["render", str(sierpinski), "-o", out, "--size", "16x12", "--ao-distance",
                  "0.5", "--ao", "2"]) == 0
     assert "--ao-distance" not in capsys.readouterr().err
+
+
+def test_a_bad_depth_is_refused_before_the_output_directory_is_made(capsys, sierpinski,
+                                                                    tmp_path):
+    code, _, err = run(capsys, "render", str(sierpinski), "-o", f"{tmp_path}/new/",
+                       "--depth", f"{tmp_path}/d.txt")
+    assert code == 2 and "--depth" in err and not (tmp_path / "new").exists()

@@ -143,3 +143,6 @@ def test_an_error_in_a_block_opened_lines_above_points_at_it():
     assert (d.location.line, d.location.column) == (2, 2)
     assert [(d.source.locate(span[0]).line, text) for span, text in d.notes] == [
         (1, "in the calculation block opened here, whose lines are assignments until its '}'")]
+    # a slip inside a block that is closed: no such note
+    e = pytest.raises(PcsgError, compile_text, "{c = 1\n d = 2 +* 3 }\nsphere\n", "t.pcsg")
+    assert e.value.diagnostics[0].notes == []

@@ -58,7 +58,12 @@ def test_the_report_stops_at_its_limit():
     with pytest.raises(PcsgError) as e:
         compile_text(text, "t.pcsg")
     assert e.value.diagnostics[-1].notes == [
-        (None, "the report stops at 10 syntax errors; more may follow")]
+        (None, "the report stops at 10 syntax errors; more follow")]
+    # ten of them, and none after: all are shown, with no such note
+    exactly = "S\n" + "".join(f"{k}: S → cube cube\n" for k in range(1, 11))
+    with pytest.raises(PcsgError) as e:
+        compile_text(exactly, "t.pcsg")
+    assert len(e.value.diagnostics) == 10 and e.value.diagnostics[-1].notes == []
 
 
 def test_a_statement_joined_to_the_next_line_is_one_error():

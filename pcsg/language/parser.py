@@ -16,7 +16,7 @@ from .mistakes import (HASH_COMMENT, assignment_for_comparison, lookalike, missi
                        rule_without_number, unknown_call, unknown_directive)
 from .names import RESERVED
 from .postlex import LineJoiner
-from .preprocess import preprocess
+from .preprocess import code_of, preprocess
 from .source import Source
 
 CSG_OPS = {"∪": "union", "|": "union", "∩": "intersection", "&": "intersection",
@@ -230,7 +230,7 @@ def _syntax_errors(first: UnexpectedInput, source: Source, parser, joiner) -> li
     text = source.expanded
     found = [_syntax_error(first, source, joiner)]
     e = first
-    while len(found) < MAX_SYNTAX_ERRORS:
+    while len(found) <= MAX_SYNTAX_ERRORS:      # one more: whether any follow
         at = _error_offset(e)
         resume = None if at is None else _resume_at(text, at, len(joiner.open_brackets))
         if resume is None or len(text) - resume > RECOVER_CHARS:
@@ -242,9 +242,10 @@ def _syntax_errors(first: UnexpectedInput, source: Source, parser, joiner) -> li
         except UnexpectedInput as again:
             e = again
             found.append(_syntax_error(e, source, joiner, rest))
-    if len(found) == MAX_SYNTAX_ERRORS:
+    if len(found) > MAX_SYNTAX_ERRORS:
+        found = found[:MAX_SYNTAX_ERRORS]
         found[-1].notes.append((None, f"the report stops at {MAX_SYNTAX_ERRORS} syntax "
-                                      f"errors; more may follow"))
+                                      f"errors; more follow"))
     return found
 
 
@@ -288,7 +289,7 @@ def _joins_next(text: str, line: int) -> bool:
     end = line - 1
     while end > 0:
         start = text.rfind("\n", 0, end) + 1
-        code = text[start:end].split("//", 1)[0].rstrip()
+        code = code_of(text[start:end]).rstrip()
         if code:
             return code.endswith(_JOINING_ENDS)
         end = start - 1
@@ -365,7 +366,8 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner,
         msg = f"unexpected end of line, expected {_expected(expected)}"
     else:
         msg = f"unexpected {_describe(tok)}, expected {_expected(expected)}"
-    notes += _open_in_macro(source, joiner, tok.start_pos) or _open_before(text, joiner, tok)
+    notes += (_open_in_macro(source, joiner, tok.start_pos)
+              or _open_before(text, joiner, tok, expected))
     return Diagnostic("error", msg, span, source, notes=notes, code="syntax")
 
 
@@ -375,7 +377,7 @@ def _in_block(joiner: LineJoiner) -> bool:
     return any(b.type == "LBRACE" for b in joiner.open_brackets)
 
 
-def _open_before(text: str, joiner: LineJoiner, tok: Token) -> list:
+def _open_before(text: str, joiner: LineJoiner, tok: Token, expected) -> list:
     """A note at the bracket still open from an earlier line, where the error starts a
     line: a ')' left out of a rule stopped the parse at the next statement, with nothing
     pointing back. (Within a group that closes later, lines join too.)"""
@@ -387,6 +389,8 @@ def _open_before(text: str, joiner: LineJoiner, tok: Token) -> list:
     if b.type == "LBRACE":
         # a block's lines are assignments: a '}' left out read the next statement as one
         # ("expected '='"), whether or not the error starts its line
+        if "EQUAL" not in expected:
+            return []
         return [((b.start_pos, b.end_pos), "in the calculation block opened here, whose "
                                            "lines are assignments until its '}'")]
     if not _starts_line(text, tok):

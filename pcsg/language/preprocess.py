@@ -109,7 +109,7 @@ class _Expander:
         line_end = text.find("\n", directive_end)
         line_end = len(text) if line_end < 0 else line_end
         # comments are spaces before the name too (`#define /* c */ R 0.5`)
-        m = _NAME.match(_code_of(text[directive_end:line_end]))
+        m = _NAME.match(code_of(text[directive_end:line_end]))
         if m is None:
             # at what stands where the name goes (`#define 3 sphere`), else at #define
             rest = text[directive_end:line_end]
@@ -124,7 +124,7 @@ class _Expander:
         if line_end < 0:
             self.error(-line_end - 1, "comment opened with '/*' is never closed")
             return self._blank(start, len(text))
-        rest = _code_of(text[after:line_end])
+        rest = code_of(text[after:line_end])
         body_start = after + len(rest) - len(rest.lstrip())
         stripped = rest.strip()
         if stripped.startswith("{"):
@@ -198,7 +198,7 @@ def _define_end(text: str, start: int) -> int:
     return len(text)
 
 
-def _code_of(line: str) -> str:
+def code_of(line: str) -> str:
     """The line with its comments as blanks (so that offsets stay put), up to a `//`:
     `#define R /* half */ 0.5` is 0.5, not nothing."""
     line = re.sub(r"/\*.*?(?:\*/|\Z)", lambda m: " " * len(m.group()), line, flags=re.S)

@@ -223,7 +223,7 @@ def animate(anim: Animation) -> int:
     """Renders what is missing, then the animation; returns the number of failed frames.
     Ctrl-C keeps every finished frame (written whole, and in the manifest)."""
     if anim.out_dir.exists() and not anim.out_dir.is_dir():
-        raise BadAnimation(f"-o {anim.out_dir}: not a directory")
+        raise BadAnimation(f"-o {anim.out_dir}: {anim.out_dir} is a file, not a directory")
     jobs, timed = plan(anim)
     if problem := make_directory(anim.out_dir):
         raise BadAnimation(f"-o {anim.out_dir}: {problem}")

@@ -161,7 +161,7 @@ def prepare_scene(graph: Graph, opts: Options, poll=None) -> Scene:
     occluded = opts.ao if opts.ao is not None else graph.scene.occlusion.get("samples", 0)
     if opts.ao_distance is not None and not occluded:
         notes.append("warning: --ao-distance does nothing without ambient occlusion "
-                     "(--ao N, or #occlusion in the file)")
+                     "samples (--ao N, or #occlusion samples=N in the file)")
     return Scene(graph, traced, notes)
 
 
