@@ -58,13 +58,13 @@ class TestTermination:
     def test_a_cycle_that_grows_in_some_direction_is_reported(self):
         # it shrinks in y and z, so "shrinks in no direction" passed it; its bounds reach
         # 1e12 in x and the picture framed to them showed nothing
-        w = warnings_of("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → sphere\n"
-                        "2: S → {c = c + 1} (sphere ∪ move(2, 0, 0) scale(1.5, 0.5, 0.5) S)\n")
+        w = warnings_of("S\nS if(pixels > 2, 2, 1)\n1: S → sphere\n"
+                        "2: S → sphere ∪ move(2, 0, 0) scale(1.5, 0.5, 0.5) S\n")
         assert [x.code for x in w] == ["non-contracting"]
         assert "grow it in some direction (scale 25.6 over 8 cycles)" in w[0].message
         # the terrain's scale(0.5, 0.5, 1) keeps z and grows nothing: not reported
-        assert warnings_of("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → sphere\n2: S → {c = c + 1} "
-                           "(sphere ∪ move(2, 0, 0) scale(0.5, 0.5, 1) S)\n") == []
+        assert warnings_of("S\nS if(pixels > 2, 2, 1)\n1: S → sphere\n"
+                           "2: S → sphere ∪ move(2, 0, 0) scale(0.5, 0.5, 1) S\n") == []
 
     def test_a_module_between_does_not_hide_a_cycle_that_never_changes_what_s_reads(self):
         # T counts d down and returns to S, which reads c, never changed: S is endless
@@ -112,10 +112,11 @@ class TestTermination:
 
 class TestContraction:
     def test_non_contracting_cycle_is_reported(self):
-        w = warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
-                        "2: S → sphere ∪ {n = n-1} move(2,0,0) S")
+        # ended by the level of detail, which never comes: its instances keep their size
+        w = warnings_of("S\nS if(pixels > 2, 2, 1)\n1: S → sphere\n"
+                        "2: S → sphere ∪ {n = 1} move(2,0,0) S")
         assert [x.code for x in w] == ["non-contracting"]
-        assert (w[0].location.line, w[0].location.column) == (4, 39)
+        assert (w[0].location.line, w[0].location.column) == (4, 37)
 
     def test_a_few_non_contracting_rounds_are_fine(self):
         # the tree's leaf segments: a rotation, repeated `segments` times
@@ -123,9 +124,17 @@ class TestContraction:
                            "2: S → sphere ∪ {n = n-1} move(0,0,1) rotz(-90) S") == []
 
     def test_growth_is_reported(self):
-        w = warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
-                        "2: S → sphere ∪ {n = n-1} move(2,0,0) uscale(1.1) S")
+        # the level of detail would end it, but its instances only grow
+        w = warnings_of("S\nS if(pixels > 2, 2, 1)\n1: S → sphere\n"
+                        "2: S → sphere ∪ move(2,0,0) uscale(1.1) S")
         assert [x.code for x in w] == ["non-contracting"]
+
+    @pytest.mark.parametrize("cycle", ["move(2, 0, 0)", "move(2,0,0) uscale(1.1)", ""])
+    def test_a_count_ends_what_boxes_could_not(self, cycle):
+        # a row of boxes counted to its end: "bounding boxes and the level of detail
+        # cannot stop it", though the count does (a row of 8 and more was warned of)
+        assert warnings_of("{i = 0} R\nR if(i < 100, 2, 1)\n1: R → sphere\n"
+                           f"2: R → sphere ∪ {{i = i + 1}} {cycle} R\n") == []
 
     def test_a_cycle_that_shrinks_along_some_axes_is_not_reported(self):
         assert warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
@@ -136,20 +145,19 @@ class TestContraction:
         # the map still halves one direction; its least singular value (an SVD) says so.
         # It grows one direction 1.5 times a cycle, but over eight it shrinks x and y and
         # keeps z, as the terrain does
-        assert warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
-                           "2: S → sphere ∪ {n = n-1} move(2,0,0) scale(0.5,1.5,1) rotz(45) S"
-                           ) == []
+        assert warnings_of("S\nS if(pixels > 2, 2, 1)\n1: S → sphere\n"
+                           "2: S → sphere ∪ move(2,0,0) scale(0.5,1.5,1) rotz(45) S") == []
+        w = warnings_of("S\nS if(pixels > 2, 2, 1)\n1: S → sphere\n"
+                        "2: S → sphere ∪ move(2,0,0) scale(1.1,1.5,1) rotz(45) S")
+        assert [x.code for x in w] == ["non-contracting"] and "scale 1 " in w[0].message
 
     @pytest.mark.parametrize("head", ["rotz(90) scale(1.5, 0.5, 0.5)",
                                       "matrix(0.5, 1, 0, 0,  0, 0.5, 0, 0,  0, 0, 0.5, 0)"])
     def test_a_cycle_that_grows_one_step_and_shrinks_over_a_few_is_not_reported(self, head):
         # a turn with an uneven scale, or a shear: 1.5 (1.21) in one direction per cycle,
         # and every direction shrinks over two
-        assert warnings_of("{c = 12} S\nS if(c > 0, 2, 1)\n1: S → cube\n2: S → {c = c - 1} "
-                           f"(cube ∪ move(2, 0, 0) {head} S)\n") == []
-        w = warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
-                        "2: S → sphere ∪ {n = n-1} move(2,0,0) scale(1.1,1.5,1) rotz(45) S")
-        assert [x.code for x in w] == ["non-contracting"] and "scale 1 " in w[0].message
+        assert warnings_of("S\nS if(pixels > 2, 2, 1)\n1: S → cube\n"
+                           f"2: S → cube ∪ move(2, 0, 0) {head} S\n") == []
 
     def test_the_terrain_is_clean_at_every_order(self):
         # its cycles halve x and y and keep z: it was reported at cnt 12 and not at 8 to

@@ -369,6 +369,39 @@ def _least_scale(rel) -> float:
     return float(np.linalg.svd(rel, compute_uv=False)[-1])
 
 
+def _counted_modules(graph: Graph) -> set[int]:
+    """S-nodes whose selection reads a parameter that a C-node on one of their cycles
+    assigns: a count (`R if(i < 8, 2, 1)` with `{i = i + 1}` on the cycle) ends them
+    where boxes and the level of detail could not, so a row of 8 boxes is no endless
+    cycle (where the count never reaches its end, stats and check say so)."""
+    nodes = graph.nodes
+    parents: list[list[int]] = [[] for _ in nodes]
+    for i, n in enumerate(nodes):
+        for c in n.children:
+            parents[c].append(i)
+
+    def closure(start, edges):
+        seen, stack = {start}, [start]
+        while stack:
+            for j in edges(stack.pop()):
+                if j not in seen:
+                    seen.add(j)
+                    stack.append(j)
+        return seen
+
+    out = set()
+    for m, s in enumerate(nodes):
+        if s.kind != SELECT:
+            continue
+        reads = {graph.params[p] for p in graph.exprs.reads(s.exprs[0]) if p != PIXELS}
+        if not reads:
+            continue
+        on_cycles = closure(m, lambda i: nodes[i].children) & closure(m, lambda i: parents[i])
+        if any(reads & set(nodes[i].targets) for i in on_cycles if nodes[i].kind == CALC):
+            out.add(m)
+    return out
+
+
 def _relative(before, lin):
     """The map from an earlier instance's frame to a later one's."""
     return np.linalg.solve(before, lin) if np.linalg.det(before) != 0 else lin
@@ -397,6 +430,7 @@ def _probe(graph: Graph) -> list[Diagnostic]:
     d = Deriver(graph)
     nodes = graph.nodes
     reported: dict[int, Diagnostic] = {}
+    counted = _counted_modules(graph)
     budget = [PROBE_NODES]
     state, h = d.initial()
     # stack items: (node, state, hash, world-from-local linear map, {module: (map, repeats, map where the run began)}, edge)
@@ -422,7 +456,7 @@ def _probe(graph: Graph) -> list[Diagnostic]:
                         most = _most_scale(_relative(first, lin))
                         grows = most > 1 + 1e-9
                     if repeats >= PROBE_REPEATS and i not in reported and edge is not None \
-                            and (grows or not least < 1 - 1e-9):
+                            and (grows or not least < 1 - 1e-9) and i not in counted:
                         how = (f"that grow it in some direction (scale {most:.3g} over "
                                f"{repeats} cycles):" if grows else
                                f"that shrink it in no direction (scale {least:.3g} per cycle "
