@@ -44,3 +44,14 @@ def test_a_comment_never_closed_on_a_define_line_is_said():
         compile_text("#define R 0.5 /* unclosed\n{c = R} S\n1: S → uscale(c) sphere\n", "t.pcsg")
     assert [(d.location.line, d.location.column, d.message) for d in e.value.diagnostics] == [
         (1, 15, "comment opened with '/*' is never closed")]
+
+
+def test_a_macro_with_arguments_is_refused_where_it_is_defined():
+    # it was "expected an operator before 'rotz'" at the use
+    with pytest.raises(PcsgError) as e:
+        compile_text("#define TURN(a) rotz(a) roty(30)\nTURN(45) sphere\n", "t.pcsg")
+    (d,) = e.value.diagnostics
+    assert (d.location.line, d.location.column) == (1, 13)
+    assert d.message.startswith("macros take no arguments (notation §2)")
+    # a space before the '(' makes it a replacement that starts with a group
+    assert expanded("#define G (sphere ∪ cube)\nG\n") == "sphere ∪ cube"
