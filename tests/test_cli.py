@@ -708,3 +708,15 @@ def test_a_bad_depth_is_refused_before_the_output_directory_is_made(capsys, sier
     code, _, err = run(capsys, "render", str(sierpinski), "-o", f"{tmp_path}/new/",
                        "--depth", f"{tmp_path}/d.txt")
     assert code == 2 and "--depth" in err and not (tmp_path / "new").exists()
+
+
+def test_an_export_too_deep_names_the_option_that_ends_it(capsys, tmp_path):
+    # "the derivation is deeper than 10000 levels at 'S'", and nothing of what to do
+    src = tmp_path / "up.pcsg"
+    src.write_text("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → cube\n"
+                   "2: S → {c = c + 1} (cube ∪ move(2, 0, 0) uscale(0.5) S)\n", encoding="utf-8")
+    code, _, err = run(capsys, "export", str(src), "--pov", str(tmp_path / "up.pov"), "-q")
+    assert code == 1 and "--max-depth N ends it at depth N" in err
+    code, _, err = run(capsys, "export", str(src), "--pov", str(tmp_path / "up.pov"), "-q",
+                       "--max-depth", "5")
+    assert code == 0

@@ -249,3 +249,20 @@ def test_a_material_that_reflects_and_lets_through_more_than_comes_is_warned_of(
         ("material", "material 'm': reflect + transmit is 1.4, over 1: it reflects 0.6 and "
                      "more, and lets through what is left")]
     assert not warnings_of("#material m reflect=0.2 transmit=0.8\nmaterial(m) sphere\n")
+
+
+@pytest.mark.parametrize("text, said", [
+    # a constant byte beside computed ones: warned only where all three were constants
+    ("{n = 2} S\nS if(n > 0, 2, 1)\n1: S → sphere\n2: S → {n = n - 1} "
+     "paint(255, 200 - 3 * n, 120) S\n", "4:20: paint(255, …, 120): colours are fractions"),
+    ("#camera eye=(3, 3, 3) look_at=(0, 0, 0)\nsphere\n", "1:23: unknown key 'look_at' for "
+                                                         "#camera; did you mean 'at'?"),
+    ("move(t, 0, 0) sphere\n", "1:6: undefined name 't' (`pcsg animate` sets t only where "
+                               "the axiom assigns it"),
+])
+def test_more_slips_said_as_themselves(text, said):
+    try:
+        found = compile_text(text, "t.pcsg").warnings
+    except PcsgError as e:
+        found = e.diagnostics
+    assert placed(found[0]).startswith(said)

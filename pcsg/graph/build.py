@@ -95,7 +95,7 @@ class _Builder:
         self.params = self._collect_params(stmts)
         self._apply_overrides(axioms)
         self.exprs = ExprTable(self.params, self.error, self._initial_constants(axioms, stmts),
-                               self.source.defined_below, self._operand_kind)
+                               self._unknown_number, self._operand_kind)
         self.material_names: list[str] = []
         self.scene = build_scene([s for s in stmts if isinstance(s, ast.Directive)],
                                  self._constant, self.error, self.warn)
@@ -370,13 +370,15 @@ class _Builder:
         """A warning for a constant colour outside 0..1: paint(255, 0, 0), written as
         bytes, drew a colour 255 times too bright, silently (a negative one, black)."""
         values = [self.exprs.constant(x) for x in exprs]
+        # the constant ones, where others are computed: paint(255, 200 - 3*i, 120)
+        known = [v for v in values if v is not None]
         # not finite: the render empties the instance and reports it as a runtime error
-        if len(values) != 3 or None in values or not all(math.isfinite(v) for v in values) \
-                or all(0 <= v <= 1 for v in values):
+        if len(values) != 3 or not known or not all(math.isfinite(v) for v in known) \
+                or all(0 <= v <= 1 for v in known):
             return
-        shown = ", ".join(f"{v:g}" for v in values)
+        shown = ", ".join("…" if v is None else f"{v:g}" for v in values)
         why = ("; above 1 shades brighter than the light allows (from bytes 0..255, "
-               "divide by 255)" if max(values) > 1 else ": a negative one is drawn as 0")
+               "divide by 255)" if max(known) > 1 else ": a negative one is drawn as 0")
         self.warn(e.head_span, f"paint({shown}): colours are fractions from 0 to 1{why}",
                   "paint-range")
 
@@ -427,6 +429,14 @@ class _Builder:
             self.error(e.span, why, "fractal-arguments")
             return self.primitive_node_for_errors()
         return self.add(Node(PRIMITIVE, name=e.name, exprs=exprs, span=e.span))
+
+    def _unknown_number(self, name: str) -> str:
+        """What else to say of an undefined name in arithmetic."""
+        if name == "t" and not self.source.defined_below(name):
+            # the time an animation sets: only where the file assigns it
+            return (" (`pcsg animate` sets t only where the axiom assigns it: write "
+                    "'{t = 0} ...' there, and read t below)")
+        return self.source.defined_below(name)
 
     def _operand_kind(self, name: str) -> str | None:
         """What a CSG operand's name read as a number is (`move(N, 0, 0)`, N a named

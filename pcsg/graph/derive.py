@@ -49,7 +49,9 @@ def readable(v: float) -> str:
 def too_deep(graph: Graph, node_id: int, levels: int) -> PcsgError:
     n = graph.nodes[node_id]
     return PcsgError([Diagnostic("error", f"the derivation is deeper than {levels} levels at "
-                                 f"'{n.name}'", n.span, graph.source, code="endless")])
+                                 f"'{n.name}': --max-depth N ends it at depth N, where "
+                                 f"`pcsg render --max-depth N` does", n.span, graph.source,
+                                 code="endless")])
 
 
 def names_in(node) -> set[str]:

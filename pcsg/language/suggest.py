@@ -8,7 +8,10 @@ from collections.abc import Iterable
 # what other CSG tools (POV-Ray, OpenSCAD) call what the notation writes otherwise
 # (the operators' words, union(a, b) and the like: mistakes.OPERATOR_WORDS)
 ALIASES = {"translate": "move", "rotate": "rot", "color": "paint", "colour": "paint",
-           "box": "cube", "ball": "sphere", "pyramid": "tetrahedron"}
+           "box": "cube", "ball": "sphere", "pyramid": "tetrahedron",
+           # #camera's keys as other renderers name them
+           "look_at": "at", "lookat": "at", "target": "at", "location": "eye",
+           "position": "eye", "from": "eye", "to": "at"}
 
 
 def closest(name: str, known: Iterable[str]) -> str | None:
