@@ -29,7 +29,8 @@ BATCH = 1 << 16             # rays per kernel call: bounds the per-chunk event a
 @dataclass(eq=False)      # of arrays: == was "the truth value of an array is ambiguous"
 class Hits:
     """What `Traced.trace` found for each ray (views of one array)."""
-    t: np.ndarray               # (N,) distance along the given direction; inf where missed
+    t: np.ndarray               # (N,) the hit at origin + t * direction (a distance where the
+                                #   direction is a unit vector); inf where missed
     normal: np.ndarray          # (N, 3) unit world normal (zeros where missed)
     paint: np.ndarray           # (N, 3) the colour in force at the hit: the innermost
                                 #   paint(r,g,b) or material with a color=; nan if none
