@@ -210,3 +210,15 @@ class TestUnusedDefinitions:
         for path in GRAMMARS.glob("*.pcsg"):
             assert not [w for w in compile_file(path).warnings if w.code in ("unused", "reserved")
                         and "module" not in w.message], path
+
+
+def test_a_read_unassigned_points_at_a_block_that_took_one_operand():
+    # `{x = 0; y = 0} ground ∪ ROW`: the block binds to the ground, and the errors said
+    # nothing of why
+    errs = errors_of("{x = 0; y = 0} move(0, 0, -1) plane ∪ ROW\nROW if(x < 3, 2, 1)\n"
+                     "1: ROW → sphere\n2: ROW → move(x, y, 0) cube ∪ {x = x + 1} ROW\n")
+    notes = {text for e in errs for _, text in e.notes}
+    assert "'x' is assigned here for this operand only: a block applies to the operand " \
+           "after it; '{...} (A ∪ B)' gives it to both" in notes
+    spans = {e.source.locate(span[0]).line for e in errs for span, _ in e.notes}
+    assert spans == {1}             # the first value, not the update of rule 2

@@ -12,7 +12,8 @@ from ..language.names import FLAT_PRIMITIVES, PIXELS, UNION_ONLY_PRIMITIVES
 from .expr import PIXELS_ONLY_IN_SELECTIONS
 from ..trace import vm
 from .derive import Deriver, names_in
-from .model import CALC, DIFFERENCE, INTERSECTION, PAINT, PRIMITIVE, SELECT, TRANSFORM, Graph
+from .model import (CALC, DIFFERENCE, INTERSECTION, PAINT, PRIMITIVE, SELECT, TRANSFORM, UNION,
+                    Graph)
 
 PROBE_NODES = 2_000           # node visits of the contraction probe (every compile runs it)
 PROBE_REPEATS = 8             # a non-contracting cycle taken this often on one path is reported
@@ -145,6 +146,7 @@ def definite_assignment(graph: Graph) -> list[Diagnostic]:
                 must[c] = new
                 work.append(c)
     errors = []
+    grouped = _operand_blocks(graph)
     for i, n in enumerate(nodes):
         if not live[i]:
             continue
@@ -153,12 +155,37 @@ def definite_assignment(graph: Graph) -> list[Diagnostic]:
             for name in sorted(table.reads(expr)):
                 if not have >> graph.params[name] & 1:
                     var = _first_var(graph.expr_ast[expr], name)
+                    block = grouped.get(graph.params[name])
+                    notes = [] if block is None else [(
+                        block, f"'{name}' is assigned here for this operand only: a block "
+                               f"applies to the operand after it; '{{...}} (A ∪ B)' gives it "
+                               f"to both")]
                     errors.append(_diag(graph, "error", f"parameter '{name}' may be read before it "
                                         f"is assigned: some path from the axiom reaches this "
-                                        f"without assigning it", var.span, "unassigned"))
+                                        f"without assigning it", var.span, "unassigned", notes))
             if n.kind == CALC:
                 have |= 1 << n.targets[k]
     return errors
+
+
+def _operand_blocks(graph: Graph) -> dict[int, tuple]:
+    """Parameter slot -> the span of a calculation block that assigns it as one operand
+    of a CSG operator (`{x = 0} ground ∪ ROW`, where the block meant for both binds to
+    `ground`): where it is read unassigned, the likely slip."""
+    out, first = {}, {}
+    names = graph.param_names
+    for n in graph.nodes:
+        if n.kind in (UNION, INTERSECTION, DIFFERENCE):
+            for c in n.children:
+                block = graph.nodes[c]
+                if block.kind != CALC or block.span is None:
+                    continue
+                for slot, expr in zip(block.targets, block.exprs):
+                    # a first value ({x = 0}) before an update ({x = x + 1})
+                    if names[slot] not in graph.exprs.reads(expr):
+                        first.setdefault(slot, block.span)
+                    out.setdefault(slot, block.span)
+    return {**out, **first}
 
 
 def pixels_outside_selections(graph: Graph) -> list[Diagnostic]:
