@@ -58,13 +58,27 @@ class TestTermination:
     def test_a_cycle_that_grows_in_some_direction_is_reported(self):
         # it shrinks in y and z, so "shrinks in no direction" passed it; its bounds reach
         # 1e12 in x and the picture framed to them showed nothing
-        w = warnings_of("S\nS if(pixels > 2, 2, 1)\n1: S → sphere\n"
-                        "2: S → sphere ∪ move(2, 0, 0) scale(1.5, 0.5, 0.5) S\n")
+        w = warnings_of("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → sphere\n"
+                        "2: S → {c = c + 1} (sphere ∪ move(2, 0, 0) scale(1.5, 0.5, 0.5) S)\n")
         assert [x.code for x in w] == ["non-contracting"]
         assert "grow it in some direction (scale 25.6 over 8 cycles)" in w[0].message
         # the terrain's scale(0.5, 0.5, 1) keeps z and grows nothing: not reported
         assert warnings_of("S\nS if(pixels > 2, 2, 1)\n1: S → sphere\n"
                            "2: S → sphere ∪ move(2, 0, 0) scale(0.5, 0.5, 1) S\n") == []
+
+    def test_a_module_between_that_counts_down_ends_the_cycle(self):
+        # T counts n down on the way round: SEG, reading a constant flag, was "endless"
+        assert [x for x in warnings_of(
+            "{n = 5; thick = 1} T\nT if(n > 0, 2, 1)\nSEG if(thick > 0, 1, 2)\n"
+            "1: T → sphere\n2: T → {n = n - 1} SEG\n1: SEG → cylinder ∪ move(0, 0, 1) "
+            "uscale(0.7) T\n2: SEG → cone ∪ move(0, 0, 1) uscale(0.7) T\n")
+            if x.code == "endless"] == []
+
+    def test_a_graftal_through_a_random_choice_is_reported(self):
+        # the walk from T stopped at S, whose choice is rand()'s, and S is not checked
+        w = warnings_of("S\nS if(rand() < 0.5, 1, 2)\n1: S → T\n2: S → cube ∪ T\n"
+                        "1: T → sphere ∪ move(2, 0, 0) uscale(0.5) S\n")
+        assert [x.message.split(" can")[0] for x in w if x.code == "endless"] == ["'T'"]
 
     def test_a_module_between_does_not_hide_a_cycle_that_never_changes_what_s_reads(self):
         # T counts d down and returns to S, which reads c, never changed: S is endless
@@ -118,6 +132,16 @@ class TestContraction:
         assert [x.code for x in w] == ["non-contracting"]
         assert (w[0].location.line, w[0].location.column) == (4, 37)
 
+    @pytest.mark.parametrize("text", [
+        # a count that runs the wrong way, or that a second condition keeps going
+        "{i = 0} R\nR if(i < 8, 2, 1)\n1: R → sphere\n2: R → sphere ∪ {i = i - 1} move(2,0,0) R\n",
+        "{i = 0; j = 1} R\nR if(i < 8 || j > 0, 2, 1)\n1: R → sphere\n"
+        "2: R → sphere ∪ {i = i + 1} move(2,0,0) R\n",
+    ])
+    def test_a_count_that_never_ends_is_reported(self, text):
+        # exempting every module that reads a counted parameter silenced these
+        assert [x.code for x in warnings_of(text)] == ["non-contracting"]
+
     def test_a_few_non_contracting_rounds_are_fine(self):
         # the tree's leaf segments: a rotation, repeated `segments` times
         assert warnings_of("{n = 2} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
@@ -135,6 +159,9 @@ class TestContraction:
         # cannot stop it", though the count does (a row of 8 and more was warned of)
         assert warnings_of("{i = 0} R\nR if(i < 100, 2, 1)\n1: R → sphere\n"
                            f"2: R → sphere ∪ {{i = i + 1}} {cycle} R\n") == []
+        # through a module between, which has no count of its own
+        assert warnings_of("{i = 0} S\nS if(i < 20, 2, 1)\n1: S → sphere\n"
+                           f"2: S → sphere ∪ {{i = i + 1}} {cycle} T\n1: T → cube ∪ S\n") == []
 
     def test_a_cycle_that_shrinks_along_some_axes_is_not_reported(self):
         assert warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"

@@ -303,6 +303,8 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
     selection reads is assigned picks the same rule forever: it never terminates."""
     nodes, table, names = graph.nodes, graph.exprs, graph.param_names
     live = reachable(graph)
+    component = components(graph)
+    counters = _counters(graph, component)
     out = []
     for m, s in enumerate(nodes):
         if s.kind != SELECT or not live[m] or table.uses_rand(s.exprs[0]):
@@ -316,6 +318,10 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
         # made T "a graftal"). A module that reads parameters is endless where they never
         # change on a cycle, whatever the modules between choose on the way round.
         fixed_rule = not _reads_parameters(graph, s)
+        # a module between that reads a counter of the cycle (n = n - 1 and never set
+        # afresh on it) ends it whatever m reads; one that reads a parameter the cycle
+        # sets afresh ({d = 20000} ... {d = d - 1}) only delays the way round
+        counted = counters[component[m]]
         closing = []             # (parent, child number) of edges that close such a cycle
         seen, stack = {m}, [m]
         while stack:
@@ -323,7 +329,9 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
             n = nodes[i]
             if n.kind == CALC and i != m and reads & set(n.targets):
                 continue         # this path changes what the selection reads
-            if n.kind == SELECT and i != m and fixed_rule and _reads_parameters(graph, n):
+            if n.kind == SELECT and i != m and (
+                    (fixed_rule and _reads_parameters(graph, n))
+                    or {graph.params[p] for p in table.reads(n.exprs[0])} & counted):
                 continue
             named = _named_rules(graph, i) if n.kind == SELECT else None
             for k, c in enumerate(n.children):
@@ -363,11 +371,72 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
 
 
 def _reads_parameters(graph: Graph, s) -> bool:
-    """Whether S-node s's selection is written with parameters or rand() (folded to a
-    constant or not: where nothing changes them, its own check says so)."""
+    """Whether S-node s's selection is written with parameters (folded to a constant or
+    not: where nothing changes them, its own check says so). rand() alone is no such
+    module: it is not checked itself, so a cycle through it must not stop the others'."""
     sel = s.exprs[0]
-    return graph.exprs.uses_rand(sel) or bool(graph.exprs.reads(sel)) or any(
+    return bool(graph.exprs.reads(sel)) or any(
         name in graph.params for name in names_in(graph.expr_ast[sel]))
+
+
+def components(graph: Graph) -> list[int]:
+    """The strongly connected component of each node (Tarjan's, without recursion): the
+    nodes on the cycles through a node are its component."""
+    nodes = graph.nodes
+    n = len(nodes)
+    index, low, comp = [-1] * n, [0] * n, [-1] * n
+    on_stack, stack, counter, found = [False] * n, [], 0, 0
+    for root in range(n):
+        if index[root] >= 0:
+            continue
+        work = [(root, 0)]
+        index[root] = low[root] = counter
+        counter += 1
+        stack.append(root)
+        on_stack[root] = True
+        while work:
+            v, k = work[-1]
+            children = nodes[v].children
+            if k < len(children):
+                work[-1] = (v, k + 1)
+                w = children[k]
+                if index[w] < 0:
+                    index[w] = low[w] = counter
+                    counter += 1
+                    stack.append(w)
+                    on_stack[w] = True
+                    work.append((w, 0))
+                elif on_stack[w]:
+                    low[v] = min(low[v], index[w])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[v])
+            if low[v] == index[v]:
+                while True:
+                    w = stack.pop()
+                    on_stack[w] = False
+                    comp[w] = found
+                    if w == v:
+                        break
+                found += 1
+    return comp
+
+
+def _counters(graph: Graph, component: list[int]) -> dict[int, set[int]]:
+    """Per component, the parameter slots its C-nodes only update (`n = n - 1`, reading
+    themselves) and never set afresh: counters that run one way round its cycles."""
+    updated: dict[int, set[int]] = {}
+    fresh: dict[int, set[int]] = {}
+    names = graph.param_names
+    for i, n in enumerate(graph.nodes):
+        if n.kind != CALC:
+            continue
+        for slot, expr in zip(n.targets, n.exprs):
+            reads_itself = names[slot] in graph.exprs.reads(expr)
+            (updated if reads_itself else fresh).setdefault(component[i], set()).add(slot)
+    return {c: updated.get(c, set()) - fresh.get(c, set())
+            for c in set(component)}
 
 
 def non_contracting_cycles(graph: Graph) -> list[Diagnostic]:
@@ -396,37 +465,17 @@ def _least_scale(rel) -> float:
     return float(np.linalg.svd(rel, compute_uv=False)[-1])
 
 
-def _counted_modules(graph: Graph) -> set[int]:
-    """S-nodes whose selection reads a parameter that a C-node on one of their cycles
-    assigns: a count (`R if(i < 8, 2, 1)` with `{i = i + 1}` on the cycle) ends them
-    where boxes and the level of detail could not, so a row of 8 boxes is no endless
-    cycle (where the count never reaches its end, stats and check say so)."""
-    nodes = graph.nodes
-    parents: list[list[int]] = [[] for _ in nodes]
-    for i, n in enumerate(nodes):
-        for c in n.children:
-            parents[c].append(i)
+# the derivation from a repeating instance, followed to see whether it ends
+ENDS_STATES, ENDS_LEVELS = 2_000, 1_000
 
-    def closure(start, edges):
-        seen, stack = {start}, [start]
-        while stack:
-            for j in edges(stack.pop()):
-                if j not in seen:
-                    seen.add(j)
-                    stack.append(j)
-        return seen
 
-    out = set()
-    for m, s in enumerate(nodes):
-        if s.kind != SELECT:
-            continue
-        reads = {graph.params[p] for p in graph.exprs.reads(s.exprs[0]) if p != PIXELS}
-        if not reads:
-            continue
-        on_cycles = closure(m, lambda i: nodes[i].children) & closure(m, lambda i: parents[i])
-        if any(reads & set(nodes[i].targets) for i in on_cycles if nodes[i].kind == CALC):
-            out.add(m)
-    return out
+def _ends_from(graph: Graph, node: int, state, h) -> bool:
+    """A count that runs to its end (`R if(i < 8, 2, 1)` with `{i = i + 1}`: a row of
+    boxes) ends what boxes and the level of detail could not, and was warned of as if
+    they had to; one that never does (`{i = i - 1}`, or growth with `{c = c + 1}`), or
+    not within ENDS_LEVELS, is still reported."""
+    from .stats import ends_from
+    return ends_from(graph, node, state, h, ENDS_STATES, ENDS_LEVELS)
 
 
 def _relative(before, lin):
@@ -457,7 +506,6 @@ def _probe(graph: Graph) -> list[Diagnostic]:
     d = Deriver(graph)
     nodes = graph.nodes
     reported: dict[int, Diagnostic] = {}
-    counted = _counted_modules(graph)
     budget = [PROBE_NODES]
     state, h = d.initial()
     # stack items: (node, state, hash, world-from-local linear map, {module: (map, repeats, map where the run began)}, edge)
@@ -483,7 +531,8 @@ def _probe(graph: Graph) -> list[Diagnostic]:
                         most = _most_scale(_relative(first, lin))
                         grows = most > 1 + 1e-9
                     if repeats >= PROBE_REPEATS and i not in reported and edge is not None \
-                            and (grows or not least < 1 - 1e-9) and i not in counted:
+                            and (grows or not least < 1 - 1e-9) \
+                            and not _ends_from(graph, i, state, h):
                         how = (f"that grow it in some direction (scale {most:.3g} over "
                                f"{repeats} cycles):" if grows else
                                f"that shrink it in no direction (scale {least:.3g} per cycle "

@@ -29,6 +29,17 @@ def count_primitives(graph: Graph, max_states: int = MAX_STATES, cut: Cut | None
     return sum(count_by_primitive(graph, max_states, cut).values())
 
 
+def ends_from(graph: Graph, node: int, state, h, max_states: int, max_levels: int) -> bool:
+    """Whether the derivation from S-node instance (node, state, h) ends within
+    max_states states and max_levels levels."""
+    try:
+        with recursion_limit(12 * max_levels + 1000):
+            _Counter(graph, max_states, max_levels=max_levels).count(node, state, h, 0)
+    except Endless:
+        return False
+    return True
+
+
 def count_by_primitive(graph: Graph, max_states: int = MAX_STATES,
                        cut: Cut | None = None) -> dict[str, int]:
     """Primitives of each kind in the complete derivation of the axiom (memoised on node
@@ -48,9 +59,11 @@ def count_by_primitive(graph: Graph, max_states: int = MAX_STATES,
 
 
 class _Counter:
-    def __init__(self, graph: Graph, max_states: int = MAX_STATES, cut: Cut | None = None):
+    def __init__(self, graph: Graph, max_states: int = MAX_STATES, cut: Cut | None = None,
+                 max_levels: int = MAX_LEVELS):
         self.g = graph
         self.max_states = max_states
+        self.max_levels = max_levels
         self.cut = cut
         self.d = Deriver(graph)
         self.key = StateKey(graph)
@@ -75,10 +88,12 @@ class _Counter:
         if key in self.active:
             raise Endless(self._endless(node_id, state, "the derivation never ends",
                                         "repeats with the same parameters", "repeats"))
-        if node.kind == SELECT and (level >= MAX_LEVELS or len(self.memo) > self.max_states):
+        if node.kind == SELECT and (level >= self.max_levels or
+                                    len(self.memo) > self.max_states):
             # deep, or endless: a count that ends after 20 000 levels is not endless
             raise Endless(self._endless(
-                node_id, state, f"the derivation goes deeper than {min(level, MAX_LEVELS)} "
+                node_id, state, f"the derivation goes deeper than "
+                                f"{min(level, self.max_levels)} "
                                 f"levels", "is still being rewritten there"))
         self.active.add(key)
         if node.kind == SELECT:
