@@ -46,12 +46,16 @@ def test_a_comment_never_closed_on_a_define_line_is_said():
         (1, 15, "comment opened with '/*' is never closed")]
 
 
-def test_a_macro_with_arguments_is_refused_where_it_is_defined():
-    # it was "expected an operator before 'rotz'" at the use
+def test_a_macro_with_arguments_is_said_where_it_is_defined():
+    # only "expected an operator before 'rotz'" at the use said anything
     with pytest.raises(PcsgError) as e:
         compile_text("#define TURN(a) rotz(a) roty(30)\nTURN(45) sphere\n", "t.pcsg")
-    (d,) = e.value.diagnostics
-    assert (d.location.line, d.location.column) == (1, 13)
-    assert d.message.startswith("macros take no arguments (notation §2)")
-    # a space before the '(' makes it a replacement that starts with a group
+    first, then = e.value.diagnostics
+    assert (first.severity, first.location.line, first.location.column) == ("warning", 1, 13)
+    assert first.message.startswith("macros take no arguments (notation §2)")
+    assert then.severity == "error" and then.location.line == 2
+    # legal by notation §2, the replacement being the rest of the line: a warning only
+    graph = compile_text("#define G(sphere)\nG\n", "t.pcsg")
+    assert [w.code for w in graph.warnings] == ["macro-arguments"]
+    # a space before the '(' says a replacement that starts with a group is meant
     assert expanded("#define G (sphere ∪ cube)\nG\n") == "sphere ∪ cube"

@@ -259,6 +259,10 @@ def test_a_material_that_reflects_and_lets_through_more_than_comes_is_warned_of(
                                                          "#camera; did you mean 'at'?"),
     ("move(t, 0, 0) sphere\n", "1:6: undefined name 't' (`pcsg animate` sets t only where "
                                "the axiom assigns it"),
+    # a light's position is its `at`; where a light faces is nothing it has
+    ("#light position=(1, 2, 3)\nsphere\n", "1:8: unknown key 'position' for #light; did "
+                                           "you mean 'at'?"),
+    ("#light target=(1, 2, 3)\nsphere\n", "1:8: unknown key 'target' for #light (known:"),
 ])
 def test_more_slips_said_as_themselves(text, said):
     try:

@@ -160,7 +160,9 @@ def parse(text: str, file: str = "<string>") -> tuple[ast.Program, Source]:
     try:
         program = parser.parse(source.expanded)
     except UnexpectedInput as e:
-        raise PcsgError(_syntax_errors(e, source, parser, joiner)) from None
+        # a macro written with arguments explains the errors at its uses
+        said = [w for w in source.warnings if w.code == "macro-arguments"]
+        raise PcsgError(said + _syntax_errors(e, source, parser, joiner)) from None
     return program, source
 
 

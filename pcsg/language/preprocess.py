@@ -121,11 +121,11 @@ class _Expander:
             return self._blank(start, line_end)
         name, name_at, after = m.group(1), directive_end + m.start(1), directive_end + m.end()
         if text.startswith("(", after):
-            # C's function-like macro: here it would stand for "(a) rotz(a) ..." at each use
-            self.error(after, f"macros take no arguments (notation §2): '#define {name}(' "
-                              f"would make '{name}' stand for text starting with '('; put a "
-                              f"space before the '(' if that is meant")
-            return self._blank(start, line_end)
+            # C's function-like macro: legal (the replacement is the rest of the line), and
+            # at each use it stands for "(a) rotz(a) ...", which is seldom what was meant
+            self.warn(after, f"macros take no arguments (notation §2): '{name}' stands for "
+                             f"the text from this '(' on; a space before the '(' says that "
+                             f"is meant", "macro-arguments")
         line_end = _define_end(text, after)
         if line_end < 0:
             self.error(-line_end - 1, "comment opened with '/*' is never closed")

@@ -9,9 +9,11 @@ from collections.abc import Iterable
 # (the operators' words, union(a, b) and the like: mistakes.OPERATOR_WORDS)
 ALIASES = {"translate": "move", "rotate": "rot", "color": "paint", "colour": "paint",
            "box": "cube", "ball": "sphere", "pyramid": "tetrahedron",
-           # #camera's keys as other renderers name them
-           "look_at": "at", "lookat": "at", "target": "at", "location": "eye",
-           "position": "eye", "from": "eye", "to": "at"}
+           # directives' keys as other renderers name them: the first a directive knows
+           # (a light's position is its `at`, a camera's its `eye`)
+           "location": ("eye", "at"), "position": ("eye", "at"), "from": ("eye",)}
+# where a camera looks: its `at`, which for a light is where it is, not what it faces
+LOOK_AT = frozenset({"look_at", "lookat", "target", "to"})
 
 
 def closest(name: str, known: Iterable[str]) -> str | None:
@@ -23,8 +25,12 @@ def closest(name: str, known: Iterable[str]) -> str | None:
     folded = [k for k in known if k.lower() == name.lower()]
     if folded:
         return folded[0]
-    if ALIASES.get(name.lower()) in known:
-        return ALIASES[name.lower()]
+    if name.lower() in LOOK_AT and "eye" in known and "at" in known:
+        return "at"
+    alias = ALIASES.get(name.lower(), ())
+    for meant in (alias,) if isinstance(alias, str) else alias:
+        if meant in known:
+            return meant
     slips = [k for k in known if _one_slip(name, k)]
     if slips:
         return slips[0]
