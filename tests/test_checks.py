@@ -249,3 +249,7 @@ def test_a_read_unassigned_points_at_a_block_that_took_one_operand():
            "after it; '{...} (A ∪ B)' gives it to both" in notes
     spans = {e.source.locate(span[0]).line for e in errs for span, _ in e.notes}
     assert spans == {1}             # the first value, not the update of rule 2
+    # a block that is another module's own, not an operand the read's module is beside
+    errs = errors_of("A ∪ B\n1: A → {x = 0} move(x, 0, 0) sphere ∪ cube\n"
+                     "1: B → move(x, 0, 0) cube\n")
+    assert errs and all(e.notes == [] for e in errs)

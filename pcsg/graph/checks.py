@@ -146,7 +146,7 @@ def definite_assignment(graph: Graph) -> list[Diagnostic]:
                 must[c] = new
                 work.append(c)
     errors = []
-    grouped = _operand_blocks(graph)
+    grouped = _OperandBlocks(graph)
     for i, n in enumerate(nodes):
         if not live[i]:
             continue
@@ -155,7 +155,7 @@ def definite_assignment(graph: Graph) -> list[Diagnostic]:
             for name in sorted(table.reads(expr)):
                 if not have >> graph.params[name] & 1:
                     var = _first_var(graph.expr_ast[expr], name)
-                    block = grouped.get(graph.params[name])
+                    block = grouped.block(graph.params[name], i)
                     notes = [] if block is None else [(
                         block, f"'{name}' is assigned here for this operand only: a block "
                                f"applies to the operand after it; '{{...}} (A ∪ B)' gives it "
@@ -168,24 +168,55 @@ def definite_assignment(graph: Graph) -> list[Diagnostic]:
     return errors
 
 
-def _operand_blocks(graph: Graph) -> dict[int, tuple]:
-    """Parameter slot -> the span of a calculation block that assigns it as one operand
-    of a CSG operator (`{x = 0} ground ∪ ROW`, where the block meant for both binds to
-    `ground`): where it is read unassigned, the likely slip."""
-    out, first = {}, {}
-    names = graph.param_names
-    for n in graph.nodes:
-        if n.kind in (UNION, INTERSECTION, DIFFERENCE):
+class _OperandBlocks:
+    """The calculation block that assigns a parameter as one operand of a CSG operator
+    (`{x = 0} ground ∪ ROW`, where the block meant for both binds to `ground`), for a
+    read of it in a sibling operand's derivation: the likely slip where that read finds
+    it unassigned. Worked out only where such an error is."""
+
+    def __init__(self, graph: Graph):
+        self.graph = graph
+        self._reach: dict[int, set[int]] = {}
+        self._blocks = None
+
+    def block(self, slot: int, reader: int):
+        if self._blocks is None:
+            self._blocks = self._find()
+        for span, siblings in self._blocks.get(slot, ()):
+            if any(reader in self._reached(s) for s in siblings):
+                return span
+        return None
+
+    def _find(self) -> dict[int, list]:
+        g, names = self.graph, self.graph.param_names
+        out: dict[int, list] = {}
+        for n in g.nodes:
+            if n.kind not in (UNION, INTERSECTION, DIFFERENCE):
+                continue
             for c in n.children:
-                block = graph.nodes[c]
+                block = g.nodes[c]
                 if block.kind != CALC or block.span is None:
                     continue
+                siblings = [s for s in n.children if s != c]
                 for slot, expr in zip(block.targets, block.exprs):
+                    entry = (block.span, siblings)
                     # a first value ({x = 0}) before an update ({x = x + 1})
-                    if names[slot] not in graph.exprs.reads(expr):
-                        first.setdefault(slot, block.span)
-                    out.setdefault(slot, block.span)
-    return {**out, **first}
+                    if names[slot] in g.exprs.reads(expr):
+                        out.setdefault(slot, []).append(entry)
+                    else:
+                        out.setdefault(slot, []).insert(0, entry)
+        return out
+
+    def _reached(self, start: int) -> set[int]:
+        if start not in self._reach:
+            seen, stack = {start}, [start]
+            while stack:
+                for c in self.graph.nodes[stack.pop()].children:
+                    if c not in seen:
+                        seen.add(c)
+                        stack.append(c)
+            self._reach[start] = seen
+        return self._reach[start]
 
 
 def pixels_outside_selections(graph: Graph) -> list[Diagnostic]:
