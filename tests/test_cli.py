@@ -716,7 +716,7 @@ def test_an_export_too_deep_names_the_option_that_ends_it(capsys, tmp_path):
     src.write_text("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → cube\n"
                    "2: S → {c = c + 1} (cube ∪ move(2, 0, 0) uscale(0.5) S)\n", encoding="utf-8")
     code, _, err = run(capsys, "export", str(src), "--pov", str(tmp_path / "up.pov"), "-q")
-    assert code == 1 and "--max-depth N ends it at depth N" in err
+    assert code == 1 and "give --max-depth N to cut it at depth N" in err
     code, _, err = run(capsys, "export", str(src), "--pov", str(tmp_path / "up.pov"), "-q",
                        "--max-depth", "5")
     assert code == 0

@@ -49,8 +49,8 @@ def readable(v: float) -> str:
 def too_deep(graph: Graph, node_id: int, levels: int) -> PcsgError:
     n = graph.nodes[node_id]
     return PcsgError([Diagnostic("error", f"the derivation is deeper than {levels} levels at "
-                                 f"'{n.name}': --max-depth N ends it at depth N, where "
-                                 f"`pcsg render --max-depth N` does", n.span, graph.source,
+                                 f"'{n.name}': give --max-depth N to cut it at depth N, as "
+                                 f"`pcsg render` does", n.span, graph.source,
                                  code="endless")])
 
 
