@@ -62,6 +62,8 @@ class TestTermination:
                         "2: S → {c = c + 1} (sphere ∪ move(2, 0, 0) scale(1.5, 0.5, 0.5) S)\n")
         assert [x.code for x in w] == ["non-contracting"]
         assert "grow it in some direction (scale 25.6 over 8 cycles)" in w[0].message
+        assert w[0].message.endswith("its derivation does not end within 1,000 levels from "
+                                     "here")
         # the terrain's scale(0.5, 0.5, 1) keeps z and grows nothing: not reported
         assert warnings_of("S\nS if(pixels > 2, 2, 1)\n1: S → sphere\n"
                            "2: S → sphere ∪ move(2, 0, 0) scale(0.5, 0.5, 1) S\n") == []
@@ -179,6 +181,7 @@ class TestContraction:
         assert [x.code for x in w] == ["non-contracting"] and "scale 1 " in w[0].message
 
     @pytest.mark.parametrize("head", ["rotz(90) scale(1.5, 0.5, 0.5)",
+                                      "rotz(30) scale(1.5, 0.5, 0.5)",
                                       "matrix(0.5, 1, 0, 0,  0, 0.5, 0, 0,  0, 0, 0.5, 0)"])
     def test_a_cycle_that_grows_one_step_and_shrinks_over_a_few_is_not_reported(self, head):
         # a turn with an uneven scale, or a shear: 1.5 (1.21) in one direction per cycle,

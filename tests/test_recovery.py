@@ -83,3 +83,24 @@ def test_no_missing_operator_is_guessed_across_a_line_a_bracket_joined():
     # "expected an operator between 'sphere' and 'y'": the '(' left open is the slip
     assert reported("{c = 3} S\nx = (sphere\ny = cube\n")[0] == \
         "3:1: unexpected 'y', expected ')', '\\', '∩', '∪'"
+
+
+def test_the_parse_resumes_after_a_closing_bracket_the_lexer_refused():
+    # `{c = c - }`: the '}' never reached the line joiner, which counted its block open
+    # and resumed only at rule heads, so the named expression's slip went unsaid
+    assert [line[:5] for line in reported(
+        "S 1\n1: S → {c = c - } cube\nfoo = sphere sphere\n{ c = 1 } S\n")] == ["2:17:", "3:14:"]
+
+
+def test_notes_for_a_bracket_say_only_what_is_so():
+    # a '(' closed on the next line is not "not closed"
+    with pytest.raises(PcsgError) as e:
+        compile_text("sphere ∪ (cube\n  cone)\n", "t.pcsg")
+    assert e.value.diagnostics[0].notes == []
+    # a rule's head inside a block left open: the note at the block
+    with pytest.raises(PcsgError) as e:
+        compile_text("{ c = 3 } S\nS if(c > 0, 2, 1)\n1: S → cube\n2: S → { c = c - 1\n"
+                     "3: S → sphere\n", "t.pcsg")
+    d = e.value.diagnostics[0]
+    assert [(d.source.locate(span[0]).line, text[:31]) for span, text in d.notes] == \
+        [(4, "in the calculation block opened")]

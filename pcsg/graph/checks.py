@@ -514,6 +514,12 @@ def _relative(before, lin):
     return np.linalg.solve(before, lin) if np.linalg.det(before) != 0 else lin
 
 
+def _spectral_radius(m) -> float:
+    with np.errstate(all="ignore"):
+        values = np.linalg.eigvals(m) if np.isfinite(m).all() else np.array([np.inf])
+    return float(np.abs(values).max())
+
+
 def _most_scale(rel) -> float:
     """The largest singular value of rel (where its Frobenius norm, which bounds it, is
     over 1: most cycles shrink in every direction and cost no SVD)."""
@@ -557,9 +563,10 @@ def _probe(graph: Graph) -> list[Diagnostic]:
                     first = prev[2] if repeats else lin
                     if grows and repeats >= PROBE_REPEATS:
                         # a turn with an uneven scale, or a shear, grows one direction per
-                        # cycle and still shrinks every one over a few: the run's whole map
-                        # decides (rotz(90) scale(1.5, 0.5, 0.5) is 0.75 in x and y per two)
-                        most = _most_scale(_relative(first, lin))
+                        # cycle and still shrinks every one in the long run: the spectral
+                        # radius of the run's whole map decides (rotz(90) scale(1.5, 0.5,
+                        # 0.5) is 0.75 in x and y per two; rotz(30) of it 0.866 per one)
+                        most = _spectral_radius(_relative(first, lin))
                         grows = most > 1 + 1e-9
                     if repeats >= PROBE_REPEATS and i not in reported and edge is not None \
                             and (grows or not least < 1 - 1e-9) \
@@ -571,7 +578,9 @@ def _probe(graph: Graph) -> list[Diagnostic]:
                         reported[i] = _diag(graph, "warning", f"'{n.name}' calls itself here "
                                             f"{repeats} times in a row through transformations "
                                             f"{how} bounding boxes and the level of detail "
-                                            f"cannot stop it", edge, "non-contracting")
+                                            f"cannot stop it, and its derivation does not end "
+                                            f"within {ENDS_LEVELS:,} levels from here", edge,
+                                            "non-contracting")
                 seen = {**seen, i: (lin, repeats, first)}
                 r = d.select(i, state, h)
                 stack.append((n.children[r], state, d.edge(h, i, r), lin, seen, n.edge_spans[r]))

@@ -234,7 +234,7 @@ def _syntax_errors(first: UnexpectedInput, source: Source, parser, joiner) -> li
     e = first
     while len(found) <= MAX_SYNTAX_ERRORS:      # one more: whether any follow
         at = _error_offset(e)
-        resume = None if at is None else _resume_at(text, at, len(joiner.open_brackets))
+        resume = None if at is None else _resume_at(text, at, _open_at(e, joiner))
         if resume is None or len(text) - resume > RECOVER_CHARS:
             break
         rest = _blanked(text, resume)
@@ -260,6 +260,17 @@ def _error_offset(e: UnexpectedInput):
         return None
     # a line end's token takes the newline and the next line's indentation with it
     return e.token.start_pos if e.token.type == "_NL" else e.token.end_pos
+
+
+def _open_at(e: UnexpectedInput, joiner: LineJoiner) -> int:
+    """The brackets open after the error's token: a closer the contextual lexer refused
+    (`{c = c - }`) never reached the joiner, which still counts its bracket open."""
+    depth = len(joiner.open_brackets)
+    tok = getattr(e, "token", None)
+    if tok is not None and tok.type in ("RPAR", "RBRACE") and depth and \
+            (joiner.last is None or joiner.last.start_pos < tok.start_pos):
+        depth -= 1
+    return depth
 
 
 def _resume_at(text: str, at: int, open_brackets: int):
@@ -388,16 +399,33 @@ def _open_before(text: str, joiner: LineJoiner, tok: Token, expected) -> list:
     b = joiner.open_brackets[-1]
     if "\n" not in text[b.start_pos:tok.start_pos]:
         return []
+    line = text.rfind("\n", 0, tok.start_pos) + 1
     if b.type == "LBRACE":
         # a block's lines are assignments: a '}' left out read the next statement as one
-        # ("expected '='"), whether or not the error starts its line
-        if "EQUAL" not in expected:
+        # ("expected '='", or a rule's head), whether or not the error starts its line
+        if "EQUAL" not in expected and not _STATEMENT_HEAD.match(text, line):
             return []
         return [((b.start_pos, b.end_pos), "in the calculation block opened here, whose "
                                            "lines are assignments until its '}'")]
-    if not _starts_line(text, tok):
-        return []
+    if not _starts_line(text, tok) or _closed_later(text, tok.start_pos):
+        return []       # a bracket closed further on: the slip is between (an operator)
     return [((b.start_pos, b.end_pos), f"the '{b.value}' opened here is not closed")]
+
+
+def _closed_later(text: str, pos: int) -> bool:
+    """Whether the bracket open at `pos` closes before the next rule head or directive."""
+    depth = 1
+    for m in _BRACKETS.finditer(text, pos):
+        g = m.group()
+        if g == "\n" and _STATEMENT_HEAD.match(text, m.end()):
+            return False
+        if g in "({":
+            depth += 1
+        elif g in ")}":
+            depth -= 1
+            if depth == 0:
+                return True
+    return False
 
 
 def _open_in_macro(source: Source, joiner: LineJoiner, pos: int) -> list:

@@ -15,9 +15,11 @@ class LineJoiner:
 
     def __init__(self):
         self.open_brackets: list[Token] = []
+        self.last: Token | None = None      # the last token passed on
 
     def process(self, stream):
         self.open_brackets = []
+        self.last = None
         prev = None
         last = None
         for tok in stream:
@@ -34,7 +36,7 @@ class LineJoiner:
             elif kind in CLOSERS and self.open_brackets:
                 self.open_brackets.pop()
             prev = kind
-            last = tok
+            last = self.last = tok
             yield tok
         if prev not in (None, "_NL") and last is not None and not self.open_brackets:
             # The file's last statement needs its end, even without a final newline.
