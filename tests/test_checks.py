@@ -68,6 +68,24 @@ class TestTermination:
         assert warnings_of("S\nS if(pixels > 2, 2, 1)\n1: S → sphere\n"
                            "2: S → sphere ∪ move(2, 0, 0) scale(0.5, 0.5, 1) S\n") == []
 
+    def test_a_cycle_the_derivation_never_takes_round_is_not_reported(self):
+        # B is reached only where n is spent: its rule 2 never runs (stats counts 4)
+        assert warnings_of("{n = 3} A\nA if(n > 0, 2, 1)\n1: A → B\n2: A → {n = n - 1} "
+                           "move(0, 0, 2) A ∪ cube\nB if(n > 0, 2, 1)\n1: B → sphere\n"
+                           "2: B → cube ∪ move(1, 0, 0) B\n") == []
+
+    def test_a_count_running_away_on_a_shrinking_cycle_is_said_by_check(self, capsys,
+                                                                        tmp_path):
+        # the level of detail ends its picture, but the derivation never ends: check said ok
+        from pcsg.cli import main
+        src = tmp_path / "t.pcsg"
+        src.write_text("{i = 0} R\nR if(i < 8, 2, 1)\n1: R → cube\n"
+                       "2: R → cube ∪ {i = i - 1} move(2, 0, 0) uscale(0.8) R\n", encoding="utf-8")
+        assert main(["check", "--werror", str(src)]) == 1
+        assert ("warning: the derivation goes deeper than 1000 levels: 'R' is still being "
+                "rewritten there (i = -1000): a count running away from its end?") in \
+            capsys.readouterr().err
+
     def test_a_module_between_that_counts_down_ends_the_cycle(self):
         # T counts n down on the way round: SEG, reading a constant flag, was "endless"
         assert [x for x in warnings_of(

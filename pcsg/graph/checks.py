@@ -65,10 +65,27 @@ def derivation_faults(graph: Graph, max_states: int = CHECK_STATES):
         # the render's pixels end it
         if errors or graftal_nodes(graph) or PIXELS in graph.params:
             return errors, []
-        return [], [Diagnostic("warning", d.message + ": a render draws it only to pixel "
-                               "size", d.span, d.source, code=d.code)
-                    for d in e.diagnostics if d.code == "repeats"]
+        repeats = [Diagnostic("warning", d.message + ": a render draws it only to pixel "
+                              "size", d.span, d.source, code=d.code)
+                   for d in e.diagnostics if d.code == "repeats"]
+        return [], repeats or _runaway(graph)
     return [], []
+
+
+def _runaway(graph: Graph) -> list[Diagnostic]:
+    """A derivation that counts away from its end (`R if(i < 8, 2, 1)` with `{i = i - 1}`
+    on a cycle that shrinks): within the check's states, but deeper than ENDS_LEVELS.
+    A graftal's or a `pixels` system's the render ends by design: the caller leaves them."""
+    from .stats import derivation_end
+    d = Deriver(graph)
+    state, h = d.initial()
+    stopped = derivation_end(graph, graph.root, state, h, CHECK_STATES, ENDS_LEVELS)
+    if stopped is None or not stopped.deep:
+        return []
+    found = stopped.diagnostic
+    return [Diagnostic("warning", f"{found.message}: a count running away from its end? a "
+                       f"render refines it to pixel size or --max-depth", found.span,
+                       found.source, code="runaway")]
 
 
 def constant_maps(graph: Graph) -> list[Diagnostic]:
@@ -398,7 +415,17 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
                        f"this cycle never terminates, a graftal: `render` refines it to pixel "
                        f"size, `export` needs --max-depth N")
         out.append(_diag(graph, "warning", message, spans[0], "endless", notes))
+    if out and _axiom_ends(graph):
+        # the cycles are there, but the derivation never takes them round (a module
+        # reached only where its count is spent: B if(n > 0, ...) met with n = 0)
+        return []
     return out
+
+
+def _axiom_ends(graph: Graph) -> bool:
+    from .stats import ends_from
+    state, h = Deriver(graph).initial()
+    return ends_from(graph, graph.root, state, h, CHECK_STATES, ENDS_LEVELS)
 
 
 def _reads_parameters(graph: Graph, s) -> bool:

@@ -20,8 +20,9 @@ ENDLESS = ("repeats", "endless")
 
 
 class Endless(Exception):
-    def __init__(self, diagnostic: Diagnostic):
+    def __init__(self, diagnostic: Diagnostic, deep: bool = False):
         self.diagnostic = diagnostic
+        self.deep = deep        # past the levels it may follow (not its states)
 
 
 def count_primitives(graph: Graph, max_states: int = MAX_STATES, cut: Cut | None = None) -> int:
@@ -32,12 +33,18 @@ def count_primitives(graph: Graph, max_states: int = MAX_STATES, cut: Cut | None
 def ends_from(graph: Graph, node: int, state, h, max_states: int, max_levels: int) -> bool:
     """Whether the derivation from S-node instance (node, state, h) ends within
     max_states states and max_levels levels."""
+    return derivation_end(graph, node, state, h, max_states, max_levels) is None
+
+
+def derivation_end(graph: Graph, node: int, state, h, max_states: int, max_levels: int):
+    """None where the derivation from (node, state, h) ends within max_states states and
+    max_levels levels, else the Endless that stopped it."""
     try:
         with recursion_limit(12 * max_levels + 1000):
             _Counter(graph, max_states, max_levels=max_levels).count(node, state, h, 0)
-    except Endless:
-        return False
-    return True
+    except Endless as e:
+        return e
+    return None
 
 
 def count_by_primitive(graph: Graph, max_states: int = MAX_STATES,
@@ -94,7 +101,8 @@ class _Counter:
             raise Endless(self._endless(
                 node_id, state, f"the derivation goes deeper than "
                                 f"{min(level, self.max_levels)} "
-                                f"levels", "is still being rewritten there"))
+                                f"levels", "is still being rewritten there"),
+                deep=level >= self.max_levels)
         self.active.add(key)
         if node.kind == SELECT:
             cut = self.cut is not None and level + 1 > self.cut.depth
