@@ -59,3 +59,17 @@ def test_a_macro_with_arguments_is_said_where_it_is_defined():
     assert [w.code for w in graph.warnings] == ["macro-arguments"]
     # a space before the '(' says a replacement that starts with a group is meant
     assert expanded("#define G (sphere ∪ cube)\nG\n") == "sphere ∪ cube"
+
+
+@pytest.mark.parametrize("text, place", [
+    ("#define light paint(1, 1, 0.8)\n#light at=(5, 5, 5)\nlight sphere\n", (2, 2)),
+    ("#define up (0, 1, 0)\n#camera eye=(3, 3, 3) at=(0, 0, 0) up=(0, 0, 1)\nsphere\n", (2, 36)),
+])
+def test_a_macro_that_replaces_a_directive_s_word_is_said(text, place):
+    # "unknown directive '#paint'", and nothing of the macro that made it
+    with pytest.raises(PcsgError) as e:
+        compile_text(text, "t.pcsg")
+    said = e.value.diagnostics[0]
+    assert said.code == "macro-directive" and (said.location.line, said.location.column) == place
+    # a macro as a directive's value is what macros are for
+    assert compile_text("#define R 3\n#light at=(5, 5, 5) radius=R\nsphere\n", "t.pcsg").warnings == []

@@ -160,8 +160,9 @@ def parse(text: str, file: str = "<string>") -> tuple[ast.Program, Source]:
     try:
         program = parser.parse(source.expanded)
     except UnexpectedInput as e:
-        # a macro written with arguments explains the errors at its uses
-        said = [w for w in source.warnings if w.code == "macro-arguments"]
+        # a macro written with arguments, or one that replaced a directive's word,
+        # explains the errors at its uses
+        said = [w for w in source.warnings if w.code in ("macro-arguments", "macro-directive")]
         raise PcsgError(said + _syntax_errors(e, source, parser, joiner)) from None
     return program, source
 

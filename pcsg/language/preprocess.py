@@ -45,6 +45,7 @@ class _Expander:
         self.errors: list[Diagnostic] = []
         self.warnings: list[Diagnostic] = []
         self.used: set[str] = set()
+        self.in_directives: set[str] = set()     # macros said to replace a directive's word
         self.uses = 0
 
     def emit(self, start: int, end: int, uses: tuple):
@@ -89,6 +90,12 @@ class _Expander:
             if kind == "name" and m.group() in self.macros and m.group() not in active:
                 macro = self.macros[m.group()]
                 self.used.add(macro.name)
+                if top and macro.name not in self.in_directives and \
+                        _directive_word(text, m.start(), m.end()):
+                    self.in_directives.add(macro.name)
+                    self.warn(m.start(), f"macro '{macro.name}' replaces a directive's own "
+                                         f"word here: #define changes directives' names and "
+                                         f"keys too", "macro-directive")
                 self.uses += 1
                 if self.uses > MAX_USES:
                     raise _TooLarge
@@ -184,6 +191,17 @@ class _TooLarge(Exception):
 
 
 _LINE_PARTS = re.compile(r"/\*.*?(?:\*/|\Z)|//[^\n]*|\n", re.S)
+
+
+def _directive_word(text: str, start: int, end: int) -> bool:
+    """Whether text[start:end] is a directive's name (`#light`) or one of its keys
+    (`up=`) on a directive's line: `#define light paint(...)` made `#light` '#paint'."""
+    line = text.rfind("\n", 0, start) + 1
+    if not text[line:start].lstrip().startswith("#"):
+        return False
+    after = text[end:end + 64].lstrip(" \t")
+    return text[start - 1:start] == "#" or (after.startswith("=") and
+                                             not after.startswith("=="))
 
 
 def line_end(text: str, start: int) -> int:
