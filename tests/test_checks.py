@@ -2,6 +2,7 @@
 import pytest
 
 from pcsg.compiler import compile_file, compile_text
+from pcsg.graph.checks import derivation_faults
 
 from .conftest import FIG3A_AS_PRINTED, GRAMMARS, SIERPINSKI, errors_of
 
@@ -274,3 +275,14 @@ def test_a_read_unassigned_points_at_a_block_that_took_one_operand():
     errs = errors_of("A ∪ B\n1: A → {x = 0} move(x, 0, 0) sphere ∪ cube\n"
                      "1: B → move(x, 0, 0) cube\n")
     assert errs and all(e.notes == [] for e in errs)
+
+
+def test_following_the_derivation_leaves_invalid_selections_to_check():
+    # the endless and contraction checks follow the derivation (every compile): a
+    # selection naming rule 3 of 2 on the way made the compile fail (found by hypothesis)
+    text = ("{n = 1; a = 0.5} (A ∪ B ∪ A)\nA if(n > 0, 1 + floor(a * 4), 1)\n1: A → sphere\n"
+            "2: A → sphere\nB 1\n1: B → B\n")
+    assert {w.code for w in warnings_of(text)} == {"endless", "non-contracting"}
+    # check, which follows the derivation for its errors, says it
+    errors, _ = derivation_faults(compile_text(text, "t.pcsg"))
+    assert [e.code for e in errors] == ["selection"]

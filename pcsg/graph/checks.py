@@ -79,7 +79,11 @@ def _runaway(graph: Graph) -> list[Diagnostic]:
     from .stats import derivation_end
     d = Deriver(graph)
     state, h = d.initial()
-    stopped = derivation_end(graph, graph.root, state, h, CHECK_STATES, ENDS_LEVELS)
+    try:
+        stopped = derivation_end(graph, graph.root, state, h, CHECK_STATES, ENDS_LEVELS)
+    except PcsgError:
+        return []       # an invalid selection, which the caller reports
+
     if stopped is None or not stopped.deep:
         return []
     found = stopped.diagnostic

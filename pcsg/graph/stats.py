@@ -31,14 +31,18 @@ def count_primitives(graph: Graph, max_states: int = MAX_STATES, cut: Cut | None
 
 
 def ends_from(graph: Graph, node: int, state, h, max_states: int, max_levels: int) -> bool:
-    """Whether the derivation from S-node instance (node, state, h) ends within
-    max_states states and max_levels levels."""
-    return derivation_end(graph, node, state, h, max_states, max_levels) is None
+    """Whether the derivation from (node, state, h) ends within max_states states and
+    max_levels levels (and without an invalid selection on the way)."""
+    try:
+        return derivation_end(graph, node, state, h, max_states, max_levels) is None
+    except PcsgError:
+        return False        # a selection that names no rule: check's to say, not this
 
 
 def derivation_end(graph: Graph, node: int, state, h, max_states: int, max_levels: int):
     """None where the derivation from (node, state, h) ends within max_states states and
-    max_levels levels, else the Endless that stopped it."""
+    max_levels levels, else the Endless that stopped it; PcsgError for an invalid
+    selection on the way."""
     try:
         with recursion_limit(12 * max_levels + 1000):
             _Counter(graph, max_states, max_levels=max_levels).count(node, state, h, 0)
