@@ -263,6 +263,11 @@ def test_a_material_that_reflects_and_lets_through_more_than_comes_is_warned_of(
     ("#light position=(1, 2, 3)\nsphere\n", "1:8: unknown key 'position' for #light; did "
                                            "you mean 'at'?"),
     ("#light target=(1, 2, 3)\nsphere\n", "1:8: unknown key 'target' for #light (known:"),
+    # abbreviations
+    ("#material m refl=0.5\nmaterial(m) sphere\n", "1:13: unknown key 'refl' for #material; "
+                                                     "did you mean 'reflect'?"),
+    ("#occlusion samples=8 dist=2\nsphere\n", "1:22: unknown key 'dist' for #occlusion; did "
+                                               "you mean 'distance'?"),
 ])
 def test_more_slips_said_as_themselves(text, said):
     try:

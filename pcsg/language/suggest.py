@@ -11,9 +11,11 @@ ALIASES = {"translate": "move", "rotate": "rot", "color": "paint", "colour": "pa
            "box": "cube", "ball": "sphere", "pyramid": "tetrahedron",
            # directives' keys as other renderers name them: the first a directive knows
            # (a light's position is its `at`, a camera's its `eye`)
-           "location": ("eye", "at"), "position": ("eye", "at"), "from": ("eye",)}
+           "location": ("eye", "at"), "position": ("eye", "at"), "from": ("eye",),
+           "pos": ("eye", "at"), "refl": ("reflect",), "dist": ("distance",),
+           "shine": ("shininess",), "spec": ("specular",)}
 # where a camera looks: its `at`, which for a light is where it is, not what it faces
-LOOK_AT = frozenset({"look_at", "lookat", "target", "to"})
+LOOK_AT = frozenset({"look_at", "lookat", "look", "target", "to"})
 
 
 def closest(name: str, known: Iterable[str]) -> str | None:
