@@ -481,7 +481,7 @@ def _export_cut(args, traced):
         cut = cut_of(traced)
         if cut.graftal:
             g = traced.graph
-            s = next(i for i, n in enumerate(g.nodes) if cut.select[i] and cut.term[i] < 0)
+            s = cut.endless_node()
             raise PcsgError([Diagnostic(
                 "error", f"'{g.nodes[s].name}' has no rule that ends, so its derivation "
                          f"never does: give --max-depth N to end it where `pcsg render "

@@ -432,11 +432,12 @@ class _Builder:
 
     def _unknown_number(self, name: str) -> str:
         """What else to say of an undefined name in arithmetic."""
-        if name == "t" and not self.source.defined_below(name):
+        below = self.source.defined_below(name)
+        if name == "t" and not below:
             # the time an animation sets: only where the file assigns it
             return (" (`pcsg animate` sets t only where the axiom assigns it: write "
                     "'{t = 0} ...' there, and read t below)")
-        return self.source.defined_below(name)
+        return below
 
     def _operand_kind(self, name: str) -> str | None:
         """What a CSG operand's name read as a number is (`move(N, 0, 0)`, N a named

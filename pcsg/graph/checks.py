@@ -19,10 +19,12 @@ PROBE_NODES = 2_000           # node visits of the contraction probe (every comp
 PROBE_REPEATS = 8             # a non-contracting cycle taken this often on one path is reported
 
 
-def reachable(graph: Graph) -> list[bool]:
+def reachable(graph: Graph, start: int | None = None) -> list[bool]:
+    """Per node, whether the walk from `start` (the axiom's root) reaches it."""
+    start = graph.root if start is None else start
     seen = [False] * len(graph.nodes)
-    stack = [graph.root]
-    seen[graph.root] = True
+    stack = [start]
+    seen[start] = True
     while stack:
         for c in graph.nodes[stack.pop()].children:
             if not seen[c]:
@@ -76,14 +78,10 @@ def _runaway(graph: Graph) -> list[Diagnostic]:
     """A derivation that counts away from its end (`R if(i < 8, 2, 1)` with `{i = i - 1}`
     on a cycle that shrinks): within the check's states, but deeper than ENDS_LEVELS.
     A graftal's or a `pixels` system's the render ends by design: the caller leaves them."""
-    from .stats import derivation_end
-    d = Deriver(graph)
-    state, h = d.initial()
     try:
-        stopped = derivation_end(graph, graph.root, state, h, CHECK_STATES, ENDS_LEVELS)
+        stopped = _from_axiom(graph)
     except PcsgError:
         return []       # an invalid selection, which the caller reports
-
     if stopped is None or not stopped.deep:
         return []
     found = stopped.diagnostic
@@ -197,14 +195,14 @@ class _OperandBlocks:
 
     def __init__(self, graph: Graph):
         self.graph = graph
-        self._reach: dict[int, set[int]] = {}
+        self._reach: dict[int, list[bool]] = {}
         self._blocks = None
 
     def block(self, slot: int, reader: int):
         if self._blocks is None:
             self._blocks = self._find()
         for span, siblings in self._blocks.get(slot, ()):
-            if any(reader in self._reached(s) for s in siblings):
+            if any(self._reached(s)[reader] for s in siblings):
                 return span
         return None
 
@@ -228,15 +226,9 @@ class _OperandBlocks:
                         out.setdefault(slot, []).insert(0, entry)
         return out
 
-    def _reached(self, start: int) -> set[int]:
+    def _reached(self, start: int) -> list[bool]:
         if start not in self._reach:
-            seen, stack = {start}, [start]
-            while stack:
-                for c in self.graph.nodes[stack.pop()].children:
-                    if c not in seen:
-                        seen.add(c)
-                        stack.append(c)
-            self._reach[start] = seen
+            self._reach[start] = reachable(self.graph, start)
         return self._reach[start]
 
 
@@ -427,9 +419,18 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
 
 
 def _axiom_ends(graph: Graph) -> bool:
-    from .stats import ends_from
+    try:
+        return _from_axiom(graph) is None
+    except PcsgError:
+        return False        # an invalid selection: check's to say
+
+
+def _from_axiom(graph: Graph):
+    """stats.derivation_end of the whole derivation, within check's states and
+    ENDS_LEVELS levels."""
+    from .stats import derivation_end
     state, h = Deriver(graph).initial()
-    return ends_from(graph, graph.root, state, h, CHECK_STATES, ENDS_LEVELS)
+    return derivation_end(graph, graph.root, state, h, CHECK_STATES, ENDS_LEVELS)
 
 
 def _reads_parameters(graph: Graph, s) -> bool:
@@ -564,10 +565,10 @@ def _probe(graph: Graph) -> list[Diagnostic]:
     """Walk the derivation for a while with real parameter values; a module instance
     nested PROBE_REPEATS times in itself with transformations that shrink it in no
     direction (smallest singular value ≥ 1 between successive instances: moves,
-    rotations, growth), or that grow it in some (the largest above 1: scale(1.5, 0.5,
-    0.5), whose bounds reach 1e12 and whose picture, framed to them, came out empty), is
-    reported, since neither hyper-bounding boxes nor the pixel-size level of detail can
-    cut it. A cycle that shrinks along some axes only (the terrain's
+    rotations, growth), or that grow it over the run (the spectral radius of the run's
+    map above 1: scale(1.5, 0.5, 0.5), whose bounds reach 1e12 and whose picture, framed
+    to them, came out empty), is reported where the derivation from there is not seen to
+    end, since neither hyper-bounding boxes nor the pixel-size level of detail can cut it. A cycle that shrinks along some axes only (the terrain's
     scale(0.5,0.5,1)) is not: its boxes narrow along those, and whether the probe's
     few thousand visits went deep enough to see it repeat eight times was a matter of
     the order it walked in (the terrain was reported at cnt 12, not at 8 to 11)."""

@@ -33,6 +33,10 @@ class Cut:
         """Whether an S-node has no rule that ends: its cut instances are volumes."""
         return bool((self.term[self.select] < 0).any())
 
+    def endless_node(self) -> int:
+        """The first S-node the derivation reaches that has no rule that ends (graftal)."""
+        return int(np.nonzero(self.select & (self.term < 0))[0][0])
+
     def leaf(self, node: int, world: np.ndarray) -> tuple[str, np.ndarray] | None:
         """The volume of an instance of `node` with world map `world` (4x4), as the
         primitive of a cut graftal instance: its name and world map; None where the node

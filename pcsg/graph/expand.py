@@ -159,7 +159,7 @@ def _unreached_cut(text: str, file: str, left: set[str], axiom: tuple[int, int])
     statements); the word, which may be large, is not."""
     from ..language import ast
     from ..language.parser import parse
-    from ..language.preprocess import line_end as _line_end
+    from ..language.preprocess import line_end
     statements = parse(text, file)[0].statements
     bodies: dict[str, list] = {}
     for st in statements:
@@ -182,7 +182,7 @@ def _unreached_cut(text: str, file: str, left: set[str], axiom: tuple[int, int])
         line = text.rfind("\n", 0, a) + 1
         if not text[line:a].strip():
             a = line
-            b = min(_line_end(text, b) + 1, len(text))  # a comment it opens included
+            b = min(line_end(text, b) + 1, len(text))   # a comment it opens included
         if b <= axiom[0]:
             before = before[:a] + before[b:]
         elif a >= axiom[1]:

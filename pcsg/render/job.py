@@ -259,9 +259,8 @@ class _ReferenceTarget:
         from ..trace.reference import Reference
         cut = cut_of(traced)
         if cut.graftal and traced.asked_depth >= MAX_DEPTH:
-            g = traced.graph
-            s = next(i for i, n in enumerate(g.nodes) if cut.select[i] and cut.term[i] < 0)
-            raise RenderFailed(f"--reference: '{g.nodes[s].name}' has no rule that ends, so "
+            name = traced.graph.nodes[cut.endless_node()].name
+            raise RenderFailed(f"--reference: '{name}' has no rule that ends, so "
                                f"its expansion never does: give --max-depth N (a small N) to "
                                f"end it where the tracer does at that depth")
         self.ref = Reference(traced.graph, cut=cut)
