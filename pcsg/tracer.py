@@ -196,10 +196,11 @@ class Traced:
                           "too many pieces along one ray; raise --interval-rows (now {r})",
             EV_VISITS: "{n:,} rays stopped after entering --max-instances {v:,} instances "
                        "({w}), the rest of their walk taken as empty: a cycle that neither "
-                       "ends nor contracts, or sizes carried in parameters (`scale(len, len, "
-                       "len)` with `{{len = len * 0.7}}`), which leave each level's boxes as "
-                       "large as the whole? a uscale(0.7) on the recursion shrinks them; "
-                       "raise --max-instances to go on",
+                       "ends nor contracts, or instances that overlap deeply (parts that keep "
+                       "one size at every level, or sizes carried in parameters: `scale(len, "
+                       "len, len)` with `{{len = len * 0.7}}`)? a uscale(0.7) on the "
+                       "recursion shrinks an instance's parts and boxes with it; raise "
+                       "--max-instances to go on",
         }
         for kind, text in texts.items():
             if kinds is not None and kind not in kinds:

@@ -11,6 +11,7 @@ import numpy as np
 from . import vm
 from .boxwalk import (COLLECT, CONSUME, STOPPED, add_counts, new_counts, walk, walk_in,
                       walk_scratch)
+from .balls import ROW
 from .instance_table import ENTRY, empty_table, gather
 from .jit import share, watched
 
@@ -20,9 +21,9 @@ ITEMS_PER_WORKER = 64       # enough that the threads' shares come out even
 
 def items_for(flat, count: int):
     """Arrays for `count` split instances: (node, level above, cut), hash, parameters,
-    box."""
+    box and ball (trace/balls.py)."""
     return (np.zeros((count, 3), dtype=np.int64), np.zeros(count, dtype=np.uint64),
-            np.zeros((count, flat.n_params)), np.zeros((count, 6)))
+            np.zeros((count, flat.n_params)), np.zeros((count, ROW)))
 
 
 def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, per_level,

@@ -1,6 +1,7 @@
 """Hyper-bounding boxes by visiting every instance (njit), for systems whose
 instances are too many to memoise in Python: each instance's box is computed
-bottom-up in its own frame and united into its node's hyper box. The walk stops
+bottom-up in its own frame, cut to a ball carried beside it where the system turns boxes
+off their axes (trace/balls.py), and united into its node's hyper box. The walk stops
 refining where the tracer does (the depth bound: terminating rules, or the box
 itself for a graftal), so the boxes bound exactly what the tracer can reach. The walk
 runs on every core, split below the first level with enough instances
@@ -19,6 +20,7 @@ from .jit import copy_into, inline, kernel, threads
 from .instance_table import TABLE_SLOTS, append, empty_table, new_book
 from .nodes import node_affine, pick_rule, run_calc, singular_map
 from .fractals import A_R
+from .balls import ROW, ball_of_box, map_ball, rotates, smaller_ball, tighten, unite_ball
 from .primitives import BOXES, FRACTAL_MIN, HULL, HULL_COUNT, TRI1, TRI2
 
 NODE, SLOT, LEVEL, PHASE, CUT = range(5)
@@ -63,9 +65,11 @@ def _unite(acc, b):
 
 
 @inline
-def _close(boxes, node, b):
-    """A node's instance box done: an empty one normalised, then united into the node's
-    hyper box."""
+def _close(boxes, node, b, balls):
+    """A node's instance box done: cut to its ball where the walk carries balls, an
+    empty one normalised, then united into the node's hyper box."""
+    if balls:
+        tighten(b)
     if b[0] > b[3] or b[1] > b[4] or b[2] > b[5]:
         b[:3] = np.inf
         b[3:] = -np.inf
@@ -73,13 +77,31 @@ def _close(boxes, node, b):
 
 
 @inline
-def _primitive_box(flat, node, out):
+def _primitive_box(flat, node, out, balls):
+    """A primitive's object box, and the ball round it where the walk carries balls."""
     if flat.code[node] >= FRACTAL_MIN:
         r = flat.fractal[node, A_R]
         out[:3] = -r
-        out[3:] = r
+        out[3:6] = r
     else:
-        copy_into(out, BOXES[flat.code[node]])
+        for a in range(6):
+            out[a] = BOXES[flat.code[node], a]
+    if balls:
+        ball_of_box(out)
+
+
+@inline
+def _empty(row):
+    row[:3] = np.inf
+    row[3:] = -np.inf
+
+
+@inline
+def _map(m34, src, dst, balls):
+    """dst: src's box (and ball) under the map m34."""
+    _transform_box(m34, src, dst)
+    if balls:
+        map_ball(m34, src, dst)
 
 
 @inline
@@ -121,7 +143,8 @@ def _fault(changed, kind, node):
 
 
 @inline
-def _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack, args, m34, changed):
+def _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack, args, m34, changed,
+                balls):
     """The run of single-child steps from frame f down to its primitive (Flat.chain) in
     two loops, down and up, with the arithmetic of the general walk's frames but not its
     dispatch per frame: the terminating rules, three quarters of the terrain's visits.
@@ -137,8 +160,8 @@ def _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack, args, m34,
             run_calc(flat, node, params, fr[g, SLOT], g + 1, hs[f], stack)
             fr[g + 1, SLOT] = g + 1
         g += 1
-    _primitive_box(flat, fr[g, NODE], acc[g])
-    _close(boxes, fr[g, NODE], acc[g])
+    _primitive_box(flat, fr[g, NODE], acc[g], balls)
+    _close(boxes, fr[g, NODE], acc[g], balls)
     bare = True         # acc[k + 1] is the primitive's object box
     for k in range(g - 1, f - 1, -1):
         node = fr[k, NODE]
@@ -146,19 +169,19 @@ def _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack, args, m34,
             copy_into(acc[k], acc[k + 1])
         else:
             if not node_affine(flat, node, params, fr[k, SLOT], hs[f], stack, args, m34):
-                acc[k, :3] = np.inf
-                acc[k, 3:] = -np.inf
+                _empty(acc[k])
                 _fault(changed, NONFINITE, node)
             elif singular_map(m34):
-                acc[k, :3] = np.inf
-                acc[k, 3:] = -np.inf
+                _empty(acc[k])
                 _fault(changed, SINGULAR, node)
             elif bare:
                 _mapped_primitive_box(flat, fr[g, NODE], m34, acc[k + 1], acc[k])
+                if balls:
+                    map_ball(m34, acc[k + 1], acc[k])
             else:
-                _transform_box(m34, acc[k + 1], acc[k])
+                _map(m34, acc[k + 1], acc[k], balls)
             bare = False
-        _close(boxes, node, acc[k])
+        _close(boxes, node, acc[k], balls)
     return g - f
 
 
@@ -179,8 +202,8 @@ def walk_scratch(flat, capacity):
     writes every row before it reads it, and filling them touched every page of rows
     that a walk mostly never reaches (its stack is as deep as the graph is long)."""
     return (np.empty((capacity, 5), dtype=np.int64), np.empty(capacity, dtype=np.uint64),
-            np.empty((capacity, flat.n_params)), np.empty((capacity, 6)),
-            np.empty(6), np.empty(flat.max_stack), np.empty(12), np.empty((3, 4)))
+            np.empty((capacity, flat.n_params)), np.empty((capacity, ROW)),
+            np.empty(ROW), np.empty(flat.max_stack), np.empty(12), np.empty((3, 4)))
 
 
 @cached_jit(error_model="numpy", nogil=True)
@@ -224,6 +247,7 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
     fr[0, :] = 0
     from_item = first >= 0
     draws = draws_hashes(flat)
+    balls = rotates(flat)
     if from_item:
         fr[0, NODE] = items[first, 0]
         fr[0, LEVEL] = items[first, 1]
@@ -252,11 +276,10 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
                 told = visits
                 if watch[0] != 0:
                     return STOPPED
-            acc[f, :3] = np.inf
-            acc[f, 3:] = -np.inf
+            _empty(acc[f])
             if flat.chain[node] != 0:
                 steps = _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack,
-                                    args, m34, changed)
+                                    args, m34, changed, balls)
                 visits += steps
                 if steps < 0 or visits > budget:
                     return -1
@@ -265,7 +288,7 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
         if chained:
             pass                # closed by _walk_chain, with every frame of its chain
         elif kind == PRIMITIVE:
-            _primitive_box(flat, node, acc[f])
+            _primitive_box(flat, node, acc[f], balls)
         elif kind == SELECT:
             if phase == 0:
                 level = fr[f, LEVEL] + 1
@@ -302,7 +325,7 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
                         child = r
                         fr[f, PHASE] = 1 + r
             else:
-                _unite(acc[f], acc[f + 1])
+                copy_into(acc[f], acc[f + 1])       # its one rule's
                 append(fr[f, LEVEL], hs[f], node, -1, node, acc[f], book, keys, used, vals,
                        per_level)
         elif kind == TRANSFORM or kind == CALC or kind == PAINT or kind == MATERIAL:
@@ -314,12 +337,18 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
                 # the operand's own box, in this operator's frame, for culling it unexpanded
                 append(fr[f, LEVEL], hs[f], node, phase - 1, fr[f + 1, NODE], b, book, keys,
                        used, vals, per_level)
-                if phase == 1 or kind == UNION:
+                if phase == 1:
+                    copy_into(acc[f], b)
+                elif kind == UNION:
                     _unite(acc[f], b)
+                    if balls:
+                        unite_ball(acc[f], b)
                 elif kind == INTERSECTION:
                     for a in range(3):
                         acc[f, a] = max(acc[f, a], b[a])
                         acc[f, a + 3] = min(acc[f, a + 3], b[a + 3])
+                    if balls:
+                        smaller_ball(acc[f], b)
             if phase < flat.child_count[node]:
                 child = phase
                 fr[f, PHASE] = phase + 1
@@ -343,7 +372,7 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
             sp += 1
             continue
         if not chained:
-            _close(boxes, node, acc[f])
+            _close(boxes, node, acc[f], balls)
         sp -= 1
         # the single-child nodes above it finish here, each at once, rather than on a turn
         # of the loop of its own with the dispatch on its kind and phase (the T- and C-node
@@ -358,17 +387,16 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
                 if node_affine(flat, up, params, fr[p, SLOT], hs[p], stack, args, m34):
                     bad = SINGULAR if singular_map(m34) else -1
                 if bad < 0:
-                    _transform_box(m34, acc[p + 1], tmp)
+                    _map(m34, acc[p + 1], tmp, balls)
                     copy_into(acc[p], tmp)
                 else:               # the tracer empties the instance
-                    acc[p, :3] = np.inf
-                    acc[p, 3:] = -np.inf
+                    _empty(acc[p])
                     _fault(changed, bad, up)
             elif above == CALC or above == PAINT or above == MATERIAL:
                 copy_into(acc[p], acc[p + 1])
             else:
                 break
-            _close(boxes, up, acc[p])
+            _close(boxes, up, acc[p], balls)
             sp -= 1
     if from_item:
         copy_into(item_boxes[first], acc[0])
