@@ -6,6 +6,10 @@ cent, see tools/performance_notes.md), medians, and whether the PNGs are the sam
     git worktree add /tmp/before HEAD~1
     (cd /tmp && PYTHONPATH=/tmp/before python -m pcsg.cli render ...)   # compile its kernels
     python tools/ab.py /tmp/before . --rounds 8 carpenter_terrain:cnt=9 sierpinski:c=8
+A load is a sample's name or a .pcsg path (from the repository's root), and its --set;
+--options adds render options to every render (after the bench's, which they override):
+    python tools/ab.py /tmp/before . tests/data/bush_uscale.pcsg:d=12 \
+        --options "--size 160x120 --eye 5,-6,3 --at 0,0,1.8"
 
 Each version runs from its own source tree (PYTHONPATH, from /tmp so that neither tree's
 working directory shadows it), with its own kernel cache; compile both before timing.
@@ -16,6 +20,7 @@ import argparse
 import hashlib
 import os
 import re
+import shlex
 import statistics
 import subprocess
 import sys
@@ -28,13 +33,18 @@ ROOT = Path(__file__).resolve().parent.parent
 BENCH = ["--no-adaptive", "--shadow-samples", "1"]    # bench.py's: a ray a pixel, point lights
 
 
+def grammar_path(grammar: str) -> Path:
+    """A sample's name, or a .pcsg file's path from the repository's root."""
+    return ROOT / grammar if grammar.endswith(".pcsg") else ROOT / "grammars" / f"{grammar}.pcsg"
+
+
 def render(tree: Path, grammar: str, setting: str, png: Path,
            look: list[str] = BENCH) -> tuple[dict, str]:
     """({phase: s} of --timings, PNG digest) of one fresh process of the pcsg in `tree`."""
     # the bounds walked in every process: kept ones would time a file read (graph/boxcache.py)
     env = dict(os.environ, PYTHONPATH=str(tree), PCSG_BOUNDS_CACHE="0")
     out = subprocess.run([sys.executable, "-m", "pcsg.cli", "render",
-                          str(ROOT / "grammars" / f"{grammar}.pcsg"), "--set", setting,
+                          str(grammar_path(grammar)), "--set", setting,
                           "--size", "640x480", *look, "--timings", "-q", "-o", str(png)],
                          cwd=tempfile.gettempdir(), env=env, capture_output=True, text=True)
     if out.returncode != 0:
@@ -48,15 +58,18 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("a", type=Path, help="the source tree of version A (before)")
     ap.add_argument("b", type=Path, help="the source tree of version B (after)")
-    ap.add_argument("loads", nargs="+", metavar="GRAMMAR:NAME=VALUE")
+    ap.add_argument("loads", nargs="+", metavar="GRAMMAR:NAME=VALUE",
+                    help="a sample's name or a .pcsg path, and one --set")
     ap.add_argument("--rounds", type=int, default=6)
     ap.add_argument("--phases", action="store_true",
                     help="also every phase of --timings (interpreter, imports, compile, ...)")
     ap.add_argument("--user-defaults", action="store_true",
                     help="render with the command's own defaults (adaptive oversampling, "
                          "area lights' shadow samples), not bench.py's " + " ".join(BENCH))
+    ap.add_argument("--options", default="", help="render options added to every render, as "
+                    "one string: \"--size 160x120 --eye 5,-6,3\"")
     args = ap.parse_args()
-    look = [] if args.user_defaults else BENCH
+    look = ([] if args.user_defaults else BENCH) + shlex.split(args.options)
     trees = (args.a.resolve(), args.b.resolve())
     # both trees' modules as bytecode, as bench.py has them: where PYTHONDONTWRITEBYTECODE
     # is set (this machine), a tree without them compiled its sources at every start, and
@@ -65,7 +78,7 @@ def main():
         subprocess.run([sys.executable, "-m", "compileall", "-q", str(t / "pcsg")], check=True)
     with tempfile.TemporaryDirectory() as tmp:
         for load in args.loads:
-            grammar, setting = load.split(":")
+            grammar, setting = load.rsplit(":", 1)
             phases = {t: {} for t in trees}
             digests = {}
             for i in range(args.rounds):

@@ -65,11 +65,9 @@ def _unite(acc, b):
 
 
 @inline
-def _close(boxes, node, b, balls):
-    """A node's instance box done: cut to its ball where the walk carries balls, an
-    empty one normalised, then united into the node's hyper box."""
-    if balls:
-        tighten(b)
+def _close(boxes, node, b):
+    """A node's instance box done: an empty one normalised, then united into the node's
+    hyper box."""
     if b[0] > b[3] or b[1] > b[4] or b[2] > b[5]:
         b[:3] = np.inf
         b[3:] = -np.inf
@@ -94,14 +92,6 @@ def _primitive_box(flat, node, out, balls):
 def _empty(row):
     row[:3] = np.inf
     row[3:] = -np.inf
-
-
-@inline
-def _map(m34, src, dst, balls):
-    """dst: src's box (and ball) under the map m34."""
-    _transform_box(m34, src, dst)
-    if balls:
-        map_ball(m34, src, dst)
 
 
 @inline
@@ -148,6 +138,10 @@ def _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack, args, m34,
     """The run of single-child steps from frame f down to its primitive (Flat.chain) in
     two loops, down and up, with the arithmetic of the general walk's frames but not its
     dispatch per frame: the terminating rules, three quarters of the terrain's visits.
+    Where the walk carries balls, the chain's head takes the ball round its box: one
+    primitive's box mapped by a few maps, the first of them exactly (its corners), which
+    a ball carried down the chain would bound tighter only under several turns; the
+    chains are most of a walk's visits.
     Returns the frames it took below f, -1 if the stack's capacity ran out."""
     g = f
     while flat.kind[fr[g, NODE]] != PRIMITIVE:
@@ -160,8 +154,8 @@ def _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack, args, m34,
             run_calc(flat, node, params, fr[g, SLOT], g + 1, hs[f], stack)
             fr[g + 1, SLOT] = g + 1
         g += 1
-    _primitive_box(flat, fr[g, NODE], acc[g], balls)
-    _close(boxes, fr[g, NODE], acc[g], balls)
+    _primitive_box(flat, fr[g, NODE], acc[g], False)
+    _close(boxes, fr[g, NODE], acc[g])
     bare = True         # acc[k + 1] is the primitive's object box
     for k in range(g - 1, f - 1, -1):
         node = fr[k, NODE]
@@ -176,12 +170,12 @@ def _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack, args, m34,
                 _fault(changed, SINGULAR, node)
             elif bare:
                 _mapped_primitive_box(flat, fr[g, NODE], m34, acc[k + 1], acc[k])
-                if balls:
-                    map_ball(m34, acc[k + 1], acc[k])
             else:
-                _map(m34, acc[k + 1], acc[k], balls)
+                _transform_box(m34, acc[k + 1], acc[k])
             bare = False
-        _close(boxes, node, acc[k], balls)
+        _close(boxes, node, acc[k])
+    if balls:
+        ball_of_box(acc[f])
     return g - f
 
 
@@ -372,7 +366,9 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
             sp += 1
             continue
         if not chained:
-            _close(boxes, node, acc[f], balls)
+            if balls and kind != PRIMITIVE and kind != SELECT:
+                tighten(acc[f])     # an operator's: its operands' balls united
+            _close(boxes, node, acc[f])
         sp -= 1
         # the single-child nodes above it finish here, each at once, rather than on a turn
         # of the loop of its own with the dispatch on its kind and phase (the T- and C-node
@@ -387,7 +383,10 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
                 if node_affine(flat, up, params, fr[p, SLOT], hs[p], stack, args, m34):
                     bad = SINGULAR if singular_map(m34) else -1
                 if bad < 0:
-                    _map(m34, acc[p + 1], tmp, balls)
+                    _transform_box(m34, acc[p + 1], tmp)
+                    if balls:
+                        map_ball(m34, acc[p + 1], tmp)
+                        tighten(tmp)
                     copy_into(acc[p], tmp)
                 else:               # the tracer empties the instance
                     _empty(acc[p])
@@ -396,7 +395,7 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
                 copy_into(acc[p], acc[p + 1])
             else:
                 break
-            _close(boxes, up, acc[p], balls)
+            _close(boxes, up, acc[p])
             sp -= 1
     if from_item:
         copy_into(item_boxes[first], acc[0])
