@@ -184,6 +184,17 @@ class TestContraction:
         assert warnings_of("{i = 0} S\nS if(i < 20, 2, 1)\n1: S → sphere\n"
                            f"2: S → sphere ∪ {{i = i + 1}} {cycle} T\n1: T → cube ∪ S\n") == []
 
+    def test_a_long_row_is_followed_to_its_end_once(self, monkeypatch):
+        # each instance below the first that ends ends too: a row of 800 followed its
+        # rest from every one it probed, and its check took 7.8 s
+        from pcsg.graph import checks
+        calls = []
+        real = checks._ends_from
+        monkeypatch.setattr(checks, "_ends_from", lambda *a: calls.append(a) or real(*a))
+        assert warnings_of("{n = 800} R\nR if(n > 0, 2, 1)\n1: R → sphere\n"
+                           "2: R → sphere ∪ {n = n - 1} move(2, 0, 0) R\n") == []
+        assert len(calls) == 1
+
     def test_a_cycle_that_shrinks_along_some_axes_is_not_reported(self):
         assert warnings_of("{n = 100} S\nS if(n > 0, 2, 1)\n1: S → sphere\n"
                            "2: S → sphere ∪ {n = n-1} move(2,0,0) scale(0.5,0.5,1) S") == []
