@@ -70,6 +70,33 @@ def test_a_united_ball_holds_both(c1, r1, c2, r2):
     assert np.array_equal(empty, _row(c1, r1), equal_nan=True)
 
 
+def test_a_map_whose_stretch_overflows_leaves_the_ball_unbounded():
+    # entries of 1e160 square to inf, and inf - inf is nan: the stretch came out 0 and
+    # the ball a point, which cut its box to the centre (found by review)
+    m = np.array([[1e160, 1e160, 0, 0], [1e160, -1e160, 0, 0], [0, 0, 1e-300, 0.0]])
+    out = _row(0, 0)
+    map_ball(m, _row([0.0, 0, 0], 1.0), out)
+    assert out[RADIUS] == np.inf
+    far = np.r_[[1e308, -1e308, 0, 1.5e308, 1e308, 1], _row(0, 0)[BALL:]]
+    from pcsg.trace.balls import ball_of_box
+    ball_of_box(far)                     # a centre halved before the sum: finite
+    assert np.isfinite(far[BALL:BALL + 3]).all() and far[RADIUS] == np.inf
+
+
+def test_a_system_of_huge_matrix_entries_agrees_with_the_reference():
+    text = ("{d=1} S\nS if(d>0,2,1)\n1: S -> sphere\n2: S -> {d=d-1} "
+            "scale(1e-160,1e-160,1e300) (matrix(1e160,1e160,0,0, 1e160,-1e160,0,0, "
+            "0,0,1e-300,0) (S ∪ uscale(0.001) cube) ∪ uscale(1e-300) sphere)\n")
+    saved, bounds.MAX_STATES = bounds.MAX_STATES, 0
+    try:
+        obj = pcsg.loads(text)
+    finally:
+        bounds.MAX_STATES = saved
+    assert obj.bounds_method == "every instance"
+    o, d = camera_rays(np.array([-2.0, -2, -1, 2, 2, 1]), 24, VIEWS[0], spread=0.3)
+    assert_agrees(obj, o, d, min_hits=80)
+
+
 def test_a_box_cut_to_its_ball_keeps_what_both_hold():
     row = np.r_[[-3.0, -0.2, -0.2, 3, 0.2, 0.2], _row([2.0, 0, 0], 1.5)[BALL:]]
     tighten(row)

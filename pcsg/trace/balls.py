@@ -67,9 +67,9 @@ def ball_of_box(row):
         if not (math.isfinite(row[a]) and math.isfinite(row[a + 3])):
             _set(row, 0.0, 0.0, 0.0, np.inf)
             return
-    x = 0.5 * (row[0] + row[3])
-    y = 0.5 * (row[1] + row[4])
-    z = 0.5 * (row[2] + row[5])
+    x = 0.5 * row[0] + 0.5 * row[3]     # halves first: a sum near the largest double is inf
+    y = 0.5 * row[1] + 0.5 * row[4]
+    z = 0.5 * row[2] + 0.5 * row[5]
     hx = 0.5 * (row[3] - row[0])
     hy = 0.5 * (row[4] - row[1])
     hz = 0.5 * (row[5] - row[2])
@@ -80,7 +80,9 @@ def ball_of_box(row):
 def map_ball(m, src, dst):
     """dst's ball: the image of src's under the 3x4 map m, its radius scaled by a bound
     on m's largest stretch (the square root of the largest row sum of |m^T m|, exact for
-    a rotation times a scale). src and dst may be one row."""
+    a rotation times a scale). src and dst may be one row. A stretch or centre that
+    overflows (entries over 1e154 square to inf, and inf - inf is nan, which max() would
+    drop) gives a ball that bounds nothing."""
     r = src[RADIUS]
     if r < 0.0 or r == np.inf:
         _set(dst, 0.0, 0.0, 0.0, r)
@@ -96,7 +98,13 @@ def map_ball(m, src, dst):
         total = 0.0
         for j in range(3):
             total += abs(m[0, i] * m[0, j] + m[1, i] * m[1, j] + m[2, i] * m[2, j])
+        if not total < np.inf:      # inf, or nan
+            _set(dst, 0.0, 0.0, 0.0, np.inf)
+            return
         most = max(most, total)
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
+        _set(dst, 0.0, 0.0, 0.0, np.inf)
+        return
     _set(dst, x, y, z, _widened(r * math.sqrt(most), x, y, z))
 
 
