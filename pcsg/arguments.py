@@ -7,7 +7,7 @@ import sys
 
 from . import __version__
 from .distributed.sweep import sweep_set
-from .limits import BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES
+from .limits import BOUNDS_BUDGET, DEEPEST_DEFAULT, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES
 
 
 def set_value(text: str) -> tuple[str, float]:
@@ -162,8 +162,10 @@ def render_options() -> argparse.ArgumentParser:
                    help="one point light at X,Y,Z instead of the file's #light lines (default: "
                         "those, else a sun above and to the left of the camera)")
     r.add_argument("--alpha", action="store_true", help="transparent background")
-    r.add_argument("--max-depth", type=int, default=MAX_DEPTH, metavar="N",
-                   help=f"derivation levels a ray may descend (default {MAX_DEPTH})")
+    r.add_argument("--max-depth", type=int, metavar="N",
+                   help=f"derivation levels a ray may descend (default: as deep as the "
+                        f"derivation goes where it ends within {DEEPEST_DEFAULT:,} levels and "
+                        f"its instances repeat, else {MAX_DEPTH})")
     r.add_argument("--stack-depth", type=int, metavar="N",
                    help="frames of a ray's walk (default: from --max-depth and the widest "
                         "union); raise it when a render reports a full walk stack")

@@ -21,8 +21,7 @@ from .interrupt import redeliver_in_finalizers, release_compiler_lock  # noqa: E
 from .language import prefetch  # noqa: E402
 from .language.errors import PcsgError, labelled  # noqa: E402
 from .language.names import PIXELS  # noqa: E402
-from .limits import (MAX_DEPTH, bounces_problem, shadow_samples_problem,  # noqa: E402
-                     size_problem)
+from .limits import bounces_problem, shadow_samples_problem, size_problem  # noqa: E402
 from .timings import Timings, note_startup  # noqa: E402
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
@@ -442,7 +441,7 @@ def cmd_export(args) -> int:
     start = time.perf_counter()
     graph = _compile(args.file, args.overrides)
     _report(None, graph.warnings)
-    traced = Traced(graph, MAX_DEPTH if args.max_depth is None else args.max_depth)
+    traced = Traced(graph, args.max_depth)
     cut = _export_cut(args, traced)
     w, h = args.size
     camera = make_camera(traced, w / h)

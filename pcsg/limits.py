@@ -2,6 +2,9 @@
 so that the command line can name them in its help without loading the kernels."""
 
 MAX_DEPTH = 64                  # derivation levels a ray may descend (--max-depth)
+DEEPEST_DEFAULT = 1_000         # without --max-depth, a derivation that ends (memoised) is
+                                # walked as deep as it goes, up to this: a row of 100 trees
+                                # written as a chain ended at 64
 INTERVAL_ROWS = 4096            # interval-list rows per worker (--interval-rows)
 MAX_INSTANCES = 1 << 16         # S-node instances one ray may enter (--max-instances): a
                                 # system that neither ends nor contracts stops there, not

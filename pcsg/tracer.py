@@ -69,7 +69,7 @@ def _pad_spheres(spheres: np.ndarray) -> np.ndarray:
 class Traced:
     """A compiled, bounded, flattened PCSG object, ready to trace."""
 
-    def __init__(self, graph: Graph, max_depth: int = MAX_DEPTH, stack_depth: int | None = None,
+    def __init__(self, graph: Graph, max_depth: int | None = None, stack_depth: int | None = None,
                  interval_rows: int = INTERVAL_ROWS, max_instances: int = MAX_INSTANCES,
                  bounds_budget: int = BOUNDS_BUDGET, average_normals: bool = True,
                  regrouped: bool = True, bounds_poll=None):
@@ -77,14 +77,19 @@ class Traced:
         # bounded instance by instance its runs of maps written out as one (graph/fuse.py);
         # False traces the graph as written, for comparisons
         graph = regroup(graph) if regrouped else graph
-        self.asked_depth = int(max_depth)
+        # None: as deep as the derivation goes where it ends (memoised, within
+        # DEEPEST_DEFAULT levels), else MAX_DEPTH (graph/bounds.py, _memoised)
+        asked = None if max_depth is None else int(max_depth)
         # bounds_poll(visits, expected): progress and a way to stop a long bounding walk
-        volumes = bounding_volumes(graph, self.asked_depth, int(bounds_budget), bounds_poll,
+        volumes = bounding_volumes(graph, asked, int(bounds_budget), bounds_poll,
                                    fuse=regrouped)
         self.graph = graph = volumes.graph
         # less than asked where the instances are too many to bound deeper
         self.max_depth = volumes.depth
         self.bounds_method = volumes.method
+        if asked is None:
+            asked = volumes.depth if volumes.method == "memoised" else MAX_DEPTH
+        self.asked_depth = asked
         self.warnings = list(graph.warnings) + volumes.problems
         self.boxes = boxes = volumes.boxes
         # graftal nodes bounded by a sphere rather than a box (graph/volumes.py)
@@ -212,17 +217,17 @@ class Traced:
         return lines
 
 
-def load(path: str | Path, max_depth: int = MAX_DEPTH, stack_depth: int | None = None,
+def load(path: str | Path, max_depth: int | None = None, stack_depth: int | None = None,
          interval_rows: int = INTERVAL_ROWS, max_instances: int = MAX_INSTANCES,
          bounds_budget: int = BOUNDS_BUDGET, **overrides: float) -> Traced:
     """Compile a .pcsg file (raising PcsgError on errors) and prepare it for tracing.
     Keyword arguments override initial parameters, like --set; the others are the
-    render options of the same names."""
+    render options of the same names (max_depth None: as --max-depth's default)."""
     return Traced(compile_file(path, overrides), max_depth, stack_depth, interval_rows,
                   max_instances, bounds_budget)
 
 
-def loads(text: str, file: str = "<string>", max_depth: int = MAX_DEPTH,
+def loads(text: str, file: str = "<string>", max_depth: int | None = None,
           stack_depth: int | None = None, interval_rows: int = INTERVAL_ROWS,
           max_instances: int = MAX_INSTANCES, bounds_budget: int = BOUNDS_BUDGET,
           **overrides: float) -> Traced:

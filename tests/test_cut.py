@@ -188,6 +188,6 @@ def test_a_deep_system_whose_states_recur_at_many_levels_keeps_its_memoised_boun
     # spent, refinement capped at depth 25 and a warning
     fib = ("{c = 90} S\nS if(c > 0, 2, 1)\n1: S → cube\n2: S → {c = c-1} (move(0,0.5,0) "
            "uscale(0.7) S ∪ {c = c-1} move(1,0,0) rotz(20) uscale(0.5) S)\n")
-    traced = Traced(compile_text(fib))
+    traced = Traced(compile_text(fib), 64)      # without it, its own depth: 91
     assert traced.bounds_method == "memoised" and traced.max_depth == 64
     assert not traced.warnings

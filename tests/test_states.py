@@ -67,7 +67,7 @@ def test_the_tree_is_keyed_by_order_and_trunk():
 
 def test_state_boxes_lie_in_the_hyper_box_and_fill_it():
     g = compile_file(GRAMMARS / "sympodial_tree.pcsg", {"cnt": 6})
-    hyper, _, table = bounds._memoised(g)
+    (hyper, _, table), _ = bounds._memoised(g)
     w = bounds._Walker(g)
     state, h = w.d.initial()
     w.box(g.root, state, h, 0)

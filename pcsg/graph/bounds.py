@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from ..language.errors import Diagnostic, PcsgError
-from ..limits import BOUNDS_BUDGET
+from ..limits import BOUNDS_BUDGET, DEEPEST_DEFAULT, MAX_DEPTH
 from ..language.names import PIXELS
 from ..recursion import recursion_limit
 from ..trace.primitives import CODES, hull, object_box
@@ -271,18 +271,24 @@ class _Walker:
 
 
 def _memoised(graph: Graph, faults: set | None = None, max_depth: int | None = None
-              ) -> tuple[np.ndarray, dict, StateTable | None]:
-    """_memoised_walk's boxes; where the derivation reaches the tracer's depth bound
-    `max_depth`, walked again with the terminating rules' geometry in every S-node's
-    bound (pcsg.loads(..., max_depth=1) of 40 halvings of a cube, a line in full, drew
-    nothing where its two cut cubes stand: their boxes were the line's)."""
+              ) -> tuple[tuple[np.ndarray, dict, StateTable | None], int]:
+    """_memoised_walk's boxes, and the depth bound they hold: `max_depth`, or with None
+    the derivation's own depth where it ends within DEEPEST_DEFAULT levels (else
+    MAX_DEPTH); where the derivation reaches that bound, walked again with the
+    terminating rules' geometry in every S-node's bound (pcsg.loads(..., max_depth=1) of
+    40 halvings of a cube, a line in full, drew nothing where its two cut cubes stand:
+    their boxes were the line's)."""
     found, deepest = _memoised_walk(graph, faults, False)
-    if max_depth is not None and deepest >= max_depth:
+    if max_depth is None:
+        # a derivation that ends has no re-entered state, and its boxes by state (found[2])
+        ends = found[2] is not None and deepest <= DEEPEST_DEFAULT
+        max_depth = max(MAX_DEPTH, deepest + 1) if ends else MAX_DEPTH
+    if deepest >= max_depth:
         (boxes, _, states), _ = _memoised_walk(graph, faults, True)
         # no hulls: the bounding spheres of graftals (graph/spheres.py) would be walked
         # from them without the terminating rules, and boxes bound their graftals too
         found = boxes, {}, states
-    return found
+    return found, max_depth
 
 
 def _memoised_walk(graph: Graph, faults: set | None, finish_too: bool):
@@ -463,20 +469,22 @@ def hyper_boxes(graph: Graph, max_depth: int = 64):
     return bound(graph, max_depth)[:4]
 
 
-def bound(graph: Graph, max_depth: int = 64, budget: int = BOUNDS_BUDGET, poll=None,
-          fuse: bool = False):
+def bound(graph: Graph, max_depth: int | None = MAX_DEPTH, budget: int = BOUNDS_BUDGET,
+          poll=None, fuse: bool = False):
     """hyper_boxes, the instance table (for the memoised method a StateTable or
     None: graph/states.py), for the memoised method the re-entered states'
     final bounds (see _memoised; empty otherwise), the derivation depth the boxes
-    hold: max_depth, or less where the instances are more than `budget` node visits
-    can visit (the tracer must then stop refining there; a warning says so), and the
-    graph they are for. With `fuse`, a system bounded instance by instance has its runs
-    of maps written out as one first (graph/fuse.py): that graph is the one bounded."""
+    hold: max_depth (None: as deep as a memoised derivation that ends goes, see
+    _memoised, else MAX_DEPTH), or less where the instances are more than `budget`
+    node visits can visit (the tracer must then stop refining there; a warning says
+    so), and the graph they are for. With `fuse`, a system bounded instance by instance
+    has its runs of maps written out as one first (graph/fuse.py): that graph is the one
+    bounded."""
     problems = []
     faults: set = set()
     try:
         with recursion_limit(20 * MAX_LEVELS):
-            boxes, hulls, states = _memoised(graph, faults, max_depth)
+            (boxes, hulls, states), max_depth = _memoised(graph, faults, max_depth)
         problems += fault_warnings(graph, graph, [(k, 0, f) for k, f in sorted(faults)],
                                    counted=False)
         return boxes, "memoised", problems, states, hulls, max_depth, graph
@@ -485,6 +493,8 @@ def bound(graph: Graph, max_depth: int = 64, budget: int = BOUNDS_BUDGET, poll=N
     except PcsgError as e:
         problems = [Diagnostic("warning", d.message + "; that instance is empty", d.span,
                                d.source, d.notes, d.code) for d in e.diagnostics]
+    if max_depth is None:
+        max_depth = MAX_DEPTH
     from ..trace.boxwalk import walk_boxes
     from ..trace.instance_table import empty_table
     if PIXELS in graph.params:      # the instance walk knows no pixel sizes: no boxes

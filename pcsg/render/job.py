@@ -46,7 +46,7 @@ class Options:
     light: tuple | None = None      # one point light here instead of the file's or the default
     alpha: bool = False
     depth: Path | None = None
-    max_depth: int = MAX_DEPTH
+    max_depth: int | None = None     # None: Traced's default (as deep as a derivation that ends)
     shadows: bool = True
     shadow_samples: int = 8
     bounces: int = 3
@@ -88,7 +88,7 @@ def check_options(o: Options) -> str | None:
         return f"--ao {o.ao}: use 0 (off) to {MAX_AO_SAMPLES} rays"
     if o.ao_distance is not None and not 0 < o.ao_distance < math.inf:
         return f"--ao-distance {o.ao_distance}: give a positive distance"
-    if not 1 <= o.max_depth <= 10_000:
+    if o.max_depth is not None and not 1 <= o.max_depth <= 10_000:
         return f"--max-depth {o.max_depth}: use 1 to 10000"
     if o.stack_depth is not None and not 16 <= o.stack_depth <= MAX_STACK_DEPTH:
         return f"--stack-depth {o.stack_depth}: use 16 to {MAX_STACK_DEPTH}"

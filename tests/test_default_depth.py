@@ -1,0 +1,58 @@
+"""Without --max-depth, a derivation that ends is walked to its end: a row of 100 trees
+written as a chain, the natural way, drew 64 of them and a note."""
+import subprocess
+import sys
+
+import numpy as np
+
+import pcsg
+from pcsg.graph import bounds
+from pcsg.limits import DEEPEST_DEFAULT, MAX_DEPTH
+
+ROW = """{{ n = {n} }} ROW
+ROW if(n > 0, 2, 1)
+1: ROW → sphere
+2: ROW → sphere ∪ {{ n = n - 1 }} move(2, 0, 0) ROW
+"""
+
+
+def _last_hit(obj, n):
+    """Whether a ray down onto the row's last sphere (at x = 2n) hits it."""
+    return bool(obj.trace(np.array([[2.0 * n, 0, 5]]), np.array([[0, 0, -1.0]])).hit[0])
+
+
+def test_a_row_deeper_than_64_is_drawn_to_its_end():
+    obj = pcsg.loads(ROW.format(n=100))
+    assert obj.bounds_method == "memoised"
+    assert obj.max_depth == obj.asked_depth == 101 and _last_hit(obj, 100)
+    # asked for, the depth is what it was
+    cut = pcsg.loads(ROW.format(n=100), max_depth=MAX_DEPTH)
+    assert cut.max_depth == MAX_DEPTH and not _last_hit(cut, 100) and _last_hit(cut, 63)
+
+
+def test_the_default_stays_64_where_the_derivation_does_not_end_or_is_too_deep(monkeypatch):
+    # shallower systems keep 64, which costs them nothing
+    assert pcsg.loads(ROW.format(n=10)).max_depth == MAX_DEPTH
+    # deeper than DEEPEST_DEFAULT levels
+    deep = pcsg.loads(ROW.format(n=DEEPEST_DEFAULT + 5))
+    assert deep.max_depth == MAX_DEPTH
+    # a graftal never ends
+    graftal = pcsg.loads("S\nS 1\n1: S → move(0.5, 0, 0) uscale(0.5) S ∪ move(-0.5, 0, 0) uscale(0.5) S")
+    assert graftal.max_depth == MAX_DEPTH
+    # one bounded instance by instance (too many states): its depth is not known before
+    # the walk, which walks to the depth it is given
+    monkeypatch.setattr(bounds, "MAX_STATES", 0)
+    walked = pcsg.loads(ROW.format(n=100))
+    assert walked.bounds_method == "every instance" and walked.max_depth == MAX_DEPTH
+
+
+def test_render_draws_the_row_without_a_depth_note(tmp_path):
+    path = tmp_path / "row.pcsg"
+    path.write_text(ROW.format(n=100), encoding="utf-8")
+    run = [sys.executable, "-m", "pcsg", "render", str(path), "--size", "80x60",
+           "-o", str(tmp_path / "row.png")]
+    out = subprocess.run(run, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0 and "depth limit" not in out.stderr, out.stderr
+    out = subprocess.run(run + ["--max-depth", "64"], capture_output=True, text=True,
+                         timeout=300)
+    assert out.returncode == 0 and "depth limit: instances at --max-depth 64" in out.stderr
