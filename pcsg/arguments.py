@@ -163,9 +163,9 @@ def render_options() -> argparse.ArgumentParser:
                         "those, else a sun above and to the left of the camera)")
     r.add_argument("--alpha", action="store_true", help="transparent background")
     r.add_argument("--max-depth", type=int, metavar="N",
-                   help=f"derivation levels a ray may descend (default: as deep as the "
-                        f"derivation goes where it ends within {DEEPEST_DEFAULT:,} levels and "
-                        f"its instances repeat, else {MAX_DEPTH})")
+                   help=f"derivation levels a ray may descend (default: the derivation's "
+                        f"own depth where it ends within {DEEPEST_DEFAULT:,} levels and is "
+                        f"bounded by its states, not instance by instance; else {MAX_DEPTH})")
     r.add_argument("--stack-depth", type=int, metavar="N",
                    help="frames of a ray's walk (default: from --max-depth and the widest "
                         "union); raise it when a render reports a full walk stack")

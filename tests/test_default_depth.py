@@ -56,3 +56,12 @@ def test_render_draws_the_row_without_a_depth_note(tmp_path):
     out = subprocess.run(run + ["--max-depth", "64"], capture_output=True, text=True,
                          timeout=300)
     assert out.returncode == 0 and "depth limit: instances at --max-depth 64" in out.stderr
+
+
+def test_a_row_whose_states_cull_nothing_is_still_drawn_to_its_end():
+    # its boxes by state would cull no more than its node boxes, so it has no table of
+    # them; the first version took that table for "the derivation ends" (found by review)
+    tight = ROW.format(n=100).replace("move(2, 0, 0)", "move(0.001, 0, 0)")
+    assert pcsg.loads(tight).max_depth == 101
+    drawn = pcsg.loads(ROW.format(n=100).replace("move(2, 0, 0)", "move(2, rand() * 0.1, 0)"))
+    assert drawn.bounds_method == "memoised" and drawn.max_depth == 101

@@ -278,13 +278,12 @@ def _memoised(graph: Graph, faults: set | None = None, max_depth: int | None = N
     terminating rules' geometry in every S-node's bound (pcsg.loads(..., max_depth=1) of
     40 halvings of a cube, a line in full, drew nothing where its two cut cubes stand:
     their boxes were the line's)."""
-    found, deepest = _memoised_walk(graph, faults, False)
+    found, deepest, ends = _memoised_walk(graph, faults, False)
     if max_depth is None:
-        # a derivation that ends has no re-entered state, and its boxes by state (found[2])
-        ends = found[2] is not None and deepest <= DEEPEST_DEFAULT
+        ends = ends and deepest <= DEEPEST_DEFAULT
         max_depth = max(MAX_DEPTH, deepest + 1) if ends else MAX_DEPTH
     if deepest >= max_depth:
-        (boxes, _, states), _ = _memoised_walk(graph, faults, True)
+        (boxes, _, states), _, _ = _memoised_walk(graph, faults, True)
         # no hulls: the bounding spheres of graftals (graph/spheres.py) would be walked
         # from them without the terminating rules, and boxes bound their graftals too
         found = boxes, {}, states
@@ -299,7 +298,10 @@ def _memoised_walk(graph: Graph, faults: set | None, finish_too: bool):
     corner points whose hull holds that state's attractor), where bounding spheres
     start (graph/spheres.py), and where no state is re-entered, the boxes by state
     (graph/states.py). `faults` gets (kind, T-node) where a map with non-finite
-    arguments (NONFINITE) or a singular one (SINGULAR) emptied an instance."""
+    arguments (NONFINITE) or a singular one (SINGULAR) emptied an instance. Also returns
+    the deepest S-node level the walk reached, and whether the derivation ends (no state
+    was re-entered: the boxes by state may still be None, where they would cull no more
+    than the node boxes or rand() decides)."""
     w = _Walker(graph)
     w.finish_too = finish_too
     if faults is not None:
@@ -314,11 +316,12 @@ def _memoised_walk(graph: Graph, faults: set | None, finish_too: bool):
     for _ in range(MAX_ROUNDS):
         new = round_()
         if not new:
-            return (w.boxes, {}, state_table(graph, w.memo, w.key, w.finishing)), w.deepest
+            return ((w.boxes, {}, state_table(graph, w.memo, w.key, w.finishing)), w.deepest,
+                    True)
         if all(k in w.estimate and _same(as_box(new[k]), as_box(w.estimate[k])) for k in new):
             if any(_empty(as_box(v)) for v in new.values()):
-                return (*_attractor_boxes(w, round_), None), w.deepest
-            return (w.boxes, {k: w.estimate[k] for k in new}, None), w.deepest
+                return (*_attractor_boxes(w, round_), None), w.deepest, False
+            return (w.boxes, {k: w.estimate[k] for k in new}, None), w.deepest, False
         w.estimate.update(new)
     raise TooManyStates
 

@@ -9,6 +9,7 @@ import numpy as np
 from ..language import ast
 from ..language.errors import Diagnostic, PcsgError
 from ..language.names import FLAT_PRIMITIVES, PIXELS, UNION_ONLY_PRIMITIVES
+from ..limits import DEEPEST_DEFAULT
 from .expr import PIXELS_ONLY_IN_SELECTIONS
 from ..trace import vm
 from .derive import Deriver, names_in
@@ -529,7 +530,9 @@ def _least_scale(rel) -> float:
 
 
 # the derivation from a repeating instance, followed to see whether it ends
-ENDS_STATES, ENDS_LEVELS = 2_000, 1_000
+# (the levels are the render's: deeper than that, a derivation that ends is cut at
+# --max-depth's 64 by default, shallower it is drawn whole)
+ENDS_STATES, ENDS_LEVELS = 2_000, DEEPEST_DEFAULT
 
 
 def _ends_from(graph: Graph, node: int, state, h) -> bool:
@@ -581,7 +584,6 @@ def _probe(graph: Graph) -> list[Diagnostic]:
     # map where the run began, whether its derivation was seen to end)}, edge). An instance
     # below one whose derivation ends ends too: a row of 800 followed its rest from every
     # instance, 7.8 s of every check
-
     stack = [(graph.root, state, h, np.eye(3), {}, None)]
     while stack and budget[0] > 0:
         i, state, h, lin, seen, edge = stack.pop()

@@ -69,8 +69,7 @@ def _close(boxes, node, b):
     """A node's instance box done: an empty one normalised, then united into the node's
     hyper box."""
     if b[0] > b[3] or b[1] > b[4] or b[2] > b[5]:
-        b[:3] = np.inf
-        b[3:] = -np.inf
+        _empty(b)
     _unite(boxes[node], b)
 
 
@@ -90,6 +89,8 @@ def _primitive_box(flat, node, out, balls):
 
 @inline
 def _empty(row):
+    """An empty box, and in a row with a ball (trace/balls.py) an empty ball: its radius
+    -inf."""
     row[:3] = np.inf
     row[3:] = -np.inf
 
@@ -319,7 +320,7 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
                         child = r
                         fr[f, PHASE] = 1 + r
             else:
-                copy_into(acc[f], acc[f + 1])       # its one rule's
+                copy_into(acc[f], acc[f + 1])
                 append(fr[f, LEVEL], hs[f], node, -1, node, acc[f], book, keys, used, vals,
                        per_level)
         elif kind == TRANSFORM or kind == CALC or kind == PAINT or kind == MATERIAL:
