@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..limits import BOUNDS_BUDGET
+from ..limits import BOUNDS_BUDGET, MAX_DEPTH
 from .bounds import _Walker, bound
 from .model import Graph
 from .states import StateTable
@@ -69,7 +69,7 @@ def graftal_nodes(graph: Graph) -> list[int]:
     return sorted(s for s, r in terminating_rules(graph).items() if r < 0)
 
 
-def bounding_volumes(graph: Graph, max_depth: int | None = 64,
+def bounding_volumes(graph: Graph, max_depth: int | None = MAX_DEPTH,
                      budget: int = BOUNDS_BUDGET, poll=None, fuse: bool = False) -> Volumes:
     """poll: as trace/boxwalk.walk_boxes's, for a system bounded instance by instance;
     fuse: as bounds.bound's (Volumes.graph is then the graph to trace)."""
