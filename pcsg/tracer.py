@@ -20,7 +20,7 @@ from .trace.pad import pad_boxes
 from .trace.nodes import (EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
                           EV_SINGULAR, EV_STACK, EV_VISITS, N_EVENTS, add_events,
                           no_events)
-from .limits import BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES
+from .limits import BOUNDS_BUDGET, INTERVAL_ROWS, MAX_INSTANCES
 from .trace.walk import R_HIT, R_MAT, R_N, R_PAINT, R_T, R_WIDTH
 
 BATCH = 1 << 16             # rays per kernel call: bounds the per-chunk event arrays
@@ -77,19 +77,16 @@ class Traced:
         # bounded instance by instance its runs of maps written out as one (graph/fuse.py);
         # False traces the graph as written, for comparisons
         graph = regroup(graph) if regrouped else graph
-        # None: as deep as the derivation goes where it ends (memoised, within
+        # bounds_poll(visits, expected): progress and a way to stop a long bounding walk;
+        # max_depth None: as deep as the derivation goes where it ends (memoised, within
         # DEEPEST_DEFAULT levels), else MAX_DEPTH (graph/bounds.py, _memoised)
-        asked = None if max_depth is None else int(max_depth)
-        # bounds_poll(visits, expected): progress and a way to stop a long bounding walk
-        volumes = bounding_volumes(graph, asked, int(bounds_budget), bounds_poll,
-                                   fuse=regrouped)
+        volumes = bounding_volumes(graph, None if max_depth is None else int(max_depth),
+                                   int(bounds_budget), bounds_poll, fuse=regrouped)
         self.graph = graph = volumes.graph
         # less than asked where the instances are too many to bound deeper
         self.max_depth = volumes.depth
         self.bounds_method = volumes.method
-        if asked is None:
-            asked = volumes.depth if volumes.method == "memoised" else MAX_DEPTH
-        self.asked_depth = asked
+        self.asked_depth = volumes.asked
         self.warnings = list(graph.warnings) + volumes.problems
         self.boxes = boxes = volumes.boxes
         # graftal nodes bounded by a sphere rather than a box (graph/volumes.py)

@@ -480,9 +480,9 @@ def bound(graph: Graph, max_depth: int | None = MAX_DEPTH, budget: int = BOUNDS_
     hold: max_depth (None: as deep as a memoised derivation that ends goes, see
     _memoised, else MAX_DEPTH), or less where the instances are more than `budget`
     node visits can visit (the tracer must then stop refining there; a warning says
-    so), and the graph they are for. With `fuse`, a system bounded instance by instance
-    has its runs of maps written out as one first (graph/fuse.py): that graph is the one
-    bounded."""
+    so), the graph they are for, and the depth asked for (None resolved as above). With
+    `fuse`, a system bounded instance by instance has its runs of maps written out as one
+    first (graph/fuse.py): that graph is the one bounded."""
     problems = []
     faults: set = set()
     try:
@@ -490,7 +490,7 @@ def bound(graph: Graph, max_depth: int | None = MAX_DEPTH, budget: int = BOUNDS_
             (boxes, hulls, states), max_depth = _memoised(graph, faults, max_depth)
         problems += fault_warnings(graph, graph, [(k, 0, f) for k, f in sorted(faults)],
                                    counted=False)
-        return boxes, "memoised", problems, states, hulls, max_depth, graph
+        return boxes, "memoised", problems, states, hulls, max_depth, graph, max_depth
     except TooManyStates:
         pass
     except PcsgError as e:
@@ -503,7 +503,7 @@ def bound(graph: Graph, max_depth: int | None = MAX_DEPTH, budget: int = BOUNDS_
     if PIXELS in graph.params:      # the instance walk knows no pixel sizes: no boxes
         n = len(graph.nodes)
         return (np.tile(-EMPTY, (n, 1)), "unbounded", problems, empty_table(), {}, max_depth,
-                graph)
+                graph, max_depth)
     if fuse:
         graph = fuse_runs(graph)
     walked, skipped = without_passable(graph)
@@ -521,4 +521,4 @@ def bound(graph: Graph, max_depth: int | None = MAX_DEPTH, budget: int = BOUNDS_
             f"{budget:,} node visits; a larger budget bounds deeper, and takes longer)", None,
             graph.source, code="depth-bounded"))
     return (boxes, "every instance" if complete else "unbounded", problems, table, {}, depth,
-            graph)
+            graph, max_depth)

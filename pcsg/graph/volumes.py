@@ -57,6 +57,7 @@ class Volumes:
     choices: list[Choice]           # one per graftal node, in node order
     depth: int                      # the derivation depth the boxes hold (bounds.bound)
     graph: Graph                    # the graph they are for (bounds.bound's `fuse`)
+    asked: int                      # the depth asked for, a default resolved (bounds.bound)
 
 
 def box_area(box: np.ndarray) -> float:
@@ -73,9 +74,9 @@ def bounding_volumes(graph: Graph, max_depth: int | None = MAX_DEPTH,
                      budget: int = BOUNDS_BUDGET, poll=None, fuse: bool = False) -> Volumes:
     """poll: as trace/boxwalk.walk_boxes's, for a system bounded instance by instance;
     fuse: as bounds.bound's (Volumes.graph is then the graph to trace)."""
-    boxes, method, problems, table, hulls, depth, graph = bound(graph, max_depth, budget,
-                                                                poll, fuse)
-    out = Volumes(boxes, None, method, problems, table, [], depth, graph)
+    boxes, method, problems, table, hulls, depth, graph, asked = bound(graph, max_depth,
+                                                                       budget, poll, fuse)
+    out = Volumes(boxes, None, method, problems, table, [], depth, graph, asked)
     graftals = [s for s in graftal_nodes(graph)
                 if boxes[s, 0] <= boxes[s, 3] and np.all(np.isfinite(boxes[s]))]
     if method != "memoised" or not hulls or not graftals:
