@@ -103,6 +103,15 @@ class TestLines:
         st = statements("A =\n  sphere\nS\n1: S →\n  A")
         assert [type(s).__name__ for s in st] == ["Named", "Axiom", "Rule"]
 
+    @pytest.mark.parametrize("op", ["&&", "||", "and", "or", "==", "!=", "<=", ">=", "<", ">",
+                                    "+", "-", "*", "/", "%", "^"])
+    def test_arithmetic_operator_at_line_end_joins_lines(self, op):
+        # '&&' and '==' end with '&' and '=' (§2's letter); no statement ends in any of them
+        st = statements(f"{{c = 2}} S\nS c {op}\n  1\n1: S → sphere")
+        assert [type(s).__name__ for s in st] == ["Axiom", "ModuleDecl", "Rule"]
+        block = axiom(f"{{a = 2 {op}\n 3; b = a}} sphere")
+        assert [a.name for a in block.assigns] == ["a", "b"]
+
     def test_newline_ends_a_statement(self):
         assert first_error("sphere\n∪ cube") == ("2:1: a line cannot start with '∪': to continue "
                                                 "the line before, end that line with the "

@@ -1,11 +1,18 @@
 """Line joining (notation §2): a newline ends a statement unless a bracket
 is open or the line ends with a binary CSG operator, an arrow or `=`.
-Inside a `{...}` block a newline separates assignments, so it is kept there."""
+Inside a `{...}` block a newline separates assignments, so it is kept there.
+
+A line ending in `&&` or `==` ends, by the letter of §2, with `&` or `=`; so
+it joins, and so does one ending in any other arithmetic operator: no
+statement can end with one, so joining there accepts what would only be an
+error otherwise."""
 from __future__ import annotations
 
 from lark import Token
 
-JOINERS = {"UNION", "INTER", "DIFF", "ARROW", "EQUAL"}
+JOINERS = {"UNION", "INTER", "DIFF", "ARROW", "EQUAL",
+           "OR", "AND", "CMP", "PLUS", "MINUS", "STAR", "SLASH", "PERCENT", "CARET",
+           "BANG", "NOT"}
 OPENERS = {"LPAR": ")", "LBRACE": "}"}
 CLOSERS = {"RPAR", "RBRACE"}
 
