@@ -73,3 +73,15 @@ def test_a_macro_that_replaces_a_directive_s_word_is_said(text, place):
     assert said.code == "macro-directive" and (said.location.line, said.location.column) == place
     # a macro as a directive's value is what macros are for
     assert compile_text("#define R 3\n#light at=(5, 5, 5) radius=R\nsphere\n", "t.pcsg").warnings == []
+
+
+def test_expand_writes_no_lines_where_defines_stood():
+    # the expanded text keeps them blank, for the line numbers of errors; the file written
+    # need not, and the user's own blank line stays
+    text = ("// head\n#define C { c = c - 1\n}\n  #define T move(1, 0, 0) // a move\n\n{c = 2} S\n"
+            "#define Z cube\nS if(c > 0, 1, 2)\n1: S -> sphere | T C S\n2: S -> Z\n")
+    lines = expand_file(compile_text(text, "t.pcsg"), 1).splitlines()
+    assert lines[1:] == ["// head", "", "sphere ∪ move(1, 0, 0) {c = 1} S", "S if(c > 0, 1, 2)",
+                         "1: S -> sphere | move(1, 0, 0) { c = c - 1", "} S", "2: S -> cube"]
+    again = expand_file(compile_text("\n".join(lines) + "\n", "e.pcsg"), 1).splitlines()
+    assert again[4] == "sphere ∪ move(1, 0, 0) (sphere ∪ move(1, 0, 0) {c = 0} S)"

@@ -147,16 +147,35 @@ def expand_file(graph: Graph, steps: int, max_chars: int = 50_000_000,
     text = graph.source.expanded
     start, end = graph.axiom_span
     header = f"// {graph.source.file} after {steps} derivation step{'s' if steps != 1 else ''}\n"
-    before, after = _unreached_cut(text, graph.source.file, p.left, (start, end))
-    return header + before + axiom + after.rstrip("\n") + "\n"
+    shown = _without_defines(text, graph.source.defines)
+    before, after = _unreached_cut(text, shown, graph.source.file, p.left, (start, end))
+    return (header + before + axiom + after.rstrip("\n") + "\n").replace(_GONE, "")
 
 
-def _unreached_cut(text: str, file: str, left: set[str], axiom: tuple[int, int]):
+_GONE = "\0"      # a character no .pcsg holds (the lexer refuses it)
+
+
+def _without_defines(text: str, defines: list) -> str:
+    """`text` with the lines that held a #define (blank in the expanded text, which keeps
+    line numbers for errors) marked _GONE, so the written file does not start with a run
+    of empty lines; the same length, so statements' offsets still hold."""
+    marks = list(text)
+    for a, b in defines:
+        first = text.rfind("\n", 0, a) + 1
+        last = text.find("\n", b)
+        last = len(text) if last < 0 else last + 1
+        if not text[first:last].strip():
+            marks[first:last] = _GONE * (last - first)
+    return "".join(marks)
+
+
+def _unreached_cut(text: str, shown: str, file: str, left: set[str], axiom: tuple[int, int]):
     """The file before and after its axiom, without the rules, declarations and named
     expressions the word no longer reaches from the modules it names (`left`): the
     written word's file warned that the modules it had expanded were never used, so
     `check --werror` refused it. The file's text is parsed again (the graph keeps no
-    statements); the word, which may be large, is not."""
+    statements); the word, which may be large, is not. The pieces are cut from `shown`,
+    `text` as it will be written."""
     from ..language import ast
     from ..language.parser import parse
     from ..language.preprocess import line_end
@@ -176,7 +195,7 @@ def _unreached_cut(text: str, file: str, left: set[str], axiom: tuple[int, int])
                 todo |= _operands(body)
     cut = [st.span for st in statements if isinstance(st, (ast.Rule, ast.ModuleDecl, ast.Named))
            and (st.module if isinstance(st, ast.Rule) else st.name) not in reached]
-    before, after = text[:axiom[0]], text[axiom[1]:]
+    before, after = shown[:axiom[0]], shown[axiom[1]:]
     for a, b in sorted(cut, reverse=True):
         # the whole lines of a statement that starts its line, its comment included
         line = text.rfind("\n", 0, a) + 1

@@ -47,6 +47,7 @@ class _Expander:
         self.used: set[str] = set()
         self.in_directives: set[str] = set()     # macros said to replace a directive's word
         self.uses = 0
+        self.defines: list[tuple[int, int]] = []
 
     def emit(self, start: int, end: int, uses: tuple):
         if end <= start:
@@ -85,7 +86,9 @@ class _Expander:
                     pos = m.end()
                     continue
                 self.emit(pos, m.start(), uses)
+                blank = self.length
                 pos = self.define(m.start(), m.end())
+                self.defines.append((blank, self.length))
                 continue
             if kind == "name" and m.group() in self.macros and m.group() not in active:
                 macro = self.macros[m.group()]
@@ -244,7 +247,8 @@ def preprocess(text: str, file: str) -> tuple[Source, list[Diagnostic]]:
             "error", f"macros expand to more than {MAX_USES:,} uses or {MAX_EXPANSION:,} "
                      f"characters; nested macros multiply", None, source, code="macro"))
     expanded = Source(file, text, "".join(ex.out), ex.pieces,
-                      {name: m.defined for name, m in ex.macros.items()}, ex.warnings)
+                      {name: m.defined for name, m in ex.macros.items()}, ex.warnings,
+                      ex.defines)
     for d in ex.errors + ex.warnings:
         d.source = expanded
     return expanded, ex.errors

@@ -36,6 +36,7 @@ class Source:
     pieces: list[Piece] = field(default_factory=list)
     macros: dict[str, int] = field(default_factory=dict)    # name -> where it is defined
     warnings: list = field(default_factory=list)            # the #define expansion's
+    defines: list = field(default_factory=list)     # (start, end) in expanded of each #define
 
     def defined_below(self, name: str) -> str:
         """', a macro defined below, at L:C, ...' where `name`, undefined where it is
