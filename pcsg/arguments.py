@@ -177,7 +177,7 @@ def render_options() -> argparse.ArgumentParser:
                         "bounds systems that neither end nor contract")
     r.add_argument("--bounds-budget", type=int, default=BOUNDS_BUDGET, metavar="N",
                    help=f"node visits the bounding walk may make (default {BOUNDS_BUDGET:,}, "
-                        "5 to 10 s on two cores); past it the boxes, and the refinement, "
+                        "11 to 13 s on two cores); past it the boxes, and the refinement, "
                         "stop at the deepest derivation depth whose instances fit")
     r.add_argument("--no-shadows", action="store_true", help="skip shadow rays")
     r.add_argument("--shadow-samples", type=int, default=8, metavar="N",

@@ -26,14 +26,37 @@ def items_for(flat, count: int):
             np.zeros((count, flat.n_params)), np.zeros((count, ROW)))
 
 
+def new_watch(workers: int) -> np.ndarray:
+    """A split walk's watch: [0] its stop flag; [1 + w] the visits worker w has told
+    (boxwalk.walk); [1 + workers + w] the subtrees w has finished and [1 + 2 workers + w]
+    their visits; [-1] the subtrees (0 until the split level is found)."""
+    return np.zeros(2 + 3 * workers, dtype=np.int64)
+
+
+def watched_visits(watch: np.ndarray, workers: int) -> int:
+    return int(watch[1:1 + workers].sum())
+
+
+def predicted_visits(watch: np.ndarray, workers: int) -> int | None:
+    """The walk's visits as its finished subtrees predict them (their mean times the
+    subtrees), once every worker has finished one; else None. The visits of walks that
+    grow as expected say as much, but a derivation that ends above the depth walked to
+    (the terrain at 11 walks to 13) makes 4 times fewer than that depth would."""
+    count = int(watch[-1])
+    done = watch[1 + workers:1 + 2 * workers]
+    if count < 2 or (done == 0).any():
+        return None
+    return int(watch[1 + 2 * workers:1 + 3 * workers].sum() / done.sum() * count)
+
+
 def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, per_level,
                changed, workers: int, watch=None, tick=None):
     """walk from the root into the given boxes and counts, the subtrees below the split
     level on `workers` threads; returns the visits (-1: over budget or stack, STOPPED:
     watch[0] was set) and the entries of the levels that `book` keeps, as a list (keys,
     used, vals; None unless the walk ended). The long walks run on helper threads
-    (jit.watched): watch (int64, 1 + workers) is their stop flag and their visits by
-    worker, tick() is called while they run.
+    (jit.watched): watch (new_watch) is their stop flag and their progress, tick() is
+    called while they run.
 
     Every walk appends its entries to a buffer of its own, the top walk too (the root as
     its instance), and the entries of the levels kept are listed once they are all known:
@@ -41,8 +64,9 @@ def walk_split(flat, depth: int, budget: int, capacity: int, boxes, book, per_le
     measure how the instances grow fault in 30 MiB. The tracer hashes the list into its
     own rows (tracer_rows)."""
     if watch is None:
-        watch = np.zeros(1 + workers, dtype=np.int64)
+        watch = new_watch(workers)
     level, count, items = _split_level(flat, depth, budget, capacity, workers, watch)
+    watch[-1] = count
     # the buffers: one per worker and the top walk's last, each with room for every
     # entry the table may keep, all of which one of them may hold. Not zeroed: entries
     # are appended and read below bbook[b, 2] only, and zeroing 30 MB a walk took 7 ms
@@ -157,3 +181,5 @@ def _walk_share(w, workers, flat, depth, budget, capacity, count, items, item_ha
             wvisits[w] = got
             break
         wvisits[w] += got
+        watch[1 + workers + w] += 1
+        watch[1 + 2 * workers + w] = wvisits[w]

@@ -426,8 +426,10 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
     contracts that walk spent the whole budget, 15 s of every `pcsg stats` and render.
 
     poll(visits, expected), if given, is called every 50 ms while a walk runs, with the
-    visits it has made and those predicted for it (None for the first two walks); an
-    exception it raises, or Ctrl-C, stops the walk within milliseconds and is raised.
+    visits it has made and those predicted for it: by the subtrees of the split walk it
+    has finished (boxsplit.predicted_visits), before that by the growth of the walks
+    before it (None for the first two walks); an exception it raises, or Ctrl-C, stops
+    the walk within milliseconds and is raised.
 
     With `cache`, the result of a long walk is kept on disk and read instead of walking
     again (graph/boxcache.py).
@@ -516,7 +518,7 @@ def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bo
              poll=None, expected: int | None = None):
     """One walk to `depth`, on every core: boxes, visits (-1: over budget), its counts
     (CHANGED, FAULTS ...), table."""
-    from .boxsplit import walk_split
+    from .boxsplit import new_watch, predicted_visits, walk_split, watched_visits
     n = empty.shape[0]
     boxes = empty.copy()
     capacity = (max_depth + 2) * (n + 2) + 16     # as deep a stack as the full walk's
@@ -524,10 +526,14 @@ def _walk_to(flat, empty, depth: int, max_depth: int, budget: int, instances: bo
     book = new_book(depth + 1 if instances else -1, TABLE_SLOTS // 2)
     changed = new_counts(1)[0]
     workers = threads()
-    watch = np.zeros(1 + workers, dtype=np.int64)
-    tick = None if poll is None else lambda: poll(int(watch[1:].sum()), expected)
+    watch = new_watch(workers)
+
+    def tick():
+        predicted = predicted_visits(watch, workers)
+        poll(watched_visits(watch, workers), expected if predicted is None else
+             min(predicted, expected or budget, budget))
     visits, table = walk_split(flat, depth, budget, capacity, boxes, book, per_level,
-                               changed, workers, watch, tick)
+                               changed, workers, watch, None if poll is None else tick)
     return boxes, visits, changed, table
 
 
