@@ -20,7 +20,6 @@ from .arguments import parser  # noqa: E402
 from .interrupt import redeliver_in_finalizers, release_compiler_lock  # noqa: E402
 from .language import prefetch  # noqa: E402
 from .language.errors import PcsgError, labelled  # noqa: E402
-from .language.names import PIXELS  # noqa: E402
 from .limits import bounces_problem, shadow_samples_problem, size_problem  # noqa: E402
 from .timings import Timings, note_startup  # noqa: E402
 
@@ -78,7 +77,7 @@ def cmd_check(args) -> int:
             failed += 1
         elif not args.quiet:
             n = len(graph.warnings)
-            params = len([p for p in graph.params if p != PIXELS])     # the tracer's
+            params = len([p for p in graph.params if graph.params[p] != graph.pixels])     # the tracer's
             print(f"{path}: ok ({_counted(len(graph.nodes), 'node')}, "
                   f"{_counted(len(graph.modules), 'module')}, {_counted(params, 'parameter')}"
                   + (f", {_counted(n, 'warning')}" if n else "") + ")")

@@ -7,6 +7,7 @@ import pytest
 import pcsg
 from pcsg.cli import main
 from pcsg.compiler import compile_text
+from pcsg.graph.model import PRIMITIVE
 from pcsg.language.errors import PcsgError
 from pcsg.trace.fractals import JULIA_ITERATIONS, MANDELBULB_ITERATIONS, bound_radius
 from pcsg.trace.reference import Reference
@@ -187,7 +188,8 @@ def test_axiom_parameter_is_a_constant_argument():
     ("{c = 2} S\nS 1\n1: S → {c = c + 1} mandelbulb(c)", "must be constants"),
     ("cube ∩ mandelbulb(8)", "'mandelbulb' is a fractal (traced to its first surface only) but "
                              "the right operand of '∩' derives it"),
-    ("mandelbulb", "expected '('"),
+    ("mandelbulb", "'mandelbulb' takes its argument: mandelbulb(power); or define"),
+    ("julia ∪ cube", "'julia' takes its arguments: julia(cx, cy, cz, cw)"),
 ])
 def test_errors(text, message):
     with pytest.raises(PcsgError) as e:
@@ -206,3 +208,16 @@ def test_expand_and_export(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "'mandelbulb' cannot be exported" in err and "b.pcsg:3:" in err
     assert not (tmp_path / "b.pov").exists()
+
+
+@pytest.mark.parametrize("text", [
+    # notation §2 reserves the names of its own primitives only: the fractals' names are
+    # free, and mean the fractal only before its arguments
+    "julia ∪ move(2.5, 0, 0) julia(-0.2, 0.6, 0.2, 0)\njulia = sphere",
+    "{mandelbulb = 1} S\nS if(mandelbulb > 0, 2, 1)\n1: S -> mandelbulb (8)\n"
+    "2: S -> {mandelbulb = mandelbulb - 1} (julia ∪ move(3, 0, 0) S)\n1: julia -> sphere",
+])
+def test_the_fractals_names_may_name_modules_named_expressions_and_parameters(text):
+    graph = compile_text(text, "f.pcsg")
+    drawn = [n.name for n in graph.nodes if n.kind == PRIMITIVE]
+    assert sorted(drawn) in (["julia", "sphere"], ["mandelbulb", "sphere"]) and not graph.warnings

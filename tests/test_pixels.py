@@ -9,6 +9,7 @@ import pcsg
 from pcsg.cli import main
 from pcsg.compiler import compile_text
 from pcsg.graph.bounds import hyper_boxes
+from pcsg.graph.expand import expand_file
 from pcsg.graph.stats import count_by_primitive
 from pcsg.language.errors import PcsgError
 
@@ -94,7 +95,6 @@ TREE if(pixels < 60, 2, 1)
 
 
 @pytest.mark.parametrize("text, message", [
-    ("{ pixels = 2 } sphere", "'pixels' is a reserved name"),
     ("T if(pixels < 4, 1, 1)\n1: T → uscale(pixels) sphere\n{ k = 1 } T",
      "'pixels' (the instance's size in pixels) can only be read in a module's selection"),
     ("T 1\n1: T → { a = pixels } uscale(a) sphere\n{ k = 1 } T",
@@ -114,3 +114,21 @@ def test_an_endless_cycle_that_the_size_ends_is_not_a_warning(capsys):
 
 def test_expand_leaves_pixels_out(tmp_path, capsys):
     assert "pixels =" not in expand_and_recheck(tmp_path, capsys, SWITCH, 0)
+
+
+def test_a_file_that_assigns_pixels_has_a_parameter_of_that_name():
+    """Notation §2 does not reserve `pixels`: a file that assigns it has a parameter like any
+    other, which the tracer leaves alone (a module and a named expression may take the name
+    too)."""
+    text = ("{pixels = 2} S\nS if(pixels > 0, 2, 1)\n1: S → sphere\n"
+            "2: S → {pixels = pixels - 1} (cube ∪ move(2.5, 0, 0) S)\n")
+    graph = compile_text(text, "p.pcsg")
+    assert graph.pixels == -1 and graph.param_names == ["pixels"]
+    assert expand_file(graph, 3).splitlines()[1] == \
+        "{pixels = 2} (cube ∪ move(2.5, 0, 0) (cube ∪ move(2.5, 0, 0) sphere))"
+    traced = pcsg.loads(text)
+    assert traced.bounds[3] == pytest.approx(6)     # the cubes at 0 and 2.5, the sphere at 5
+    o, d = camera_rays(traced.bounds, 16, (1, -2, 1))
+    assert_agrees(traced, o, d, min_hits=20)
+    assert compile_text("pixels = sphere\npixels ∪ cube", "n.pcsg").pixels == -1
+    assert compile_text("1: pixels → sphere\npixels", "m.pcsg").pixels == -1

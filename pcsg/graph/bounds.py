@@ -132,7 +132,7 @@ class _Walker:
         self.d = Deriver(graph)
         self.key = StateKey(graph, geometry=True)
         self.probe = PROBE_RANDOM if self.key.random else PROBE_STATES
-        self.pixel_selects = [n.kind == SELECT and PIXELS in graph.params and
+        self.pixel_selects = [n.kind == SELECT and graph.pixels >= 0 and
                               PIXELS in graph.exprs.reads(n.exprs[0]) for n in graph.nodes]
         self.estimate: dict = {}
         self.seed = NOTHING        # the first estimate of a re-entered state
@@ -257,7 +257,7 @@ class _Walker:
         if not self.pixel_selects[i]:
             return [self.d.select(i, state, h)]
         found, error = set(), None
-        slot = self.g.params[PIXELS]
+        slot = self.g.pixels
         for v in PIXEL_PROBES:
             probe = State(state.values.copy(), state.assigned)
             probe.values[slot] = v
@@ -500,7 +500,7 @@ def bound(graph: Graph, max_depth: int | None = MAX_DEPTH, budget: int = BOUNDS_
         max_depth = MAX_DEPTH
     from ..trace.boxwalk import walk_boxes
     from ..trace.instance_table import empty_table
-    if PIXELS in graph.params:      # the instance walk knows no pixel sizes: no boxes
+    if graph.pixels >= 0:       # the instance walk knows no pixel sizes: no boxes
         n = len(graph.nodes)
         return (np.tile(-EMPTY, (n, 1)), "unbounded", problems, empty_table(), {}, max_depth,
                 graph, max_depth)

@@ -7,7 +7,7 @@ from collections import defaultdict
 
 from ..language import ast
 from ..language.errors import Diagnostic, PcsgError, sort_key
-from ..language.names import FRACTAL_PRIMITIVES, PIXELS, PRIMITIVES, RESERVED, TRANSFORMS
+from ..language.names import FRACTAL_PRIMITIVES, FREE, PIXELS, PRIMITIVES, RESERVED, TRANSFORMS
 from ..language.mistakes import axiom_slip
 from ..language.unparse import unparse_arith
 from ..language.suggest import did_you_mean
@@ -93,6 +93,7 @@ class _Builder:
         if not slipped:
             self._check_axiom(axioms)
         self.params = self._collect_params(stmts)
+        self.pixels = self.params[PIXELS] if self._pixels_builtin else -1
         self._apply_overrides(axioms)
         self.exprs = ExprTable(self.params, self.error, self._initial_constants(axioms, stmts),
                                self._unknown_number, self._operand_kind)
@@ -123,7 +124,7 @@ class _Builder:
             raise PcsgError(sorted(self.errors, key=sort_key))
         return Graph(self.source, self.nodes, root, self.params, self.modules, self.exprs,
                      self.expr_ast, self.scene, self.material_names, self.warnings,
-                     axioms[0].span if axioms else None)
+                     axioms[0].span if axioms else None, pixels=self.pixels)
 
     # ---- statements
     def _check_rules(self, rules, decls):
@@ -213,7 +214,7 @@ class _Builder:
                                    f"expression after its name.", "axiom")
 
     def _reserved(self, name, span, what) -> bool:
-        if name in RESERVED:
+        if name in RESERVED and name not in FREE:
             self.error(span, f"'{name}' is a reserved name ({RESERVED[name]}) and cannot "
                              f"name {what}", "reserved")
             return True
@@ -221,14 +222,19 @@ class _Builder:
 
     def _collect_params(self, stmts) -> dict[str, int]:
         params: dict[str, int] = {}
+        first: dict[str, tuple] = {}
         for assign in _assignments(stmts):
             if assign.name not in params and not self._reserved(assign.name, assign.name_span,
                                                                  "a parameter"):
                 params[assign.name] = len(params)
-        for name, (decl, rules) in self.rules.items():
+                first[assign.name] = assign.name_span
+        for name in self.rules:
             if name in params:
-                self.error(rules[0].module_span, f"'{name}' is both a module and a parameter",
-                           "duplicate")
+                # allowed (notation §2 forbids only reserved names; operands and numbers are
+                # apart), and most often a slip
+                self.warn(first[name], f"'{name}' is both a module and a parameter: it is the "
+                                       f"module where an operand stands, the parameter in "
+                                       f"arithmetic", "shadowed")
         for name, named in self.named.items():
             if not self._reserved(name, named.name_span, "a named expression") and \
                     name in params:
@@ -236,8 +242,10 @@ class _Builder:
                 # `{segment = segments - 1}` for the parameter `segments`
                 self.warn(named.name_span, f"'{name}' is both a named expression and a "
                                            f"parameter", "shadowed")
-        if any(decl is not None and PIXELS in names_in(decl.selection)
-               for decl, _ in self.rules.values()):
+        self._pixels_builtin = PIXELS not in params and any(
+            decl is not None and PIXELS in names_in(decl.selection)
+            for decl, _ in self.rules.values())
+        if self._pixels_builtin:
             params[PIXELS] = len(params)     # a slot that the tracer fills before selecting
         return params
 
@@ -388,6 +396,12 @@ class _Builder:
         if e.name in self.named:
             self.named_read.add(e.name)
             return self.named_ref(e.name, e.span)
+        if e.name in FRACTAL_PRIMITIVES:
+            names = FRACTAL_PRIMITIVES[e.name]
+            self.error(e.span, f"'{e.name}' takes its argument{'' if len(names) == 1 else 's'}"
+                               f": {e.name}({', '.join(names)}); or define '{e.name}' as a "
+                               f"module or named expression", "arity")
+            return self.primitive_node_for_errors()
         if e.name in PRIMITIVES:
             if e.name not in self.primitive_nodes:
                 self.primitive_nodes[e.name] = self.add(Node(PRIMITIVE, name=e.name, span=e.span))

@@ -66,7 +66,7 @@ def derivation_faults(graph: Graph, max_states: int = CHECK_STATES):
         errors = [d for d in e.diagnostics if d.code == "selection"]
         # a graftal, or a system whose selections read `pixels` (+inf here), ends where
         # the render's pixels end it
-        if errors or graftal_nodes(graph) or PIXELS in graph.params:
+        if errors or graftal_nodes(graph) or graph.pixels >= 0:
             return errors, []
         repeats = [Diagnostic("warning", d.message + ": a render draws it only to pixel "
                               "size", d.span, d.source, code=d.code)
@@ -149,7 +149,7 @@ def definite_assignment(graph: Graph) -> list[Diagnostic]:
     nodes, table, names = graph.nodes, graph.exprs, graph.param_names
     everything = (1 << len(names)) - 1
     must = [everything] * len(nodes)
-    given = 1 << graph.params[PIXELS] if PIXELS in graph.params else 0   # by the tracer
+    given = 1 << graph.pixels if graph.pixels >= 0 else 0   # by the tracer
     must[graph.root] = given
     live = reachable(graph)
     work = deque([graph.root])
@@ -236,7 +236,7 @@ class _OperandBlocks:
 def pixels_outside_selections(graph: Graph) -> list[Diagnostic]:
     """`pixels` has a value only while a selection is evaluated (the tracer computes it
     for the instance being selected); anywhere else it would be a stale number."""
-    if PIXELS not in graph.params:
+    if graph.pixels < 0:
         return []
     errors = []
     for n in graph.nodes:
@@ -354,7 +354,7 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
     for m, s in enumerate(nodes):
         if s.kind != SELECT or not live[m] or table.uses_rand(s.exprs[0]):
             continue
-        if PIXELS in table.reads(s.exprs[0]):
+        if graph.pixels >= 0 and PIXELS in table.reads(s.exprs[0]):
             continue             # it ends where the instances become small enough
         reads = {graph.params[p] for p in table.reads(s.exprs[0])}
         # a module whose rule is fixed (one rule, a graftal's, or a number) recurs only as

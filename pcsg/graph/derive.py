@@ -8,7 +8,6 @@ import numpy as np
 
 from ..language import ast
 from ..language.errors import Diagnostic, PcsgError
-from ..language.names import PIXELS
 from ..trace import vm
 from ..trace.transforms import matrix
 from . import hashes
@@ -25,7 +24,7 @@ class State:
 
     def items(self, graph: Graph):
         for name, slot in graph.params.items():
-            if self.assigned >> slot & 1 and name != PIXELS:
+            if self.assigned >> slot & 1 and slot != graph.pixels:
                 yield name, float(self.values[slot])
 
 
@@ -89,9 +88,9 @@ class Deriver:
         derivation here (every instance is large)."""
         values = np.full(len(self.g.params), np.nan)
         given = 0
-        if PIXELS in self.g.params:
-            values[self.g.params[PIXELS]] = np.inf
-            given = 1 << self.g.params[PIXELS]
+        if self.g.pixels >= 0:
+            values[self.g.pixels] = np.inf
+            given = 1 << self.g.pixels
         return State(values, given), int(vm.ROOT_HASH)
 
     def value(self, expr: int, state: State, inst_hash: int) -> float:

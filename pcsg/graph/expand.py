@@ -3,7 +3,6 @@ printed as PCSG text. Modules not yet rewritten stay as names, preceded by a
 calculation block that gives them their parameter values."""
 from __future__ import annotations
 
-from ..language.names import PIXELS
 from .derive import Deriver, State, format_value
 from .model import CALC, DIFFERENCE, INTERSECTION, MATERIAL, OPERATOR_SYMBOLS, PAINT, PRIMITIVE, \
     SELECT, TRANSFORM, UNION, Graph
@@ -132,7 +131,7 @@ def expand_file(graph: Graph, steps: int, max_chars: int = 50_000_000,
     axiom, p = _expand(graph, steps, max_chars)
     if notes is not None and p.modules_left and redraws(graph):
         notes.append(REDRAWN)
-    if notes is not None and steps > 0 and PIXELS in graph.params:
+    if notes is not None and steps > 0 and graph.pixels >= 0:
         notes.append(PIXELS_TAKEN)
     if notes is not None and steps > 0 and p.modules_left:
         from .volumes import graftal_nodes

@@ -5,7 +5,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..language.names import FRACTAL_PRIMITIVES, PIXELS, PRIMITIVES
+from ..language.names import FRACTAL_PRIMITIVES, PRIMITIVES
 from ..trace.fractals import ARG_WIDTH, fractal_row
 from ..trace.instance_table import row_fields
 from ..trace.native import MIN_ROWS, native_blocks
@@ -194,7 +194,7 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table: dict | None = None,
         hashed=np.int64((len(table["inst_keys"]) > 2 and states is None)
                         or bool(np.any(vm["code"][:, 0] == RAND))
                         or bool(calc_cache.any())),
-        pixels_slot=np.int64(graph.params.get(PIXELS, -1)),
+        pixels_slot=np.int64(graph.pixels),
         normal_decay=np.float64(normal_decay if any(
             graph.nodes[s].kind == SELECT and term[s] < 0 for s in range(n)) else 0.0),
     )

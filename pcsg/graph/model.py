@@ -54,6 +54,9 @@ class Graph:
     axiom_span: tuple[int, int] | None = None
     # `matrix` nodes that graph/fuse.py wrote for runs of T-nodes -> the run's head
     origins: dict[int, int] = field(default_factory=dict)
+    # the slot the tracer fills with an instance's size in pixels before a selection that
+    # reads `pixels` (names.PIXELS, where the file does not assign it), else -1
+    pixels: int = -1
 
     def constant_args(self, i: int) -> tuple:
         """The arguments of node i, which the builder checked to be constants (fractals)."""

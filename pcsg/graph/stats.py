@@ -5,7 +5,6 @@ from __future__ import annotations
 from collections import Counter
 
 from ..language.errors import Diagnostic, PcsgError
-from ..language.names import PIXELS
 from ..recursion import recursion_limit
 from .cut import NO_VOLUME, VOLUME_NAMES, Cut
 from .dependence import StateKey
@@ -146,7 +145,7 @@ def graph_stats(graph: Graph, count: bool = True) -> dict:
         "node_kinds": {k: kinds.get(k, 0) for k in KIND_NAMES},
         "modules": {name: len(graph.nodes[i].children) for name, i in graph.modules.items()},
         # pixels has a slot, but no one assigns it: the tracer fills it
-        "parameters": [p for p in graph.param_names if p != PIXELS],
+        "parameters": [p for p in graph.param_names if graph.params[p] != graph.pixels],
         "expressions": len(graph.exprs),
         "bytecode_instructions": int(len(graph.exprs.arrays()["code"])),
         "primitives": None,

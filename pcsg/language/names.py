@@ -24,6 +24,11 @@ FUNCTIONS = ("if", "min", "max", "abs", "sqrt", "pow", "exp", "ln", "log", "log1
              "tan", "asin", "acos", "atan", "atan2", "deg", "rad", "floor", "ceil", "round",
              "clamp", "rand")
 
+# pcsg's own words beyond notation §2, which reserves only the above's kinds: a file may
+# take them for a module, named expression or parameter of its own, and then they are its
+# (the fractals keep their meaning before their arguments, where the lexer reads them)
+FREE = frozenset({*FRACTAL_PRIMITIVES, PIXELS})
+
 RESERVED = {
     **{n: "a transformation" for n in TRANSFORMS},
     **{n: "a primitive" for n in PRIMITIVES},

@@ -14,7 +14,7 @@ from .errors import Diagnostic, PcsgError
 from .files import line_ends, read_source_text
 from .mistakes import (HASH_COMMENT, assignment_for_comparison, lookalike, missing_operator,
                        rule_without_number, unknown_call, unknown_directive)
-from .names import RESERVED
+from .names import FREE, RESERVED
 from .postlex import LineJoiner
 from .preprocess import code_of, preprocess
 from .source import Source
@@ -356,7 +356,7 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner,
         msg = "comment opened with '/*' is never closed"
     elif tok.type in _RESERVED_TOKENS and ("NAME" in expected or _next_is_eq(text, tok)):
         msg = f"'{tok.value}' is a reserved name ({_RESERVED_TOKENS[tok.type]})"
-    elif tok.type == "EQUAL" and word and word[0] in RESERVED:
+    elif tok.type == "EQUAL" and word and word[0] in RESERVED and word[0] not in FREE:
         msg = f"'{word[0]}' is a reserved name ({RESERVED[word[0]]}) and cannot be defined"
         span = word[1]
     elif tok.type == "NUMBER" and tok.value.startswith(".") and "COLON" in expected:
