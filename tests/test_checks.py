@@ -3,6 +3,7 @@ import pytest
 
 from pcsg.compiler import compile_file, compile_text
 from pcsg.graph.checks import derivation_faults
+from pcsg.graph.stats import count_by_primitive
 
 from .conftest import FIG3A_AS_PRINTED, GRAMMARS, SIERPINSKI, errors_of
 
@@ -297,3 +298,13 @@ def test_following_the_derivation_leaves_invalid_selections_to_check():
     # check, which follows the derivation for its errors, says it
     errors, _ = derivation_faults(compile_text(text, "t.pcsg"))
     assert [e.code for e in errors] == ["selection"]
+
+
+def test_a_module_and_a_parameter_of_one_name_is_a_warning():
+    # notation §2 forbids only reserved names: the module where an operand stands, the
+    # parameter in arithmetic
+    graph = compile_text("{N = 1} N\nN if(N > 0, 2, 1)\n1: N → sphere\n"
+                         "2: N → {N = N - 1} (cube ∪ move(2.5, 0, 0) N)\n", "n.pcsg")
+    [w] = graph.warnings
+    assert "'N' is both a module and a parameter" in w.message and w.span[0] == 1
+    assert count_by_primitive(graph) == {"cube": 1, "sphere": 1}
