@@ -312,3 +312,19 @@ def test_the_oversampling_has_its_own_progress_line(monkeypatch, capsys):
     steps = re.findall(r"s\.pcsg oversampling: +(\d+)%", err[first:])
     assert len(steps) > 2 and steps[-1] == "100" and int(steps[0]) < 100
     assert steps == sorted(steps, key=int)
+
+
+def test_the_default_camera_frames_the_derived_object_as_its_expansion_does():
+    """Notation §8: without a camera the renderer frames the object's box. A system whose
+    module's hyper box holds all its instances (the unit sphere of the last level here) was
+    framed by that box too, so its expanded file, of the same two spheres, was framed
+    closer (1,368 of 19,200 pixels differed)."""
+    from pcsg.graph.expand import expand_file
+    text = ("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → sphere\n"
+            "2: S → {c = c - 1} (move(-1.5, 0, 0) uscale(0.6) S ∪ move(1.5, 0, 0) uscale(0.6) S)\n")
+    system = loads(text)
+    expanded = loads(expand_file(system.graph, 2))
+    a, b = make_camera(system, 4 / 3), make_camera(expanded, 4 / 3)
+    assert np.allclose(a.eye, b.eye) and np.allclose(a.at, b.at)
+    assert np.allclose(b.at, 0) and np.linalg.norm(b.eye) < np.linalg.norm(
+        make_camera(loads("uscale(2.1) sphere"), 4 / 3).eye)

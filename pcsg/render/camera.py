@@ -99,22 +99,27 @@ def _rays(eye, fwd, right, up, half, width, height, sx, sy, o, d):
 
 
 def finite_bounds(traced) -> np.ndarray:
-    """The object's box without infinite parts (a ground plane): the union of the
-    finite boxes of the root's operands, else [-1, 1]^3."""
+    """The object's box without infinite parts (a ground plane): the root's box where it
+    is finite, else the union of the finite boxes of the root's operands, else [-1, 1]^3.
+    The root's own box first: a node below a calculation block bounds every instance of
+    it, and the root's only the one the axiom derives (a system's box by its states)."""
     g, boxes = traced.graph, traced.boxes
     node = g.root
     candidates = [node]
-    while g.nodes[node].kind in (CALC, PAINT, MATERIAL):    # same frame below these
-        node = g.nodes[node].children[0]
+    while not _finite(boxes[node]) and g.nodes[node].kind in (CALC, PAINT, MATERIAL):
+        node = g.nodes[node].children[0]        # the same frame below these
         candidates.append(node)
-    if g.nodes[node].kind == UNION:
+    if not _finite(boxes[node]) and g.nodes[node].kind == UNION:
         candidates += g.nodes[node].children
-    finite = [boxes[i] for i in candidates if np.all(np.isfinite(boxes[i])) and
-              boxes[i][0] <= boxes[i][3]]
+    finite = [boxes[i] for i in candidates if _finite(boxes[i])]
     if not finite:
         return np.array([-1.0, -1.0, -1.0, 1.0, 1.0, 1.0])
     f = np.array(finite)
     return np.concatenate([f[:, :3].min(axis=0), f[:, 3:].max(axis=0)])
+
+
+def _finite(box) -> bool:
+    return bool(np.all(np.isfinite(box)) and box[0] <= box[3])
 
 
 def _point(v) -> str:
