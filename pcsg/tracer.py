@@ -37,6 +37,9 @@ class Hits:
     material: np.ndarray        # (N,) index into Traced.material_names, -1 if none
     hit: np.ndarray             # (N,) bool
     events: np.ndarray = field(repr=False, default=None)   # trace.nodes.no_events layout
+    # (N,) what was hit (trace.walk.HIT_SOLID, HIT_SHEET, HIT_SHELL; 0 missed), or None:
+    # solids throughout
+    what: np.ndarray | None = field(repr=False, default=None)
 
 
 def _rays(values, what: str) -> np.ndarray:
@@ -147,7 +150,7 @@ class Traced:
         add_events(self.events, events)
         return Hits(t=out[:, R_T], normal=out[:, R_N:R_N + 3], paint=out[:, R_PAINT:R_PAINT + 3],
                     material=out[:, R_MAT].astype(np.int64), hit=out[:, R_HIT] > 0,
-                    events=events)
+                    events=events, what=out[:, R_HIT])
 
     def _packets(self, wanted: bool) -> bool:
         # graftal normals average the boxes along each ray's own path: no packets there

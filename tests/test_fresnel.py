@@ -127,3 +127,35 @@ def test_deep_bounces_in_glass_stop_where_rays_no_longer_count():
         render_frame(obj, cam, light, 40, 30, adaptive=False)
         rays[bounces] = light.rays[0]
     assert rays[24] < 1.5 * rays[8]
+
+
+def test_a_glass_sheet_bends_nothing_that_passes_through_it():
+    # a triangle has no thickness: a ray bent where it enters would never be bent back,
+    # and the wall behind a pane of index 1.5 showed shifted
+    pane = ("#material pane color=(1,1,1) diffuse=0 specular=0 ior=1.5 transmit=1\n"
+            + BEHIND.rstrip() + " ∪ material(pane) move(-3, 2, -3) rotx(80) uscale(6) tri1\n")
+    without = render(BEHIND)
+    with_pane = render(pane)
+    assert np.abs(with_pane - without).max() < 1e-6
+    bent = render(pane.replace("tri1", "scale(1, 1, 0.05) cube").replace("uscale(6)",
+                                                                          "scale(6, 6, 1)"))
+    assert np.abs(bent - without).max() > 0.1        # a slab of thickness does bend
+
+
+@pytest.mark.parametrize("shell", ["julia(0, 0, 0, 0)", "S", "move(0, 0, 0) S"])
+def test_nothing_passes_through_a_fractal_or_a_graftal(shell):
+    """Traced to their first surface only, they have no inside to leave: a ray sent into
+    one hit it again at once, and a glass julia(0, 0, 0, 0) (the unit ball) showed grey
+    noise. They are drawn as the same material that lets nothing through, and `check`
+    says so."""
+    system = ("S 1\n1: S → uscale(0.5) (move(1, 1, 1) S ∪ move(-1, -1, 1) S ∪ "
+              "move(1, -1, -1) S ∪ move(-1, 1, -1) S)\n")         # Sierpinski's
+    glass = ("#material glass color=(1,1,1) diffuse=0.3 specular=0.5 reflect=0.1 ior=1.5 "
+             "transmit=0.8\n" + BEHIND.rstrip() + f" ∪ material(glass) {shell}\n" + system)
+    opaque = glass.replace("transmit=0.8", "transmit=0")
+    got = render(glass)
+    assert np.abs(got - render(opaque)).max() < 1e-9
+    assert np.abs(got - render(BEHIND + system)).max() > 0.1      # and it is there
+    [warning] = [w for w in pcsg.loads(glass).graph.warnings if w.code == "opaque"]
+    assert "is traced to its first surface only" in warning.message
+    assert not [w for w in pcsg.loads(opaque).graph.warnings if w.code == "opaque"]

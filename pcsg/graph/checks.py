@@ -8,13 +8,13 @@ import numpy as np
 
 from ..language import ast
 from ..language.errors import Diagnostic, PcsgError
-from ..language.names import FLAT_PRIMITIVES, PIXELS, UNION_ONLY_PRIMITIVES
+from ..language.names import FLAT_PRIMITIVES, FRACTAL_PRIMITIVES, PIXELS, UNION_ONLY_PRIMITIVES
 from ..limits import DEEPEST_DEFAULT
 from .expr import PIXELS_ONLY_IN_SELECTIONS
 from ..trace import vm
 from .derive import Deriver, names_in
-from .model import (CALC, DIFFERENCE, INTERSECTION, PAINT, PRIMITIVE, SELECT, TRANSFORM, UNION,
-                    Graph)
+from .model import (CALC, DIFFERENCE, INTERSECTION, MATERIAL, PAINT, PRIMITIVE, SELECT, TRANSFORM,
+                    UNION, Graph)
 
 PROBE_NODES = 2_000           # node visits of the contraction probe (every compile runs it)
 PROBE_REPEATS = 8             # a non-contracting cycle taken this often on one path is reported
@@ -41,7 +41,7 @@ def run_checks(graph: Graph) -> list[Diagnostic]:
     if errors:
         raise PcsgError(errors)
     warnings = (unused_modules(graph) + unselected_rules(graph) + endless_cycles(graph)
-                + non_contracting_cycles(graph))
+                + non_contracting_cycles(graph) + glass_on_shells(graph))
     graph.warnings.extend(warnings)
     return warnings
 
@@ -288,6 +288,39 @@ def flat_under_solid_operators(graph: Graph) -> list[Diagnostic]:
                                     n.edge_spans[side], "flat-primitive",
                                     [(nodes[f].span, f"'{prim}' used here")] if nodes[f].span else []))
     return errors
+
+
+def glass_on_shells(graph: Graph) -> list[Diagnostic]:
+    """A material that lets light through (transmit > 0) on a fractal or a graftal: both
+    are traced to their first surface only, so nothing passes through them and they are
+    drawn opaque (trace/walk.py, HIT_SHELL). A material below it decides for what is below."""
+    from .volumes import graftal_nodes
+    nodes = graph.nodes
+    graftals = set(graftal_nodes(graph))
+    out = []
+    for i, n in enumerate(nodes):
+        if n.kind != MATERIAL or graph.scene.materials.get(n.name, {}).get("transmit", 0) <= 0:
+            continue
+        seen, stack, found = set(n.children), list(n.children), None
+        while stack and found is None:
+            j = stack.pop()
+            if (nodes[j].kind == PRIMITIVE and nodes[j].name in FRACTAL_PRIMITIVES) or \
+                    j in graftals:
+                found = j
+            elif nodes[j].kind != MATERIAL:
+                for c in nodes[j].children:
+                    if c not in seen:
+                        seen.add(c)
+                        stack.append(c)
+        if found is not None:
+            what = (f"the fractal '{nodes[found].name}'" if nodes[found].kind == PRIMITIVE
+                    else f"the graftal '{nodes[found].name}'")
+            out.append(_diag(graph, "warning", f"material '{n.name}' lets light through "
+                             f"(transmit), but {what} is traced to its first surface only: "
+                             f"nothing passes through it, and it is drawn opaque", n.span,
+                             "opaque", [(nodes[found].span, f"'{nodes[found].name}' here")]
+                             if nodes[found].span else []))
+    return out
 
 
 def unused_modules(graph: Graph) -> list[Diagnostic]:

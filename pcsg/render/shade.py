@@ -13,6 +13,7 @@ import numpy as np
 from ..scene import MATERIAL_DEFAULTS
 from ..trace.jit import threads
 from ..trace.shading import GOLDEN, MIN_WEIGHT
+from ..trace.walk import HIT_SHEET, HIT_SHELL
 from ..trace.vm import hash_to_unit_array, splitmix64_array
 from ..tracer import Hits
 from .camera import finite_bounds
@@ -136,6 +137,9 @@ def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: 
     fin = _finish(light, hits.material[h], hits.paint[h])
     base, kd, ks, shin = fin[:, :3], fin[:, 3:4], fin[:, 4:5], fin[:, 5:6]
     reflect, ior, transmit = fin[:, 6], fin[:, 7], fin[:, 8]
+    if hits.what is not None:       # as the kernel's `surfaces`
+        ior = np.where(hits.what[h] == HIT_SHEET, 1.0, ior)
+        transmit = np.where(hits.what[h] == HIT_SHELL, 0.0, transmit)
     up = np.clip(n[:, 2:3] * 0.5 + 0.5, 0, 1)
     out = AMBIENT * base * (light.horizon * (1 - up) + light.zenith * up)
     scale = 1.0 + np.abs(p).max(axis=1, keepdims=True)

@@ -28,7 +28,7 @@ from .jit import inline, kernel, on_threads, share
 from .packet import PACKET, make_packet, trace
 from .scratch import make_scratch
 from .vm import hash_to_unit, splitmix64
-from .walk import R_HIT, R_MAT, R_N, R_PAINT, R_T, R_WIDTH
+from .walk import HIT_SHEET, HIT_SHELL, R_HIT, R_MAT, R_N, R_PAINT, R_T, R_WIDTH
 
 CHUNK = PACKET
 EPS = 1e-6
@@ -177,6 +177,10 @@ def surfaces(pend, top, m, res, horizon, zenith, materials, default, ambient, lo
             sh[j, SH_B + a] = b[a]
         sh[j, SH_KD], sh[j, SH_KS], sh[j, SH_SHIN] = fin[3], fin[4], fin[5]
         sh[j, SH_REFL], sh[j, SH_IOR], sh[j, SH_TRANS] = fin[6], fin[7], fin[8]
+        if res[k, R_HIT] == HIT_SHEET:
+            sh[j, SH_IOR] = 1.0             # a sheet bends nothing that passes through it
+        elif res[k, R_HIT] == HIT_SHELL:
+            sh[j, SH_TRANS] = 0.0           # nothing passes through a shell (walk.HIT_SHELL)
         sh[j, SH_INSIDE] = 1.0 if inside else 0.0
         sh[j, SH_SCALE] = scale
         sh[j, SH_PIX] = i

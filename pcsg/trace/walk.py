@@ -34,6 +34,10 @@ IT_IN, IT_OUT, IN_N, OUT_N, IN_PAINT, OUT_PAINT, IN_MAT, OUT_MAT = 0, 1, 2, 5, 8
 # what a ray's result row holds
 R_T, R_N, R_PAINT, R_MAT, R_HIT = 0, 1, 4, 7, 8
 R_WIDTH = 9
+# R_HIT: 0 a miss, else what was hit: a solid; a flat triangle, a sheet without thickness
+# (what passes through it goes on unbent); a surface without an inside, which a ray cannot
+# pass through (a fractal traced to its first surface, a graftal's instance at pixel size)
+HIT_SOLID, HIT_SHEET, HIT_SHELL = 1.0, 2.0, 3.0
 
 
 @inline
@@ -328,14 +332,15 @@ def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, dnorm, max_depth, ev):
 
 
 @inline
-def record_hit(res, ri, t, F, I, f, nx, ny, nz):
-    """The best hit so far: its distance, world normal, and the paint and material in force."""
+def record_hit(res, ri, t, F, I, f, nx, ny, nz, what):
+    """The best hit so far: its distance, world normal, the paint and material in force,
+    and what it is (HIT_SOLID ...)."""
     res[ri, R_T] = t
     world_normal(F, f, nx, ny, nz, res, ri, R_N)
     for c in range(3):
         res[ri, R_PAINT + c] = F[f, PAINT + c]
     res[ri, R_MAT] = I[f, MAT]
-    res[ri, R_HIT] = 1.0
+    res[ri, R_HIT] = what
 
 
 @inline
@@ -365,7 +370,8 @@ def hit_primitive(flat, node, R, r, F, I, H, f, params, tmin, t1, best, lod, con
                 note(ev, EV_NONFINITE, I[f, DPAINT], I[f, LEVEL])
                 return best
             record_hit(res, ri, t, F, I, f, out8[2 + 3 * side], out8[3 + 3 * side],
-                       out8[4 + 3 * side])
+                       out8[4 + 3 * side], HIT_SHELL if code >= FRACTAL_MIN else
+                       HIT_SHEET if code >= FLAT_MIN else HIT_SOLID)
             if I[f, DPAINT] >= 0:
                 for c in range(3):
                     res[ri, R_PAINT + c] = S.args[c]
@@ -382,7 +388,7 @@ def hit_volume(flat, node, R, r, F, I, f, t0, ax, ay, az, res, ri):
     """A graftal instance below the footprint: its box or sphere is the surface at t0;
     with averaged box normals (ax, ay, az) those are its normal."""
     nx, ny, nz = volume_normal(flat, node, R, r, t0)
-    record_hit(res, ri, t0, F, I, f, nx, ny, nz)
+    record_hit(res, ri, t0, F, I, f, nx, ny, nz, HIT_SHELL)
     if flat.normal_decay > 0.0:
         res[ri, R_N] = ax
         res[ri, R_N + 1] = ay
@@ -391,8 +397,9 @@ def hit_volume(flat, node, R, r, F, I, f, t0, ax, ay, az, res, ri):
 
 @inline
 def finish(res, ri, hit):
-    res[ri, R_HIT] = 1.0 if hit else 0.0
-    if not hit:         # a miss is a full row too: the caller hands out views
+    """R_HIT holds what the hit was (record_hit), else 0 for a miss."""
+    if not hit:
+        res[ri, R_HIT] = 0.0         # a miss is a full row too: the caller hands out views
         res[ri, R_T] = np.inf
         for c in range(3):
             res[ri, R_N + c] = 0.0
@@ -537,7 +544,7 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                             res[ri, R_N + c] = iv[row, IN_N + 3 * side + c]
                             res[ri, R_PAINT + c] = iv[row, IN_PAINT + 3 * side + c]
                         res[ri, R_MAT] = iv[row, IN_MAT + side]
-                        res[ri, R_HIT] = 1.0
+                        res[ri, R_HIT] = HIT_SOLID
                         if any_hit:
                             return True, best
                         break
