@@ -76,10 +76,14 @@ def cmd_check(args) -> int:
         if args.werror and graph.warnings:
             failed += 1
         elif not args.quiet:
+            from .graph.volumes import graftal_nodes
             n = len(graph.warnings)
-            params = len([p for p in graph.params if graph.params[p] != graph.pixels])     # the tracer's
+            # not the tracer's `pixels`
+            params = len([p for p in graph.params if graph.params[p] != graph.pixels])
+            graftals = len(graftal_nodes(graph))
             print(f"{path}: ok ({_counted(len(graph.nodes), 'node')}, "
                   f"{_counted(len(graph.modules), 'module')}, {_counted(params, 'parameter')}"
+                  + (f", {_counted(graftals, 'graftal')}" if graftals else "")
                   + (f", {_counted(n, 'warning')}" if n else "") + ")")
     return EXIT_ERRORS if failed else EXIT_OK
 

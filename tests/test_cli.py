@@ -62,23 +62,32 @@ def test_check_samples_and_quoted_globs(capsys):
 
 def test_check_warnings_and_werror(capsys, tmp_path):
     p = tmp_path / "w.pcsg"
-    p.write_text("S\n1: S → sphere ∪ move(2,0,0) uscale(0.5) S\n", encoding="utf-8")
+    p.write_text("{c = 2} S\nS if(c > 0, 2, 1)\n1: S → sphere\n"
+                 "2: S → sphere ∪ move(2,0,0) uscale(0.5) S\n", encoding="utf-8")
     code, out, err = run(capsys, "check", str(p))
-    assert code == 0 and "warning: 'S' can call itself here" in err and "1 warning" in out
+    assert code == 0 and "warning: 'S' can call itself here" in err and "2 warnings" in out
     code, out, err = run(capsys, "check", "--werror", str(p))
     assert code == 1
+
+
+def test_check_counts_graftals_and_the_samples_pass_werror(capsys):
+    code, out, err = run(capsys, "check", "--werror", str(GRAMMARS / "*.pcsg"))
+    assert code == 0 and err == ""
+    assert "barnsley_fern.pcsg: ok (36 nodes, 3 modules, 0 parameters, 3 graftals)" in out
 
 
 def test_render_names_the_file_of_a_warning_once(capsys, tmp_path):
     """A compile warning names its file:line:col itself; the render's other notes are
     put after the file's name (they once both were: 'fern.pcsg: fern.pcsg:24:16: ...')."""
     p = tmp_path / "fern.pcsg"
-    shutil.copy(GRAMMARS / "barnsley_fern.pcsg", p)
+    text = (GRAMMARS / "barnsley_fern.pcsg").read_text(encoding="utf-8")
+    p.write_text(text + "leaf = sphere\n", encoding="utf-8")
     code, out, err = run(capsys, "render", str(p), "--size", "32x24", "-q",
                          "-o", str(tmp_path / "fern.png"))
     assert code == 0
     lines = err.splitlines()
-    assert f"{p}:24:16: warning: 'FERN' can call itself here" in lines[0]
+    line = text.count("\n") + 1
+    assert f"{p}:{line}:1: warning: named expression 'leaf' is never used" in lines[0]
     assert not [x for x in lines if x.startswith(f"{p}: {p}")]
     assert [x for x in lines if x.startswith(f"{p}: level of detail: ")]
 

@@ -48,6 +48,23 @@ class TooManyStates(Exception):
     pass
 
 
+class DoesNotContract(TooManyStates):
+    """A graftal whose maps take no box into itself: its attractor is unbounded (an IFS
+    with a map that shrinks nothing, `S → move(1, 0, 0) S ∪ ...`)."""
+
+
+def not_contracting(graph: Graph) -> list[Diagnostic]:
+    """The warning for a graftal bound() found DoesNotContract: without bounds the tracer
+    can neither cull it nor refine it to pixel size (every ray that meets it entered
+    --max-instances instances and drew nothing)."""
+    from .volumes import graftal_nodes
+    s = graph.nodes[graftal_nodes(graph)[0]]
+    return [Diagnostic("warning", f"'{s.name}' is a graftal (no rule of it ends) whose maps do "
+                       f"not shrink it: an IFS has a bounded attractor only where its maps "
+                       f"contract, so `render` can neither bound it nor refine it to pixel "
+                       f"size", s.span, graph.source, code="non-contracting")]
+
+
 def transform_box(m: np.ndarray, box: np.ndarray) -> np.ndarray:
     """The box of the image of `box` under the affine map m (3x4 or 4x4): interval
     arithmetic per axis, exact for boxes; infinite extents stay infinite."""
@@ -352,7 +369,7 @@ def _attractor_boxes(w: _Walker, round_) -> tuple[np.ndarray, dict]:
         est = {k: _corners(_widen(union_box(as_box(est.get(k, SEED)), b), GROWTH))
                for k, b in new.items()}
     else:
-        raise TooManyStates         # it does not contract
+        raise DoesNotContract
     return _tighten(w, round_, {k: _corners(b) for k, b in new.items()}, w.boxes.copy(), est)
 
 
@@ -449,7 +466,11 @@ def _empty(b: np.ndarray) -> bool:
 
 
 def _widen(box: np.ndarray, margin: float) -> np.ndarray:
-    pad = margin * (np.abs(box[:3]) + np.abs(box[3:]) + (box[3:] - box[:3])) + 1e-300
+    """The box grown by `margin` of its coordinates' size on each axis. Not by a hair on
+    an axis where it is a point: a map that stretches that axis into another (rotz(90)
+    scale(1.5, 0.5, 0.5), which contracts over two cycles) took the hair of one round past
+    the next round's, and the growth never held the attractor (a line on the z axis)."""
+    pad = margin * (np.abs(box[:3]) + np.abs(box[3:]) + (box[3:] - box[:3]))
     return np.concatenate([box[:3] - pad, box[3:] + pad])
 
 
@@ -491,6 +512,8 @@ def bound(graph: Graph, max_depth: int | None = MAX_DEPTH, budget: int = BOUNDS_
         problems += fault_warnings(graph, graph, [(k, 0, f) for k, f in sorted(faults)],
                                    counted=False)
         return boxes, "memoised", problems, states, hulls, max_depth, graph, max_depth
+    except DoesNotContract:
+        problems = not_contracting(graph)
     except TooManyStates:
         pass
     except PcsgError as e:

@@ -65,14 +65,32 @@ def derivation_faults(graph: Graph, max_states: int = CHECK_STATES):
     except PcsgError as e:
         errors = [d for d in e.diagnostics if d.code == "selection"]
         # a graftal, or a system whose selections read `pixels` (+inf here), ends where
-        # the render's pixels end it
-        if errors or graftal_nodes(graph) or graph.pixels >= 0:
+        # the render's pixels end it, a graftal only where its maps contract
+        if errors or graph.pixels >= 0:
             return errors, []
+        if graftal_nodes(graph):
+            return [], _unbounded_graftal(graph)
         repeats = [Diagnostic("warning", d.message + ": a render draws it only to pixel "
                               "size", d.span, d.source, code=d.code)
                    for d in e.diagnostics if d.code == "repeats"]
         return [], repeats or _runaway(graph)
     return [], []
+
+
+def _unbounded_graftal(graph: Graph) -> list[Diagnostic]:
+    """The render's warning for a graftal whose maps do not contract (bounds.bound), from
+    the same walk: a few rounds of its states' boxes, 50 ms where it does not contract."""
+    from ..recursion import recursion_limit
+    from .bounds import DoesNotContract, TooManyStates, _memoised_walk, not_contracting
+    from .stats import MAX_LEVELS
+    try:
+        with recursion_limit(20 * MAX_LEVELS):
+            _memoised_walk(graph, None, False)
+    except DoesNotContract:
+        return not_contracting(graph)
+    except (TooManyStates, PcsgError):
+        pass                # too many states to tell, or the render's to report
+    return []
 
 
 def _runaway(graph: Graph) -> list[Diagnostic]:
@@ -420,7 +438,10 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
                 elif c not in seen:
                     seen.add(c)
                     stack.append(c)
-        if not closing:
+        if not closing or not (reads or _written(graph, s)):
+            # no block can end a cycle whose selection reads no parameter: a graftal,
+            # which `render` refines to pixel size where its maps contract (else
+            # _unbounded_graftal warns), and `check` counts
             continue
         spans = sorted((nodes[p].edge_spans[k] for p, k in closing), key=lambda sp: sp[0])
         notes = [(sp, "another such cycle closes here") for sp in spans[1:]]
@@ -430,26 +451,27 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
                        f"selection reads: this cycle never terminates (group operands with "
                        f"parentheses, e.g. '{{...}} (A ∪ B)', if a calculation block should "
                        f"apply to all of them)")
-        elif written := sorted(n for n in names_in(graph.expr_ast[s.exprs[0]])
-                               if n in graph.params):
+        else:
             # read as written, folded to a constant: the axiom sets them once and nothing
             # on the cycle changes them (a decrement left out), not a graftal by design
+            written = _written(graph, s)
             what = ", ".join(written)
             message = (f"'{s.name}' can call itself here and nothing changes {what}, which its "
                        f"selection reads (the axiom sets {'it' if len(written) == 1 else 'them'} "
                        f"once): this cycle never terminates; a block on it such as "
                        f"'{{{written[0]} = {written[0]} - 1}}' would end it")
-        else:
-            # no block can end it, so grouping is no help: an endless IFS, deliberate or not
-            message = (f"'{s.name}' can call itself here and its selection reads no parameter: "
-                       f"this cycle never terminates, a graftal: `render` refines it to pixel "
-                       f"size, `export` needs --max-depth N")
         out.append(_diag(graph, "warning", message, spans[0], "endless", notes))
     if out and _axiom_ends(graph):
         # the cycles are there, but the derivation never takes them round (a module
         # reached only where its count is spent: B if(n > 0, ...) met with n = 0)
         return []
     return out
+
+
+def _written(graph: Graph, s) -> list[str]:
+    """The parameters a selection names as written (folded away where the axiom alone
+    sets them)."""
+    return sorted(n for n in names_in(graph.expr_ast[s.exprs[0]]) if n in graph.params)
 
 
 def _axiom_ends(graph: Graph) -> bool:
