@@ -351,10 +351,6 @@ def _exit(failed: int) -> int:
     return EXIT_ERRORS if failed else EXIT_OK
 
 
-OTHER_IMAGES = {".jpg", ".jpeg", ".gif", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".exr", ".svg",
-                ".avif", ".heic"}
-
-
 def _outputs(files: list[str], output: str | None) -> list[Path]:
     """NAME.png here; or -o FILE.png for one file; or -o DIR/ (created) for any number."""
     names = [Path(f).stem + ".png" for f in files]
@@ -367,12 +363,22 @@ def _outputs(files: list[str], output: str | None) -> list[Path]:
         return paths
     if len(files) > 1:
         raise UsageError(f"-o {output}: several files need a directory, e.g. -o renders/")
-    if out.suffix.lower() in OTHER_IMAGES:
-        # PNG bytes in x.jpg, which a viewer going by the name then refused
-        raise UsageError(f"-o {output}: pcsg writes PNG images; name the file "
-                         f"{out.with_suffix('.png').name}")
+    if out.suffix.lower() != ".png" and not _device(out):
+        # PNG bytes in x.jpg, which a viewer going by the name then refused; or over
+        # other.pcsg, a grammar, which -o replaced without a word
+        name = out.with_suffix(".png").name
+        raise UsageError(f"-o {output}: pcsg writes PNG images; name the file {name}"
+                         + ("" if out.suffix else f", or {output}/ for a directory"))
     _output_directory(output)
     return [out]
+
+
+def _device(path: Path) -> bool:
+    """A pipe, a terminal or /dev/stdout: written into, whatever its name."""
+    try:
+        return path.exists() and not path.is_file() and not path.is_dir()
+    except OSError:
+        return False
 
 
 def _distinct(files: list[str], paths: list[Path]) -> list[Path]:

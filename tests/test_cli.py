@@ -665,7 +665,7 @@ def test_expand_says_pixels_were_taken_as_infinite_and_stats_lists_no_pixels(cap
      "--depth {f}: the depths are written as a NumPy array; name the file s.npy"),
     (["render", "{f}", "-o", "{d}/x.png", "--depth", "{d}/no/x.npy"],
      "--depth {d}/no/x.npy: the directory {d}/no does not exist"),
-    (["render", "{f}", "-o", "{f}"], "-o {f}: that is {f}, which this command reads"),
+    (["render", "{f}", "-o", "{f}"], "-o {f}: pcsg writes PNG images; name the file s.png"),
     (["export", "{f}", "--pov", "{f}"], "--pov {f}: that is {f}, which this command reads"),
     (["graph", "{f}", "-o", "{f}"], "-o {f}: that is {f}, which this command reads"),
     (["expand", "{f}", "-o", "{f}"], "-o {f}: that is {f}, which this command reads"),

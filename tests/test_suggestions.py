@@ -134,12 +134,17 @@ def test_a_constant_colour_out_of_range_is_warned_of(paint, want):
     assert [g[:len(want)] for g in got] == ([want] if want else [])
 
 
-def test_an_output_named_for_another_image_format_is_a_usage_error(capsys, tmp_path):
+@pytest.mark.parametrize("name", ["x.jpg", "x.pcsg", "x", "x.npy"])
+def test_an_output_not_named_png_is_a_usage_error(capsys, tmp_path, name):
+    # PNG bytes under another image's name, or over a grammar (-o other.pcsg replaced it)
     from .conftest import GRAMMARS
-    out = tmp_path / "x.jpg"
+    out = tmp_path / name
+    if name == "x.pcsg":
+        out.write_text("sphere\n", encoding="utf-8")
     assert main(["render", str(GRAMMARS / "sierpinski.pcsg"), "-o", str(out)]) == 2
     assert f"-o {out}: pcsg writes PNG images; name the file x.png" in capsys.readouterr().err
-    assert not any(tmp_path.iterdir())
+    assert [p.name for p in tmp_path.iterdir()] == (["x.pcsg"] if name == "x.pcsg" else [])
+    assert name != "x.pcsg" or out.read_text(encoding="utf-8") == "sphere\n"
 
 
 def test_a_value_that_is_not_finite_is_said_as_nan_or_inf(capsys, tmp_path):
