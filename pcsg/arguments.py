@@ -120,7 +120,7 @@ def parser() -> argparse.ArgumentParser:
     a.add_argument("-j", "--jobs", type=int, metavar="N",
                    help="frames rendered at once, each in its own process (default: one "
                         "per core)")
-    cluster_arguments(a)
+    cluster_arguments(a, tiles=False)
 
     x = sub.add_parser("export", parents=[common],
                        help="the expanded derivation as a POV-Ray scene (small and medium orders)")
@@ -204,21 +204,22 @@ def render_options() -> argparse.ArgumentParser:
     return r
 
 
-def cluster_arguments(r: argparse.ArgumentParser):
+def cluster_arguments(r: argparse.ArgumentParser, tiles: bool = True):
     """--workers, --scheduler, --tiles, --force: for any command that renders a batch
-    through pcsg.distributed.batch.run_jobs."""
+    through pcsg.distributed.batch.run_jobs (animate sends whole frames: no --tiles)."""
     c = r.add_argument_group("across processes and machines (needs pip install 'pcsg[dask]')")
     c.add_argument("--workers", type=int, metavar="N",
                    help="render on a local Dask cluster of N worker processes")
     c.add_argument("--scheduler", metavar="ADDRESS", type=_scheduler,
                    help="render on an existing Dask cluster, e.g. tcp://10.0.0.5:8786")
-    c.add_argument("--tiles", type=int, default=1, metavar="N",
-                   help="split each image into N bands of rows, rendered apart (on the "
-                        "cluster's workers, or here one after another) and assembled into "
-                        "the same PNG bytes")
+    if tiles:
+        c.add_argument("--tiles", type=int, default=1, metavar="N",
+                       help="split each image into N bands of rows, rendered apart (on the "
+                            "cluster's workers, or here one after another) and assembled into "
+                            "the same PNG bytes")
     c.add_argument("--force", action="store_true",
-                   help="render again outputs that a cluster batch or a sweep would skip as "
-                        "already complete")
+                   help="render again outputs that a cluster batch, a sweep or an animation "
+                        "would skip as already complete")
 
 
 SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")     # dask's, but inproc: no other process's

@@ -249,11 +249,12 @@ def _distributed(args) -> bool:
                          "give one of them")
     if args.workers is not None and not 1 <= args.workers <= 1024:
         raise UsageError(f"--workers {args.workers}: use 1 to 1024")
-    if args.tiles != 1 and not 1 <= args.tiles <= args.size[1]:
-        raise UsageError(f"--tiles {args.tiles}: use 1 to the image height ({args.size[1]})")
-    if args.tiles > 1 and getattr(args, "depth", None):
+    tiles = getattr(args, "tiles", 1)       # not animate's
+    if tiles != 1 and not 1 <= tiles <= args.size[1]:
+        raise UsageError(f"--tiles {tiles}: use 1 to the image height ({args.size[1]})")
+    if tiles > 1 and getattr(args, "depth", None):
         raise UsageError("--depth is not written for tiled images; render without --tiles")
-    return args.workers is not None or bool(args.scheduler) or args.tiles > 1
+    return args.workers is not None or bool(args.scheduler) or tiles > 1
 
 
 def _depth_output(depth: str, files: list[str]):
@@ -414,9 +415,7 @@ def cmd_animate(args) -> int:
     source = Path(args.file)
     out = Path(args.output) if args.output else Path(f"{source.stem}_frames")
     anim = Animation(source, out, args.frames, opts, args.path, args.at_path, args.fps,
-                     args.gif, args.jobs)
-    if args.tiles != 1:
-        raise UsageError("--tiles splits one image; animate sends whole frames to the workers")
+                     args.gif, args.jobs, force=args.force)
     if _distributed(args):
         from .distributed.cluster import ClusterUnavailable, connect
         try:

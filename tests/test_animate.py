@@ -114,9 +114,12 @@ def test_resume_renders_only_missing_or_broken_frames(capsys, tmp_path, ball):
     assert {k: v[0] for k, v in after.items()} == {k: v[0] for k, v in before.items()}
     for name in ("frame_0000.png", "frame_0003.png"):
         assert after[name][1] == before[name][1], f"{name} was written again"
-    # nothing changed: nothing renders
+    # nothing changed: nothing renders, but with --force (accepted and ignored before)
     code, stdout, _ = animate(capsys, ball, out, *args)
     assert "(4 reused, 0 rendered)" in stdout
+    code, stdout, _ = animate(capsys, ball, out, *args, "--force")
+    assert "(0 reused, 4 rendered" in stdout
+    assert [p.read_bytes() for p in frames(out)] == [v[0] for _, v in sorted(after.items())]
 
 
 def test_changed_options_or_source_render_again(capsys, tmp_path, ball):
@@ -150,6 +153,20 @@ def test_animated_png_and_gif_hold_every_frame(capsys, tmp_path, ball):
         assert np.array_equal(np.asarray(apng.convert("RGB")), np.asarray(same))
     with Image.open(out / "ball.gif") as gif:
         assert gif.n_frames == 4 and gif.info.get("loop") == 0
+    # a run without --gif takes the earlier one's away, as it does that run's extra frames
+    code, stdout, stderr = animate(capsys, ball, out, "--frames", "3", "--jobs", "1")
+    assert code == 0, stderr
+    assert not (out / "ball.gif").exists() and (out / "ball.png").exists()
+
+
+def test_animate_has_no_tiles(capsys, tmp_path, ball):
+    # its help listed --tiles, which it then refused: it sends whole frames to the workers
+    with pytest.raises(SystemExit) as e:
+        main(["animate", str(ball), "--tiles", "3"])
+    assert e.value.code == 2 and "unrecognized arguments: --tiles" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["animate", "--help"])
+    assert "--tiles" not in capsys.readouterr().out
 
 
 def test_camera_only_when_the_file_has_no_t(capsys, tmp_path):

@@ -46,6 +46,7 @@ class Animation:
     gif: bool = False
     jobs: int | None = None             # None: one per core
     cluster: object = None              # a pcsg.distributed runner: the frames run there
+    force: bool = False                 # render every frame, done or not
 
 
 @dataclass
@@ -230,7 +231,7 @@ def animate(anim: Animation) -> int:
     manifest = Manifest(anim.out_dir)
     for name in manifest.forget_others({j.png.name for j in jobs}):
         (anim.out_dir / name).unlink(missing_ok=True)   # frames of a longer earlier run
-    todo = [j for j in jobs if not manifest.complete(j.png, j.key)]
+    todo = [j for j in jobs if anim.force or not manifest.complete(j.png, j.key)]
     workers = max(1, min(anim.jobs or cores(), len(todo)))
     report = _Reporter(anim, todo, timed, len(jobs))
     if report.done and not anim.opts.quiet:
@@ -260,6 +261,9 @@ def animate(anim: Animation) -> int:
         if anim.gif:
             write_gif(frames, anim.out_dir / f"{stem}.gif", anim.fps)
             made += f" and {stem}.gif"
+        else:
+            # an earlier run's, of other frames: as its extra frames are, it goes
+            (anim.out_dir / f"{stem}.gif").unlink(missing_ok=True)
     seconds = time.perf_counter() - report.start
     unit = "worker" if anim.cluster is not None else "job"
     how = f" with {workers} {unit}{'s' if workers > 1 else ''}" if report.rendered else ""
