@@ -243,9 +243,30 @@ def test_a_tiled_picture_of_nothing_says_so(capsys, tmp_path):
     ("X\n#define X sphere\n", "1:1: undefined name 'X' (a macro defined below, at 2:9: a macro "
                               "stands for its text only after its #define)"),
     ("{c = K} sphere\n#define K 2\n", "1:6: undefined name 'K' (a macro defined below, at 2:9"),
+    # where a guess was said instead (a box, 'cube'?), or the parse stopped after a prefix
+    ("S ∪ BOX\n1: S → sphere\n#define BOX cube\n",
+     "1:5: undefined name 'BOX' (a macro defined below, at 3:9"),
+    ("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → sphere\n2: S → DEC S\n#define DEC {c = c - 1}\n",
+     "4:12: expected an operator (∪, ∩ or \\) between 'DEC' and 'S' ('DEC': a macro defined "
+     "below, at 5:9"),
+    ("{c = 1} S\nS if(c > 0, 2, 1)\n1: S → sphere\n2: S → {c = c - 1} T S\n"
+     "#define T move(1, 0, 0)\n", "4:22: expected an operator (∪, ∩ or \\) between 'T' and 'S' "
+                                  "('T': a macro defined below, at 5:9"),
+    # a macro that names itself: not below, and not replaced within itself
+    ("#define A A ∪ sphere\nA\n", "2:1: undefined name 'A' (in macro 'A''s own replacement"),
 ])
 def test_a_macro_read_before_its_define_is_said_to_be_below(text, message):
     assert placed(diagnostics_of(text)[0]).startswith(message)
+
+
+def test_text_after_a_block_replacement_is_said():
+    # §2: a replacement that starts with '{' is the block; ' S' stayed the file's axiom,
+    # and the error at the use said nothing of it
+    said = [placed(d) for d in diagnostics_of("#define AX {c = 2} S\nAX\n")]
+    assert said[0].startswith("1:20: 'S' after the block that is macro 'AX''s replacement is "
+                              "not part of it")
+    assert not warnings_of("#define B {c = c - 1} // a comment\n{c = 1} S\n"
+                           "S if(c > 0, 2, 1)\n1: S → sphere\n2: S → B uscale(0.5) S\n")
 
 
 def test_a_material_that_reflects_and_lets_through_more_than_comes_is_warned_of():

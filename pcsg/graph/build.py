@@ -417,7 +417,7 @@ class _Builder:
             hint = did_you_mean(e.name, [*self.modules, *self.named, *PRIMITIVES])
             what = f"undefined name '{e.name}'{hint} (not a module, named expression or " \
                    f"primitive: {', '.join(PRIMITIVES)})"
-            if not hint and (below := self.source.defined_below(e.name)):
+            if below := self.source.defined_below(e.name, e.span[0]):
                 what = f"undefined name '{e.name}'{below}"
         self.error(e.span, what, "undefined")
         return self.primitive_node_for_errors()
@@ -444,14 +444,15 @@ class _Builder:
             return self.primitive_node_for_errors()
         return self.add(Node(PRIMITIVE, name=e.name, exprs=exprs, span=e.span))
 
-    def _unknown_number(self, name: str) -> str:
-        """What else to say of an undefined name in arithmetic."""
-        below = self.source.defined_below(name)
-        if name == "t" and not below:
+    def _unknown_number(self, name: str, used: int, hint: str) -> str:
+        """What to say of an undefined name in arithmetic, read at expanded offset `used`:
+        a macro defined below, else the guess `hint`, else for t, where it comes from."""
+        below = self.source.defined_below(name, used)
+        if name == "t" and not below and not hint:
             # the time an animation sets: only where the file assigns it
             return (" (`pcsg animate` sets t only where the axiom assigns it: write "
                     "'{t = 0} ...' there, and read t below)")
-        return below
+        return below or hint
 
     def _operand_kind(self, name: str) -> str | None:
         """What a CSG operand's name read as a number is (`move(N, 0, 0)`, N a named

@@ -69,10 +69,11 @@ class ExprTable:
     """
 
     def __init__(self, params: dict[str, int], report, constants: dict[str, float] | None = None,
-                 unknown=lambda name: "", operand=lambda name: None):
+                 unknown=lambda name, used, hint: hint, operand=lambda name: None):
         self.params = params
         self.report = report
-        self.unknown = unknown          # what else to say of an undefined name
+        # what to say of an undefined name read at an expanded offset, beside a guess
+        self.unknown = unknown
         self.operand = operand          # what a CSG operand's name is, or None
         # parameters known to hold one value everywhere (the caller may still add to them)
         self.constants = {} if constants is None else constants
@@ -182,8 +183,8 @@ class ExprTable:
                 self.report(n.span, f"'{n.name}' is {kind}, a CSG operand, not a number",
                             'undefined-name')
                 return _NAN
-            hint = (did_you_mean(n.name, [*self.params, *self.constants, 'pi'])
-                    or self.unknown(n.name))
+            hint = self.unknown(n.name, n.span[0],
+                                did_you_mean(n.name, [*self.params, *self.constants, 'pi']))
             self.report(n.span, f"undefined name '{n.name}'{hint}", 'undefined-name')
             return _NAN
         if isinstance(n, ast.Unary):

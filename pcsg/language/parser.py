@@ -160,9 +160,11 @@ def parse(text: str, file: str = "<string>") -> tuple[ast.Program, Source]:
     try:
         program = parser.parse(source.expanded)
     except UnexpectedInput as e:
-        # a macro written with arguments, or one that replaced a directive's word,
+        # a macro written with arguments, one that replaced a directive's word, or text
+        # left after a block replacement (which the file then reads as its own),
         # explains the errors at its uses
-        said = [w for w in source.warnings if w.code in ("macro-arguments", "macro-directive")]
+        said = [w for w in source.warnings
+                if w.code in ("macro-arguments", "macro-directive", "macro-tail")]
         raise PcsgError(said + _syntax_errors(e, source, parser, joiner)) from None
     return program, source
 
@@ -382,7 +384,20 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner,
         msg = f"unexpected {_describe(tok)}, expected {_expected(expected)}"
     notes += (_open_in_macro(source, joiner, tok.start_pos)
               or _open_before(text, joiner, tok, expected))
-    return Diagnostic("error", msg, span, source, notes=notes, code="syntax")
+    return Diagnostic("error", msg + _macro_below(source, tok, word), span, source, notes=notes,
+                      code="syntax")
+
+
+def _macro_below(source: Source, tok: Token, word) -> str:
+    """A macro used above its #define stays a plain name there; where it stands for a
+    prefix (`{c = c - 1}`, `move(1, 0, 0)`), the parse stops at what follows it, and the
+    error says so: ', a macro defined below ...' for the token or the word before it."""
+    for name, at in ([(tok.value, tok.start_pos)] if tok.type == "NAME" else []) + \
+            ([word] if word else []):
+        at = at if isinstance(at, int) else at[0]
+        if said := source.defined_below(name, at):
+            return f" ('{name}': {said[2:-1]})"
+    return ""
 
 
 def _in_block(joiner: LineJoiner) -> bool:

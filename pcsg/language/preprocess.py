@@ -146,6 +146,7 @@ class _Expander:
         if stripped.startswith("{"):
             end = self._block_end(body_start, name)
             body = (body_start, end)
+            self._after_block(end, name)
         elif not stripped and self._next_line_starts_block(line_end):
             brace = text.index("{", line_end)
             end = self._block_end(brace, name)
@@ -175,6 +176,18 @@ class _Expander:
     def _next_line_starts_block(self, line_end: int) -> bool:
         nxt = self.text[line_end + 1:line_end + 1 + 4096].lstrip(" \t\r")
         return nxt.startswith("{")
+
+    def _after_block(self, end: int, name: str):
+        """Text after a block replacement, on the line its '}' ends: not the macro's (§2),
+        so it stays in the file, a statement of its own (`#define AX {c = 2} S`: AX was
+        the block, and S the file's axiom)."""
+        tail = code_of(self.text[end:line_end(self.text, end)])
+        if tail.strip():
+            at = end + len(tail) - len(tail.lstrip())
+            self.warn(at, f"'{tail.strip()}' after the block that is macro '{name}''s "
+                          f"replacement is not part of it (notation §2: a replacement that "
+                          f"starts with '{{' is that block); it stays in the file where it "
+                          f"stands", "macro-tail")
 
     def _block_end(self, brace: int, name: str) -> int:
         depth = 0

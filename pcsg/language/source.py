@@ -38,12 +38,19 @@ class Source:
     warnings: list = field(default_factory=list)            # the #define expansion's
     defines: list = field(default_factory=list)     # (start, end) in expanded of each #define
 
-    def defined_below(self, name: str) -> str:
+    def defined_below(self, name: str, used: int | None = None) -> str:
         """', a macro defined below, at L:C, ...' where `name`, undefined where it is
-        read, is a macro the file defines after that read; else ''."""
+        read (at expanded offset `used`, if known), is a macro the file defines after
+        that read; where the read is in the macro's own replacement, that; else ''."""
         at = self.macros.get(name)
         if at is None:
             return ""
+        if used is not None:
+            if any(use[0] == name for use in self.macro_uses(used)):
+                return (f" (in macro '{name}''s own replacement, where it is not replaced "
+                        f"again: a macro that named itself would never end)")
+            if self.locate(used).offset > at:
+                return ""       # defined above its read: not what went wrong
         loc = self.location(at)
         return (f" (a macro defined below, at {loc.line}:{loc.column}: a macro stands for its "
                 f"text only after its #define)")
