@@ -136,6 +136,12 @@ def build_scene(directives: list[ast.Directive], constants, report,
                 report(d.kind_span, problem, "directive")
             scene.camera = values
         elif d.kind == "light":
+            if "at" not in values and len(values) == len(d.items):
+                # it stood at (0, 0, 10), wherever the object and the camera were (where a
+                # key was refused, `position=` say, that error says enough)
+                report(d.kind_span, "#light needs at=(x,y,z), where the light stands "
+                                    "(without any #light the render places one above left "
+                                    "of the camera)", "directive")
             scene.lights.append(values)
         elif d.kind == "sky":
             scene.sky = values

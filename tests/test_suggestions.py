@@ -289,6 +289,9 @@ def test_a_material_that_reflects_and_lets_through_more_than_comes_is_warned_of(
     ("#light position=(1, 2, 3)\nsphere\n", "1:8: unknown key 'position' for #light; did "
                                            "you mean 'at'?"),
     ("#light target=(1, 2, 3)\nsphere\n", "1:8: unknown key 'target' for #light (known:"),
+    # it stood at (0, 0, 10) whatever the object and the camera
+    ("#light color=(1, 0, 0)\nsphere\n", "1:1: #light needs at=(x,y,z), where the light "
+                                         "stands"),
     # abbreviations
     ("#material m refl=0.5\nmaterial(m) sphere\n", "1:13: unknown key 'refl' for #material; "
                                                      "did you mean 'reflect'?"),

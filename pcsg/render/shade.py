@@ -67,7 +67,7 @@ def make_lighting(traced, camera, shadows=True, shadow_samples=8, max_bounces=3,
     sky = scene.sky
     horizon = np.array(sky.get("horizon", sky.get("color", DEFAULT_HORIZON)), float)
     zenith = np.array(sky.get("zenith", sky.get("color", DEFAULT_ZENITH)), float)
-    lights = [Light(np.array(l.get("at", (0.0, 0.0, 10.0)), float),
+    lights = [Light(np.array(l["at"], float),
                     np.array(l.get("color", (1.0, 1.0, 1.0)), float), float(l.get("radius", 0.0)))
               for l in scene.lights]
     if light_at is not None:
