@@ -75,6 +75,16 @@ def test_a_macro_that_replaces_a_directive_s_word_is_said(text, place):
     assert compile_text("#define R 3\n#light at=(5, 5, 5) radius=R\nsphere\n", "t.pcsg").warnings == []
 
 
+def test_a_directive_word_a_macro_made_no_word_is_said_so():
+    # '#1' was "'#' does not start a comment", beside the macro's warning
+    with pytest.raises(PcsgError) as e:
+        compile_text("#define light 1\n#light at=(1, 1, 1)\nsphere\n", "t.pcsg")
+    said = [(d.code, d.location.line, d.location.column, d.message) for d in e.value.diagnostics]
+    assert said[0][0] == "macro-directive"
+    assert said[1][:3] == ("syntax", 2, 1)
+    assert said[1][3].startswith("no directive: its word here is macro 'light''s text")
+
+
 def test_expand_writes_no_lines_where_defines_stood():
     # the expanded text keeps them blank, for the line numbers of errors; the file written
     # need not, and the user's own blank line stays

@@ -219,7 +219,10 @@ def _describe(tok: Token) -> str:
 
 MAX_SYNTAX_ERRORS = 10
 RECOVER_CHARS = 250_000       # text past an error parsed again, at most (a parse per error)
-_JOINING_ENDS = ("∪", "|", "∩", "&", "\\", "∖", "→", "->", "=", "(", ",", "{")
+# what a line that joins the next ends with (postlex.LineJoiner), and open brackets
+_JOINING_ENDS = ("∪", "|", "∩", "&", "\\", "∖", "→", "->", "=", "(", ",", "{",
+                 "+", "-", "*", "/", "%", "^", "<", ">", "!")
+_JOINING_WORD = re.compile(r"(?<![A-Za-z0-9_])(and|or|not)\Z")
 _STATEMENT_HEAD = re.compile(r"[0-9]+[ \t]*:[ \t]*[A-Za-z_][A-Za-z0-9_]*[ \t]*(→|->)"
                              r"|#(camera|light|sky|material)\b")
 # comments (skipped whole), brackets and line ends
@@ -307,7 +310,7 @@ def _joins_next(text: str, line: int) -> bool:
         start = text.rfind("\n", 0, end) + 1
         code = code_of(text[start:end]).rstrip()
         if code:
-            return code.endswith(_JOINING_ENDS)
+            return code.endswith(_JOINING_ENDS) or bool(_JOINING_WORD.search(code))
         end = start - 1
     return False
 
@@ -324,6 +327,12 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner,
     if isinstance(e, UnexpectedCharacters):
         pos = e.pos_in_stream
         ch = text[pos] if pos < len(text) else ""
+        if ch == "#" and (uses := source.macro_uses(pos + 1)):
+            # `#define light 1` made `#light` '#1' (the macro's warning stands beside)
+            return Diagnostic("error", f"no directive: its word here is macro "
+                                       f"'{uses[-1][0]}''s text (a #define replaces "
+                                       f"directives' words too: give the macro another name)",
+                              (pos, pos + 1), source, code="syntax")
         said = unknown_directive(text, pos)
         if said:
             return Diagnostic("error", said[0], said[1], source, code="syntax")
