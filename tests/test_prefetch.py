@@ -61,7 +61,8 @@ def test_the_command_that_took_the_childs_parse_never_imports_lark(tmp_path):
 def test_a_path_the_command_writes_otherwise_still_takes_the_childs_parse(tmp_path):
     """`pcsg render ./x.pcsg` names the file `x.pcsg` in its messages, as it always did."""
     f = tmp_path / "w.pcsg"
-    f.write_text("S\n1: S → sphere ∪ move(2,0,0) uscale(0.5) S\n", encoding="utf-8")
+    f.write_text("{c = 2} S\nS if(c > 0, 2, 1)\n1: S → sphere\n"
+                 "2: S → sphere ∪ move(2,0,0) uscale(0.5) S\n", encoding="utf-8")   # endless
     argv = ["render", "./w.pcsg", "--size", "32x24", "-q", "-o", str(tmp_path / "w.png")]
     p = subprocess.run([sys.executable, "-c", STEPS, *argv], cwd=tmp_path, env=ENV,
                        capture_output=True, text=True, timeout=600)
@@ -69,7 +70,7 @@ def test_a_path_the_command_writes_otherwise_still_takes_the_childs_parse(tmp_pa
     assert p.stdout.splitlines()[-1] == "0 False False"
     off = subprocess.run([sys.executable, "-m", "pcsg", *argv], cwd=tmp_path, env=OFF,
                          capture_output=True, text=True, timeout=600)
-    assert "w.pcsg:2:" in off.stderr and p.stderr == off.stderr
+    assert "w.pcsg:4:" in off.stderr and p.stderr == off.stderr
 
 
 def test_errors_and_warnings_read_the_same_either_way(tmp_path):
@@ -78,7 +79,8 @@ def test_errors_and_warnings_read_the_same_either_way(tmp_path):
     undefined = tmp_path / "undefined.pcsg"
     undefined.write_text("{c = 1} S\n1: S → foo\n", encoding="utf-8")
     endless = tmp_path / "endless.pcsg"
-    endless.write_text("S\n1: S → sphere ∪ move(2,0,0) uscale(0.5) S\n", encoding="utf-8")
+    endless.write_text("{c = 2} S\nS if(c > 0, 2, 1)\n1: S → sphere\n"
+                       "2: S → sphere ∪ move(2,0,0) uscale(0.5) S\n", encoding="utf-8")
     for f in (bad, undefined, endless):
         on, off = pcsg("check", f), pcsg("check", f, env=OFF)
         assert (on.returncode, on.stdout, on.stderr) == (off.returncode, off.stdout, off.stderr)
