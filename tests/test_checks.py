@@ -145,6 +145,15 @@ class TestTermination:
         assert w.code == "non-contracting" and "'S' is a graftal" in w.message
         assert "can neither bound it nor refine it" in w.message
         assert [p.message for p in bound(graph)[2]] == [w.message]
+        # not a graftal, but a state that recurs without end through such maps: named, with
+        # a contracting graftal beside it (the first version raised an IndexError for the
+        # one, and blamed the graftal beside it for the other)
+        for head in ("{c = 1} H\n", "{c = 1} (G ∪ move(3, 0, 0) H)\n"
+                     "1: G → cube ∪ uscale(0.5) (move(1, 0, 0) G ∪ move(-1, 0, 0) G)\n"):
+            graph = compile_text(head + "H if(c > 0, 2, 1)\n1: H → cube\n"
+                                 "2: H → move(1, 0, 0) H ∪ rotz(90) H\n", "h.pcsg")
+            [w] = [p for p in bound(graph)[2] if p.code == "non-contracting"]
+            assert w.message.startswith("'H' calls itself without end")
         # rotz(90) scale(1.5, 0.5, 0.5) stretches x into y, and contracts over two cycles:
         # its attractor, a line on the z axis, is bounded (the growth of its box was not)
         graph = compile_text(text.replace("move(1, 0, 0)", "rotz(90) scale(1.5, 0.5, 0.5)"),

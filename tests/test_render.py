@@ -9,7 +9,7 @@ import numpy as np
 from PIL import Image
 
 from pcsg.cli import main
-from pcsg.render.camera import make_camera
+from pcsg.render.camera import finite_bounds, make_camera
 from pcsg.render.image import render_frame
 from pcsg.render.shade import make_lighting
 from pcsg.tracer import loads
@@ -328,3 +328,13 @@ def test_the_default_camera_frames_the_derived_object_as_its_expansion_does():
     assert np.allclose(a.eye, b.eye) and np.allclose(a.at, b.at)
     assert np.allclose(b.at, 0) and np.linalg.norm(b.eye) < np.linalg.norm(
         make_camera(loads("uscale(2.1) sphere"), 4 / 3).eye)
+    # with a ground plane under the axiom's block: the module's hyper box below it holds
+    # the sphere of radius 5 it derives at the last level, the object is 0.05 across
+    text = ("{c = 2} (S ∪ move(0, 0, -1) plane)\nS if(c > 0, 2, 1)\n"
+            "1: S → uscale(5) sphere\n2: S → {c = c - 1} uscale(0.1) S\n")
+    system = loads(text)
+    assert not np.isfinite(system.bounds).all()
+    np.testing.assert_allclose(finite_bounds(system), [-0.05] * 3 + [0.05] * 3)
+    expanded = loads(expand_file(system.graph, 3))
+    a, b = make_camera(system, 4 / 3), make_camera(expanded, 4 / 3)
+    assert np.allclose(a.eye, b.eye) and np.allclose(a.at, b.at)

@@ -49,20 +49,28 @@ class TooManyStates(Exception):
 
 
 class DoesNotContract(TooManyStates):
-    """A graftal whose maps take no box into itself: its attractor is unbounded (an IFS
-    with a map that shrinks nothing, `S → move(1, 0, 0) S ∪ ...`)."""
+    """Endless states whose maps take no box into themselves: their attractor is unbounded
+    (an IFS with a map that shrinks nothing, `S → move(1, 0, 0) S ∪ ...`). `nodes`: their
+    S-nodes."""
+
+    def __init__(self, nodes: list[int]):
+        super().__init__(nodes)
+        self.nodes = nodes
 
 
-def not_contracting(graph: Graph) -> list[Diagnostic]:
-    """The warning for a graftal bound() found DoesNotContract: without bounds the tracer
-    can neither cull it nor refine it to pixel size (every ray that meets it entered
-    --max-instances instances and drew nothing)."""
+def not_contracting(graph: Graph, found: DoesNotContract) -> list[Diagnostic]:
+    """The warning for states bound() found DoesNotContract: without bounds the tracer
+    can neither cull them nor refine them to pixel size (every ray that meets them
+    entered --max-instances instances and drew nothing)."""
     from .volumes import graftal_nodes
-    s = graph.nodes[graftal_nodes(graph)[0]]
-    return [Diagnostic("warning", f"'{s.name}' is a graftal (no rule of it ends) whose maps do "
-                       f"not shrink it: an IFS has a bounded attractor only where its maps "
-                       f"contract, so `render` can neither bound it nor refine it to pixel "
-                       f"size", s.span, graph.source, code="non-contracting")]
+    i = found.nodes[0]
+    s = graph.nodes[i]
+    what = ("is a graftal (no rule of it ends)" if i in graftal_nodes(graph) else
+            "calls itself without end (with the same parameters)")
+    return [Diagnostic("warning", f"'{s.name}' {what}, through maps that do not shrink it: "
+                       f"an IFS has a bounded attractor only where its maps contract, so "
+                       f"`render` can neither bound it nor refine it to pixel size", s.span,
+                       graph.source, code="non-contracting")]
 
 
 def transform_box(m: np.ndarray, box: np.ndarray) -> np.ndarray:
@@ -307,7 +315,7 @@ def _memoised(graph: Graph, faults: set | None = None, max_depth: int | None = N
     return found, max_depth
 
 
-def _memoised_walk(graph: Graph, faults: set | None, finish_too: bool):
+def _memoised_walk(graph: Graph, faults: set | None, finish_too: bool, walker=None):
     """Exact boxes by the memoised walk, iterated to a fixed point over re-entered
     states; TooManyStates when memoising cannot help. A re-entered state that stays
     empty (a graftal: no primitive below its cycle) is bounded as an IFS attractor.
@@ -319,7 +327,7 @@ def _memoised_walk(graph: Graph, faults: set | None, finish_too: bool):
     the deepest S-node level the walk reached, and whether the derivation ends (no state
     was re-entered: the boxes by state may still be None, where they would cull no more
     than the node boxes or rand() decides)."""
-    w = _Walker(graph)
+    w = (walker or _Walker)(graph)
     w.finish_too = finish_too
     if faults is not None:
         w.faults = faults
@@ -343,6 +351,31 @@ def _memoised_walk(graph: Graph, faults: set | None, finish_too: bool):
     raise TooManyStates
 
 
+class _FiniteWalker(_Walker):
+    """The memoised walk with every unbounded operand of a union left out: the object
+    without its ground plane, which the default camera frames (finite_root)."""
+
+    @staticmethod
+    def unite(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        if not np.isfinite(b).all():
+            return a
+        return b if not np.isfinite(a).all() else unite_bounds(a, b)
+
+
+def finite_root(graph: Graph) -> np.ndarray | None:
+    """The box of what the axiom derives, without the unbounded operands of its unions (a
+    ground plane): the object's own box, which a module's hyper box below the axiom's
+    block is not (it holds every instance of the module). None where the memoised walk
+    cannot bound the system (too many states) or nothing finite is left."""
+    try:
+        with recursion_limit(20 * MAX_LEVELS):
+            (boxes, _, _), _, _ = _memoised_walk(graph, None, False, _FiniteWalker)
+    except (TooManyStates, PcsgError):
+        return None
+    box = boxes[graph.root]
+    return box if np.isfinite(box).all() and box[0] <= box[3] else None
+
+
 def _attractor_boxes(w: _Walker, round_) -> tuple[np.ndarray, dict]:
     """Boxes of a system whose cycles carry no primitive, by Hutchinson's theorem: a
     set that the system's maps take into itself holds the attractor. Such a set is a
@@ -364,12 +397,14 @@ def _attractor_boxes(w: _Walker, round_) -> tuple[np.ndarray, dict]:
     for _ in range(MAX_ROUNDS):
         w.estimate = est
         new = {k: as_box(v) for k, v in round_().items()}
-        if est and all(k in est and _inside(b, as_box(est[k])) for k, b in new.items()):
+        outside = [k for k, b in new.items() if not (k in est and _inside(b, as_box(est[k])))]
+        if est and not outside:
             break
         est = {k: _corners(_widen(union_box(as_box(est.get(k, SEED)), b), GROWTH))
                for k, b in new.items()}
     else:
-        raise DoesNotContract
+        # named by the states still outside their estimates: those that grow without end
+        raise DoesNotContract(sorted({k[0] for k in outside}))
     return _tighten(w, round_, {k: _corners(b) for k, b in new.items()}, w.boxes.copy(), est)
 
 
@@ -512,8 +547,8 @@ def bound(graph: Graph, max_depth: int | None = MAX_DEPTH, budget: int = BOUNDS_
         problems += fault_warnings(graph, graph, [(k, 0, f) for k, f in sorted(faults)],
                                    counted=False)
         return boxes, "memoised", problems, states, hulls, max_depth, graph, max_depth
-    except DoesNotContract:
-        problems = not_contracting(graph)
+    except DoesNotContract as found:
+        problems = not_contracting(graph, found)
     except TooManyStates:
         pass
     except PcsgError as e:

@@ -86,8 +86,8 @@ def _unbounded_graftal(graph: Graph) -> list[Diagnostic]:
     try:
         with recursion_limit(20 * MAX_LEVELS):
             _memoised_walk(graph, None, False)
-    except DoesNotContract:
-        return not_contracting(graph)
+    except DoesNotContract as found:
+        return not_contracting(graph, found)
     except (TooManyStates, PcsgError):
         pass                # too many states to tell, or the render's to report
     return []

@@ -100,11 +100,17 @@ def _rays(eye, fwd, right, up, half, width, height, sx, sy, o, d):
 
 def finite_bounds(traced) -> np.ndarray:
     """The object's box without infinite parts (a ground plane): the root's box where it
-    is finite, else the union of the finite boxes of the root's operands, else [-1, 1]^3.
-    The root's own box first: a node below a calculation block bounds every instance of
-    it, and the root's only the one the axiom derives (a system's box by its states)."""
+    is finite, else the memoised walk's without them (bounds.finite_root), else the union
+    of the finite boxes of the root's operands, else [-1, 1]^3. The root's own box first:
+    a node below a calculation block bounds every instance of it, and the root's only the
+    one the axiom derives (a system's box by its states)."""
     g, boxes = traced.graph, traced.boxes
     node = g.root
+    if not _finite(boxes[node]) and traced.bounds_method == "memoised":
+        from ..graph.bounds import finite_root
+        found = finite_root(g)
+        if found is not None:
+            return found
     candidates = [node]
     while not _finite(boxes[node]) and g.nodes[node].kind in (CALC, PAINT, MATERIAL):
         node = g.nodes[node].children[0]        # the same frame below these
