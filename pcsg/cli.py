@@ -364,9 +364,13 @@ def _outputs(files: list[str], output: str | None) -> list[Path]:
         return paths
     if len(files) > 1:
         raise UsageError(f"-o {output}: several files need a directory, e.g. -o renders/")
-    if out.suffix.lower() != ".png" and not _device(out):
+    target = Path(os.path.realpath(out))          # -o through a link writes what it names
+    if (out.suffix.lower() != ".png" or target.suffix.lower() != ".png") and not _device(out):
         # PNG bytes in x.jpg, which a viewer going by the name then refused; or over
         # other.pcsg, a grammar, which -o replaced without a word
+        if out.suffix.lower() == ".png":
+            raise UsageError(f"-o {output}: that is a link to {target}, which is no .png: "
+                             f"pcsg writes PNG images")
         name = out.with_suffix(".png").name
         raise UsageError(f"-o {output}: pcsg writes PNG images; name the file {name}"
                          + ("" if out.suffix else f", or {output}/ for a directory"))
@@ -375,7 +379,10 @@ def _outputs(files: list[str], output: str | None) -> list[Path]:
 
 
 def _device(path: Path) -> bool:
-    """A pipe, a terminal or /dev/stdout: written into, whatever its name."""
+    """A pipe, a terminal or /dev/stdout: written into, whatever its name (/dev/stdout
+    redirected to a file is that file, and still written into)."""
+    if str(path).startswith(("/dev/", "/proc/self/fd/")):
+        return True
     try:
         return path.exists() and not path.is_file() and not path.is_dir()
     except OSError:

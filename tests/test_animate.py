@@ -153,10 +153,15 @@ def test_animated_png_and_gif_hold_every_frame(capsys, tmp_path, ball):
         assert np.array_equal(np.asarray(apng.convert("RGB")), np.asarray(same))
     with Image.open(out / "ball.gif") as gif:
         assert gif.n_frames == 4 and gif.info.get("loop") == 0
-    # a run without --gif takes the earlier one's away, as it does that run's extra frames
+    # a run without --gif takes the earlier one's away, as it does that run's extra frames,
+    # and leaves a GIF it did not write
     code, stdout, stderr = animate(capsys, ball, out, "--frames", "3", "--jobs", "1")
     assert code == 0, stderr
     assert not (out / "ball.gif").exists() and (out / "ball.png").exists()
+    (out / "ball.gif").write_bytes(b"GIF89a, the user's")
+    code, stdout, stderr = animate(capsys, ball, out, "--frames", "2", "--jobs", "1")
+    assert code == 0, stderr
+    assert (out / "ball.gif").read_bytes() == b"GIF89a, the user's"
 
 
 def test_animate_has_no_tiles(capsys, tmp_path, ball):

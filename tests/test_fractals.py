@@ -190,6 +190,8 @@ def test_axiom_parameter_is_a_constant_argument():
                              "the right operand of '∩' derives it"),
     ("mandelbulb", "'mandelbulb' takes its argument: mandelbulb(power); or define"),
     ("julia ∪ cube", "'julia' takes its arguments: julia(cx, cy, cz, cw)"),
+    ("S ∪ julia(0.3, 0.5, 0.4, 0.2)\n1: S → cube\njulia = sphere",
+     "'julia' is this file's own module or named expression, which takes no arguments"),
 ])
 def test_errors(text, message):
     with pytest.raises(PcsgError) as e:
@@ -213,11 +215,15 @@ def test_expand_and_export(tmp_path, capsys):
 @pytest.mark.parametrize("text", [
     # notation §2 reserves the names of its own primitives only: the fractals' names are
     # free, and mean the fractal only before its arguments
-    "julia ∪ move(2.5, 0, 0) julia(-0.2, 0.6, 0.2, 0)\njulia = sphere",
+    "julia ∪ move(2.5, 0, 0) mandelbulb(8)\njulia = sphere",
+    "{c = 1} julia ∪ move(3, 0, 0) mandelbulb /* its power: */ (8)\njulia (c > 0) + 1\n"
+    "1: julia → sphere\n2: julia → {c = c - 1} julia\n",
     "{mandelbulb = 1} S\nS if(mandelbulb > 0, 2, 1)\n1: S -> mandelbulb (8)\n"
     "2: S -> {mandelbulb = mandelbulb - 1} (julia ∪ move(3, 0, 0) S)\n1: julia -> sphere",
 ])
 def test_the_fractals_names_may_name_modules_named_expressions_and_parameters(text):
+    """(and a module of the name is read as the file's before a '(' too: its selection
+    `julia (c > 0) + 1` was read as the fractal)"""
     graph = compile_text(text, "f.pcsg")
     drawn = [n.name for n in graph.nodes if n.kind == PRIMITIVE]
     assert sorted(drawn) in (["julia", "sphere"], ["mandelbulb", "sphere"]) and not graph.warnings

@@ -304,3 +304,27 @@ def test_more_slips_said_as_themselves(text, said):
     except PcsgError as e:
         found = e.diagnostics
     assert placed(found[0]).startswith(said)
+
+
+def test_an_output_link_to_a_file_not_named_png_is_refused_and_dev_stdout_is_written(
+        capsys, tmp_path):
+    import subprocess
+    import sys
+    from .conftest import GRAMMARS, ROOT
+    victim = tmp_path / "victim.pcsg"
+    victim.write_text("sphere\n", encoding="utf-8")
+    (tmp_path / "link.png").symlink_to(victim)
+    sierpinski = str(GRAMMARS / "sierpinski.pcsg")
+    assert main(["render", sierpinski, "-o", str(tmp_path / "link.png")]) == 2
+    assert "which is no .png" in capsys.readouterr().err
+    assert victim.read_text(encoding="utf-8") == "sphere\n"
+    # /dev/stdout redirected to a file is that file, a regular one not named .png
+    with open(tmp_path / "out.png", "wb") as out:
+        p = subprocess.run([sys.executable, "-m", "pcsg", "render", sierpinski, "-o",
+                            "/dev/stdout", "--size", "32x24", "-q"], cwd=ROOT, stdout=out,
+                           stderr=subprocess.PIPE, timeout=600)
+    assert p.returncode == 0, p.stderr
+    from PIL import Image
+    with Image.open(tmp_path / "out.png") as image:
+        image.load()
+        assert image.size == (32, 24)

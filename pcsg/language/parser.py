@@ -15,7 +15,7 @@ from .files import line_ends, read_source_text
 from .mistakes import (HASH_COMMENT, assignment_for_comparison, lookalike, missing_operator,
                        rule_without_number, unknown_call, unknown_directive)
 from .names import FREE, RESERVED
-from .postlex import LineJoiner
+from .postlex import LineJoiner, owned_names
 from .preprocess import code_of, preprocess
 from .source import Source
 
@@ -157,6 +157,7 @@ def parse(text: str, file: str = "<string>") -> tuple[ast.Program, Source]:
     if errors:
         raise PcsgError(errors)
     parser, joiner = _lark()
+    joiner.owned = owned_names(source.expanded)
     try:
         program = parser.parse(source.expanded)
     except UnexpectedInput as e:
@@ -220,8 +221,9 @@ def _describe(tok: Token) -> str:
 MAX_SYNTAX_ERRORS = 10
 RECOVER_CHARS = 250_000       # text past an error parsed again, at most (a parse per error)
 # what a line that joins the next ends with (postlex.LineJoiner), and open brackets
+# (not '/': a comment's last line, read alone, ends with it)
 _JOINING_ENDS = ("∪", "|", "∩", "&", "\\", "∖", "→", "->", "=", "(", ",", "{",
-                 "+", "-", "*", "/", "%", "^", "<", ">", "!")
+                 "+", "-", "*", "%", "^", "<", ">", "!")
 _JOINING_WORD = re.compile(r"(?<![A-Za-z0-9_])(and|or|not)\Z")
 _STATEMENT_HEAD = re.compile(r"[0-9]+[ \t]*:[ \t]*[A-Za-z_][A-Za-z0-9_]*[ \t]*(→|->)"
                              r"|#(camera|light|sky|material)\b")
@@ -365,6 +367,10 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner,
     word = _word_before(text, tok.start_pos)
     if tok.value == "/" and text.startswith("/*", tok.start_pos):
         msg = "comment opened with '/*' is never closed"
+    elif tok.type == "LPAR" and word and word[0] in joiner.owned:
+        msg = (f"'{word[0]}' is this file's own module or named expression, which takes no "
+               f"arguments: where a file defines '{word[0]}', the fractal of that name is "
+               f"not available")
     elif tok.type in _RESERVED_TOKENS and ("NAME" in expected or _next_is_eq(text, tok)):
         msg = f"'{tok.value}' is a reserved name ({_RESERVED_TOKENS[tok.type]})"
     elif tok.type == "EQUAL" and word and word[0] in RESERVED and word[0] not in FREE:

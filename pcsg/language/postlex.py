@@ -8,12 +8,21 @@ statement can end with one, so joining there accepts what would only be an
 error otherwise."""
 from __future__ import annotations
 
+import re
+
 from lark import Token
 
 JOINERS = {"UNION", "INTER", "DIFF", "ARROW", "EQUAL",
            "OR", "AND", "CMP", "PLUS", "MINUS", "STAR", "SLASH", "PERCENT", "CARET",
            "BANG", "NOT"}
 OPENERS = {"LPAR": ")", "LBRACE": "}"}
+# a fractal's name that heads a rule or a named expression: the file's own
+_OWNED = re.compile(r"^[ \t]*(?:[0-9]+[ \t]*:[ \t]*(mandelbulb|julia)[ \t]*(?:→|->)"
+                    r"|(mandelbulb|julia)[ \t]*=(?!=))", re.M)
+
+
+def owned_names(text: str) -> frozenset:
+    return frozenset(m.group(1) or m.group(2) for m in _OWNED.finditer(text))
 CLOSERS = {"RPAR", "RBRACE"}
 
 
@@ -23,6 +32,9 @@ class LineJoiner:
     def __init__(self):
         self.open_brackets: list[Token] = []
         self.last: Token | None = None      # the last token passed on
+        # fractal names the file defines as its own modules or named expressions (owned):
+        # read as names, not as the fractal, even before a '(' (`julia (c > 0) + 1`)
+        self.owned: frozenset = frozenset()
 
     def process(self, stream):
         self.open_brackets = []
@@ -38,6 +50,9 @@ class LineJoiner:
                 prev = "_NL"
                 yield tok
                 continue
+            if kind == "FRACTAL" and tok.value in self.owned:
+                tok = Token.new_borrow_pos("NAME", tok.value, tok)
+                kind = "NAME"
             if kind in OPENERS:
                 self.open_brackets.append(tok)
             elif kind in CLOSERS and self.open_brackets:

@@ -230,7 +230,9 @@ def animate(anim: Animation) -> int:
         raise BadAnimation(f"-o {anim.out_dir}: {problem}")
     manifest = Manifest(anim.out_dir)
     for name in manifest.forget_others({j.png.name for j in jobs}):
-        (anim.out_dir / name).unlink(missing_ok=True)   # frames of a longer earlier run
+        # frames of a longer earlier run, and the GIF of an earlier run (written again
+        # below where this run has one too)
+        (anim.out_dir / name).unlink(missing_ok=True)
     todo = [j for j in jobs if anim.force or not manifest.complete(j.png, j.key)]
     workers = max(1, min(anim.jobs or cores(), len(todo)))
     report = _Reporter(anim, todo, timed, len(jobs))
@@ -260,10 +262,10 @@ def animate(anim: Animation) -> int:
         made = f"; animation {anim.out_dir / f'{stem}.png'}"
         if anim.gif:
             write_gif(frames, anim.out_dir / f"{stem}.gif", anim.fps)
+            # in the manifest, so that a later run without --gif takes it away as it does
+            # an earlier run's extra frames (and no GIF the user put there)
+            manifest.record(anim.out_dir / f"{stem}.gif", "animation")
             made += f" and {stem}.gif"
-        else:
-            # an earlier run's, of other frames: as its extra frames are, it goes
-            (anim.out_dir / f"{stem}.gif").unlink(missing_ok=True)
     seconds = time.perf_counter() - report.start
     unit = "worker" if anim.cluster is not None else "job"
     how = f" with {workers} {unit}{'s' if workers > 1 else ''}" if report.rendered else ""
