@@ -143,7 +143,7 @@ class TestTermination:
         graph = compile_text(text, "g.pcsg")
         [w] = derivation_faults(graph)[1]
         assert w.code == "non-contracting" and "'S' is a graftal" in w.message
-        assert "can neither bound it nor refine it" in w.message
+        assert "can neither bound this one nor refine it" in w.message
         assert [p.message for p in bound(graph)[2]] == [w.message]
         # not a graftal, but a state that recurs without end through such maps: named, with
         # a contracting graftal beside it (the first version raised an IndexError for the

@@ -85,6 +85,18 @@ def test_a_directive_word_a_macro_made_no_word_is_said_so():
     assert said[1][3].startswith("no directive: its word here is macro 'light''s text")
 
 
+def test_the_macro_warning_stands_beside_a_compile_error_it_explains():
+    # "unknown directive '#lamp'" alone, where a syntax error had the macro's word beside it
+    with pytest.raises(PcsgError) as e:
+        compile_text("#define light lamp\n#light at=(1, 2, 3)\nsphere\n", "t.pcsg")
+    assert [d.code for d in e.value.diagnostics] == ["macro-directive", "directive"]
+    # and text after a block replacement on the line after its #define is said too
+    graph = compile_text("#define AX\n{c = c - 1} B = cube\n{c = 1} S\nS if(c > 0, 2, 1)\n"
+                         "1: S → sphere ∪ B\n2: S → AX uscale(0.5) S\n", "t.pcsg")
+    [w] = graph.warnings
+    assert w.code == "macro-tail" and (w.location.line, w.location.column) == (2, 13)
+
+
 def test_expand_writes_no_lines_where_defines_stood():
     # the expanded text keeps them blank, for the line numbers of errors; the file written
     # need not, and the user's own blank line stays

@@ -67,10 +67,11 @@ def not_contracting(graph: Graph, found: DoesNotContract) -> list[Diagnostic]:
     s = graph.nodes[i]
     what = ("is a graftal (no rule of it ends)" if i in graftal_nodes(graph) else
             "calls itself without end (with the same parameters)")
-    return [Diagnostic("warning", f"'{s.name}' {what}, through maps that do not shrink it: "
-                       f"an IFS has a bounded attractor only where its maps contract, so "
-                       f"`render` can neither bound it nor refine it to pixel size", s.span,
-                       graph.source, code="non-contracting")]
+    return [Diagnostic("warning", f"'{s.name}' {what}, through maps that take no box found "
+                       f"into itself (maps that do not shrink it, or shrink it only over many "
+                       f"cycles): an IFS has a bounded attractor only where its maps contract, "
+                       f"and `render` can neither bound this one nor refine it to pixel size",
+                       s.span, graph.source, code="non-contracting")]
 
 
 def transform_box(m: np.ndarray, box: np.ndarray) -> np.ndarray:

@@ -121,7 +121,8 @@ class _Builder:
             if name not in self.named_read and name not in self.modules and axioms:
                 self.warn(named.name_span, f"named expression '{name}' is never used", "unused")
         if self.errors:
-            raise PcsgError(sorted(self.errors, key=sort_key))
+            # `#define light lamp`: "unknown directive '#lamp'", and why
+            raise PcsgError(self.source.explaining() + sorted(self.errors, key=sort_key))
         return Graph(self.source, self.nodes, root, self.params, self.modules, self.exprs,
                      self.expr_ast, self.scene, self.material_names, self.warnings,
                      axioms[0].span if axioms else None, pixels=self.pixels)

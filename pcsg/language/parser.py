@@ -161,12 +161,8 @@ def parse(text: str, file: str = "<string>") -> tuple[ast.Program, Source]:
     try:
         program = parser.parse(source.expanded)
     except UnexpectedInput as e:
-        # a macro written with arguments, one that replaced a directive's word, or text
-        # left after a block replacement (which the file then reads as its own),
-        # explains the errors at its uses
-        said = [w for w in source.warnings
-                if w.code in ("macro-arguments", "macro-directive", "macro-tail")]
-        raise PcsgError(said + _syntax_errors(e, source, parser, joiner)) from None
+        raise PcsgError(source.explaining() + _syntax_errors(e, source, parser, joiner)) \
+            from None
     return program, source
 
 

@@ -151,6 +151,7 @@ class _Expander:
             brace = text.index("{", line_end)
             end = self._block_end(brace, name)
             body = (brace, end)
+            self._after_block(end, name)
         else:
             end = line_end
             body = (body_start, body_start + len(stripped))

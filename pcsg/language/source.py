@@ -38,6 +38,13 @@ class Source:
     warnings: list = field(default_factory=list)            # the #define expansion's
     defines: list = field(default_factory=list)     # (start, end) in expanded of each #define
 
+    def explaining(self) -> list:
+        """The macro warnings that explain errors at a macro's uses, said beside them: a
+        macro written with arguments, one that replaced a directive's word, text left
+        after a block replacement (which the file then reads as its own)."""
+        return [w for w in self.warnings
+                if w.code in ("macro-arguments", "macro-directive", "macro-tail")]
+
     def defined_below(self, name: str, used: int | None = None) -> str:
         """', a macro defined below, at L:C, ...' where `name`, undefined where it is
         read (at expanded offset `used`, if known), is a macro the file defines after
