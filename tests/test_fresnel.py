@@ -159,3 +159,22 @@ def test_nothing_passes_through_a_fractal_or_a_graftal(shell):
     [warning] = [w for w in pcsg.loads(glass).graph.warnings if w.code == "opaque"]
     assert "is traced to its first surface only" in warning.message
     assert not [w for w in pcsg.loads(opaque).graph.warnings if w.code == "opaque"]
+
+
+def test_the_reference_lets_nothing_through_a_glass_graftal_either(tmp_path):
+    # --reference drew a glass graftal as glass: its cut instances' volumes counted as solid
+    from PIL import Image
+    from pcsg.cli import main
+    src = tmp_path / "g.pcsg"
+    src.write_text("#material glass color=(1,1,1) transmit=0.9 ior=1.5 diffuse=0.1\n"
+                   "#camera eye=(0,-4,1.5) at=(0,0,0.3) fov=40\n#light at=(3,-5,6)\n"
+                   "material(glass) S ∪ paint(1,0,0) move(0,2,0) cube\n"
+                   "1: S → uscale(0.5) (move(1,0,0) S ∪ move(-1,0,0) S ∪ move(0,0,1.2) S)\n",
+                   encoding="utf-8")
+    pictures = []
+    for extra in ([], ["--reference"]):
+        out = tmp_path / f"g{len(extra)}.png"
+        assert main(["render", str(src), "--max-depth", "5", "--size", "40x30", "-q",
+                     "-o", str(out), *extra]) == 0
+        pictures.append(np.asarray(Image.open(out)).astype(int))
+    assert (np.abs(pictures[0] - pictures[1]).max(axis=2) > 8).sum() <= 3

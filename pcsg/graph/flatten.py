@@ -25,6 +25,7 @@ class Instance:
     # a cut graftal instance's volume is clipped by the volumes above it that it pokes out
     # of (graph/cut.py): (primitive, matrix) each
     clip: tuple = ()
+    volume: bool = False          # a cut graftal instance's volume: a surface, no solid
 
 
 def leaf_inverse(matrix: np.ndarray) -> np.ndarray | None:
@@ -97,6 +98,7 @@ def _clipped(cut: Cut | None, held: list) -> Iterator[Instance]:
     for inst, above in held:
         if above is not None:
             inst.clip = next(clips)
+            inst.volume = True
         yield inst
 
 

@@ -268,13 +268,5 @@ class _ReferenceTarget:
     def trace(self, origins, directions, tmin=1e-9, tmax=math.inf, any_hit=False, lod=0.0):
         r = self.ref.trace(origins, directions, tmin=tmin, tmax=tmax, exits=True)
         normal = np.where(r["hit"][:, None], r["normal"], 0.0)
-        return Hits(r["t"], normal, r["paint"], r["material"], r["hit"], what=what_was_hit(r))
+        return Hits(r["t"], normal, r["paint"], r["material"], r["hit"], what=r["what"])
 
-
-def what_was_hit(r) -> np.ndarray:
-    """The reference's hits as Hits.what: its primitives' kinds (trace.walk.HIT_SOLID ...)."""
-    from ..language.names import FLAT_PRIMITIVES, FRACTAL_PRIMITIVES
-    from ..trace.walk import HIT_SHEET, HIT_SHELL, HIT_SOLID
-    kind = {**{p: HIT_SHEET for p in FLAT_PRIMITIVES},
-            **{p: HIT_SHELL for p in FRACTAL_PRIMITIVES}}
-    return np.where(r["hit"], [kind.get(p, HIT_SOLID) for p in r["primitive"]], 0.0)

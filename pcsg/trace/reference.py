@@ -51,6 +51,7 @@ from ..graph.cut import Cut
 from ..graph.flatten import flatten, leaf_inverse
 from ..graph.model import DIFFERENCE, INTERSECTION, UNION, Graph
 from . import fractals, primitives
+from .walk import HIT_SHEET, HIT_SHELL, HIT_SOLID
 
 CLIP = " (clip)"     # the name's mark of a volume that clips a cut graftal instance
 LEAF = -1            # tree node kind of a primitive; operators use the graph's kinds
@@ -61,10 +62,14 @@ _CHUNK = 4096        # rays per batch (bounds the per-leaf arrays)
 class Leaf:
     """A primitive of the expanded tree."""
     __slots__ = ("code", "name", "matrix", "paint", "material", "inverse", "normal_matrix",
-                 "fractal")
+                 "fractal", "what")
 
-    def __init__(self, code, name, matrix, paint, material, args=()):
+    def __init__(self, code, name, matrix, paint, material, args=(), volume=False):
         self.code, self.name, self.matrix = code, name, matrix
+        # what a hit on it is, as the tracer's R_HIT (trace/walk.py): a graftal's volume
+        # and a fractal are shells, a triangle a sheet
+        self.what = (HIT_SHELL if volume or code >= primitives.FRACTAL_MIN else
+                     HIT_SHEET if code in primitives.FLAT else HIT_SOLID)
         self.fractal = None
         if code >= primitives.FRACTAL_MIN:
             self.fractal = np.array([fractals.fractal_row(name, args)])
@@ -135,11 +140,11 @@ class Reference:
                 for k, (name, matrix) in enumerate(inst.clip, 1):
                     op.children[k] = len(tree)
                     tree.append(Leaf(primitives.CODES[name], name + CLIP, matrix, paint,
-                                     material))
+                                     material, volume=True))
                 parent, slot = op.children, 0
             parent[slot] = len(tree)
             tree.append(Leaf(primitives.CODES[inst.primitive], inst.primitive, inst.matrix,
-                             paint, material, inst.args))
+                             paint, material, inst.args, inst.volume))
         return holder[0]
 
     @property
@@ -175,7 +180,8 @@ class Reference:
         res = {"hit": np.zeros(n, dtype=bool), "t": np.full(n, np.inf),
                "normal": np.full((n, 3), np.nan), "paint": np.full((n, 3), np.nan),
                "material": np.full(n, -1, dtype=np.int64),
-               "primitive": np.full(n, "", dtype=object), "tie": np.zeros(n, dtype=bool)}
+               "primitive": np.full(n, "", dtype=object), "tie": np.zeros(n, dtype=bool),
+               "what": np.zeros(n)}
         for a in range(0, n, _CHUNK):
             self._trace_chunk(O[a:a + _CHUNK], D[a:a + _CHUNK], float(tmin), float(tmax),
                               bool(exits), res, a)
@@ -252,6 +258,7 @@ class Reference:
                         res["paint"][j] = leaf.paint
                     res["material"][j] = leaf.material
                     res["primitive"][j] = leaf.name
+                    res["what"][j] = leaf.what
                     res["tie"][j] = _tie(leaf_hits, k, leaf, t0)
                     break
 
