@@ -1,5 +1,7 @@
 """Defaults and bounds of the walk's fixed-capacity buffers, in a module without numba
 so that the command line can name them in its help without loading the kernels."""
+import math
+import operator
 
 MAX_DEPTH = 64                  # derivation levels a ray may descend (--max-depth)
 DEEPEST_DEFAULT = 1_000         # without --max-depth, a derivation that ends (memoised) is
@@ -41,3 +43,31 @@ def bounces_problem(bounces: int) -> str | None:
     if not 0 <= bounces <= MAX_BOUNCES:
         return f"--bounces {bounces}: use 0 (off) to {MAX_BOUNCES}"
     return None
+
+
+def walk_limits_problem(max_depth, stack_depth, interval_rows, max_instances, bounds_budget,
+                        option=lambda name: "--" + name.replace("_", "-") + " ") -> str | None:
+    """The message for a limit of the walks out of range, naming it as `option` does (the
+    command line's `--max-depth N`; the Python API's `max_depth=N`)."""
+    checks = [("max_depth", max_depth, 1, 10_000, "1 to 10000", True),
+              ("stack_depth", stack_depth, 16, MAX_STACK_DEPTH, f"16 to {MAX_STACK_DEPTH}", True),
+              ("interval_rows", interval_rows, 16, MAX_INTERVAL_ROWS,
+               f"16 to {MAX_INTERVAL_ROWS}", False),
+              ("max_instances", max_instances, 1, 2 ** 62, "1 to 2^62", False),
+              ("bounds_budget", bounds_budget, 1, 2 ** 62, "1 to 2^62 node visits", False)]
+    for name, value, low, high, say, optional in checks:
+        if value is None and optional:
+            continue
+        if not low <= _whole(value) <= high:
+            return f"{option(name)}{value!r}: use {say}"
+    return None
+
+
+def _whole(value) -> float:
+    """A whole number as itself (1e9 too), anything else as nan, which no range holds."""
+    if isinstance(value, bool):
+        return math.nan
+    try:
+        return operator.index(value)
+    except TypeError:
+        return value if isinstance(value, float) and value.is_integer() else math.nan

@@ -2,6 +2,7 @@
 for Python users, and what the renderer builds on."""
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -20,7 +21,7 @@ from .trace.pad import pad_boxes
 from .trace.nodes import (EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
                           EV_SINGULAR, EV_STACK, EV_VISITS, N_EVENTS, add_events,
                           no_events)
-from .limits import BOUNDS_BUDGET, INTERVAL_ROWS, MAX_INSTANCES
+from .limits import BOUNDS_BUDGET, INTERVAL_ROWS, MAX_INSTANCES, walk_limits_problem
 from .trace.walk import R_HIT, R_MAT, R_N, R_PAINT, R_T, R_WIDTH
 
 BATCH = 1 << 16             # rays per kernel call: bounds the per-chunk event arrays
@@ -76,6 +77,11 @@ class Traced:
                  interval_rows: int = INTERVAL_ROWS, max_instances: int = MAX_INSTANCES,
                  bounds_budget: int = BOUNDS_BUDGET, average_normals: bool = True,
                  regrouped: bool = True, bounds_poll=None):
+        # the command line's checks (render/job.py), as a ValueError: max_instances=-1 made
+        # every ray a silent miss
+        if problem := walk_limits_problem(max_depth, stack_depth, interval_rows, max_instances,
+                                          bounds_budget, lambda name: f"{name}="):
+            raise ValueError(problem)
         # the same object with fewer frames per ray (graph/regroup.py), and where it is
         # bounded instance by instance its runs of maps written out as one (graph/fuse.py);
         # False traces the graph as written, for comparisons
@@ -134,6 +140,12 @@ class Traced:
         found (shadow rays). With `packets`, neighbouring rays walk the graph together
         (trace/packet.py): the same hits, but on a surface that two primitives share
         exactly, either may show. Misses have t = inf and hit False."""
+        for name, value in (("tmin", tmin), ("tmax", tmax), ("lod", lod)):
+            # nan made every ray miss, a negative lod was 0
+            if not isinstance(value, numbers.Real) or isinstance(value, bool) or value != value \
+                    or (name == "lod" and not 0 <= value < np.inf):
+                raise ValueError(f"{name}={value!r}: give a number" +
+                                 (" from 0 (no level of detail)" if name == "lod" else ""))
         o, d = _rays(origins, "origins"), _rays(directions, "directions")
         if o.shape != d.shape:
             raise ValueError(f"origins {o.shape} and directions {d.shape} differ")
@@ -219,18 +231,35 @@ class Traced:
 
 def load(path: str | Path, max_depth: int | None = None, stack_depth: int | None = None,
          interval_rows: int = INTERVAL_ROWS, max_instances: int = MAX_INSTANCES,
-         bounds_budget: int = BOUNDS_BUDGET, **overrides: float) -> Traced:
+         bounds_budget: int = BOUNDS_BUDGET, params: dict | None = None,
+         **overrides: float) -> Traced:
     """Compile a .pcsg file (raising PcsgError on errors) and prepare it for tracing.
-    Keyword arguments override initial parameters, like --set; the others are the
+    Keyword arguments override initial parameters, like --set (`params`, a dict, too: for
+    parameters named like an argument here, `file` or `max_depth`); the others are the
     render options of the same names (max_depth None: as --max-depth's default)."""
-    return Traced(compile_file(path, overrides), max_depth, stack_depth, interval_rows,
-                  max_instances, bounds_budget)
+    if not isinstance(path, (str, Path)):
+        raise TypeError(f"load takes a .pcsg file's path, got {type(path).__name__}")
+    return Traced(compile_file(path, _parameters(params, overrides)), max_depth, stack_depth,
+                  interval_rows, max_instances, bounds_budget)
 
 
 def loads(text: str, file: str = "<string>", max_depth: int | None = None,
           stack_depth: int | None = None, interval_rows: int = INTERVAL_ROWS,
           max_instances: int = MAX_INSTANCES, bounds_budget: int = BOUNDS_BUDGET,
-          **overrides: float) -> Traced:
+          params: dict | None = None, **overrides: float) -> Traced:
     """`load` for PCSG text; `file` names it in error messages."""
-    return Traced(compile_text(text, file, overrides), max_depth, stack_depth, interval_rows,
-                  max_instances, bounds_budget)
+    if not isinstance(text, str):
+        raise TypeError(f"loads takes a grammar's text as str, got {type(text).__name__}"
+                        + (" (decode it first)" if isinstance(text, bytes) else ""))
+    return Traced(compile_text(text, str(file), _parameters(params, overrides)), max_depth,
+                  stack_depth, interval_rows, max_instances, bounds_budget)
+
+
+def _parameters(params: dict | None, overrides: dict) -> dict[str, float]:
+    """The initial parameters given, as numbers: `c="abc"` failed inside with "could not
+    convert string to float", and `c="3"` was taken."""
+    given = {**(params or {}), **overrides}
+    for name, value in given.items():
+        if isinstance(value, (bool, str, bytes)) or not isinstance(value, numbers.Real):
+            raise TypeError(f"parameter {name}={value!r}: give a number")
+    return {name: float(value) for name, value in given.items()}

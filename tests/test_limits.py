@@ -9,7 +9,7 @@ import pcsg
 from pcsg.cli import main
 from pcsg.graph import bounds
 from pcsg.trace.nodes import EV_INTERVALS, EV_STACK, EV_VISITS
-from tests.conftest import SIERPINSKI
+from tests.conftest import GRAMMARS, SIERPINSKI
 
 ROW = """// a row of spheres along x, built by recursion
 { n = 40 } ROW
@@ -194,3 +194,23 @@ def test_event_counts_are_said_as_ray_visits(tmp_path):
     assert line.startswith("depth limit: instances at --max-depth 1 were finished with their "
                            "terminating rule ('S' at ")
     assert "depth up to" not in line and line.endswith("raise --max-depth to refine further")
+
+
+@pytest.mark.parametrize("option", [dict(max_instances=-1), dict(max_instances=0),
+                                    dict(max_depth=-1), dict(stack_depth=0),
+                                    dict(interval_rows=-1), dict(bounds_budget=0),
+                                    dict(max_depth="3")])
+def test_the_api_refuses_the_limits_the_command_line_refuses(option):
+    # max_instances=-1 made every ray a silent miss; stack_depth=0 meant the default
+    with pytest.raises(ValueError, match=f"^{next(iter(option))}="):
+        pcsg.loads("sphere", **option)
+    assert pcsg.loads("sphere", bounds_budget=1e9).bounds_method == "memoised"
+
+
+def test_a_budget_too_small_to_bound_anything_is_said():
+    # the terrain at --bounds-budget 100: no box at all, minutes of render, and no word
+    obj = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=6, bounds_budget=100)
+    assert obj.bounds_method == "unbounded"
+    assert [w.code for w in obj.warnings] == ["unbounded"]
+    assert "--bounds-budget 100 node visits" in obj.warnings[0].message
+    assert not pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=6).warnings

@@ -572,7 +572,15 @@ def bound(graph: Graph, max_depth: int | None = MAX_DEPTH, budget: int = BOUNDS_
     fill_boxes(boxes, skipped)
     problems += fault_warnings(graph, walked, [(k, c, n) for k, (c, n) in enumerate(found[0])
                                                if c], counted=True)
-    if depth < max_depth:
+    if not complete and not any(p.code == "non-contracting" for p in problems):
+        # no box at all: every ray walks every instance it meets, thousands of times slower
+        # (the terrain at --bounds-budget 100 ran for minutes, and said nothing)
+        problems.append(Diagnostic(
+            "warning", f"the instances are too many to bound within --bounds-budget "
+            f"{budget:,} node visits even a few levels deep: nothing is bounded, so every ray "
+            f"walks all the instances it meets (slow); a larger budget bounds them", None,
+            graph.source, code="unbounded"))
+    elif depth < max_depth:
         problems.append(Diagnostic(
             "warning", f"the instances below derivation depth {depth} are too many to bound "
             f"one by one; refinement stops there, as with --max-depth {depth}: deeper "

@@ -16,9 +16,8 @@ from ..graph import boxcache
 from ..trace.nodes import (EV_INTERVALS, EV_NONFINITE, EV_SELECTION, EV_SINGULAR, EV_STACK,
                            EV_VISITS, no_events)
 from ..scene import MAX_AO_SAMPLES
-from ..limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES,
-                      MAX_INTERVAL_ROWS, MAX_STACK_DEPTH, bounces_problem,
-                      shadow_samples_problem, size_problem)
+from ..limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, bounces_problem,
+                      shadow_samples_problem, size_problem, walk_limits_problem)
 from ..memory import freeing_blocks
 from ..timings import Timings
 from ..tracer import Hits, Traced
@@ -88,16 +87,9 @@ def check_options(o: Options) -> str | None:
         return f"--ao {o.ao}: use 0 (off) to {MAX_AO_SAMPLES} rays"
     if o.ao_distance is not None and not 0 < o.ao_distance < math.inf:
         return f"--ao-distance {o.ao_distance}: give a positive distance"
-    if o.max_depth is not None and not 1 <= o.max_depth <= 10_000:
-        return f"--max-depth {o.max_depth}: use 1 to 10000"
-    if o.stack_depth is not None and not 16 <= o.stack_depth <= MAX_STACK_DEPTH:
-        return f"--stack-depth {o.stack_depth}: use 16 to {MAX_STACK_DEPTH}"
-    if not 16 <= o.interval_rows <= MAX_INTERVAL_ROWS:
-        return f"--interval-rows {o.interval_rows}: use 16 to {MAX_INTERVAL_ROWS}"
-    if not 1 <= o.max_instances <= 2 ** 62:
-        return f"--max-instances {o.max_instances}: use 1 to 2^62"
-    if not 1 <= o.bounds_budget <= 2 ** 62:
-        return f"--bounds-budget {o.bounds_budget}: use 1 to 2^62 node visits"
+    if problem := walk_limits_problem(o.max_depth, o.stack_depth, o.interval_rows,
+                                      o.max_instances, o.bounds_budget):
+        return problem
     if o.light is not None and not all(math.isfinite(v) for v in o.light):
         point = ",".join(f"{v:g}" for v in o.light)
         return f"--light {point}: give a point with finite coordinates"

@@ -1,0 +1,41 @@
+"""The Python API's arguments: what a program embedding pcsg gets for wrong ones (clear
+exceptions, not a silent miss or a message from deep inside), and parameters named like
+an argument of load/loads."""
+import numpy as np
+import pytest
+
+import pcsg
+
+
+@pytest.mark.parametrize("option", [dict(tmin=float("nan")), dict(tmax=float("nan")),
+                                    dict(lod=-1.0), dict(lod=float("nan")), dict(tmin="1")])
+def test_trace_refuses_bounds_and_footprints_that_are_no_numbers(option):
+    # tmin or tmax nan made every ray miss; a negative lod was taken as 0
+    obj = pcsg.loads("sphere")
+    with pytest.raises(ValueError, match=f"^{next(iter(option))}="):
+        obj.trace([0, 0, -5], [0, 0, 1], **option)
+    assert obj.trace([0, 0, -5], [0, 0, 1], tmin=np.float32(0.5), lod=np.float64(1e-3)).t == 4
+
+
+@pytest.mark.parametrize("text, said", [(b"sphere", "got bytes (decode it first)"),
+                                        (None, "got NoneType")])
+def test_loads_takes_text(text, said):
+    with pytest.raises(TypeError) as e:
+        pcsg.loads(text)
+    assert str(e.value).endswith(said)
+
+
+@pytest.mark.parametrize("value", ["abc", "3", True, None, [1]])
+def test_a_parameter_is_a_number(value):
+    # "could not convert string to float", without the parameter's name; "3" was taken
+    with pytest.raises(TypeError) as e:
+        pcsg.loads("{c = 1} uscale(c) sphere", c=value)
+    assert str(e.value) == f"parameter c={value!r}: give a number"
+
+
+def test_parameters_named_like_an_argument_go_in_params():
+    # file=3 named the text in messages, max_depth=4 was the walk's depth
+    obj = pcsg.loads("{file = 1; max_depth = 2} move(file, max_depth, 0) sphere",
+                     params={"file": 3, "max_depth": 4})
+    np.testing.assert_allclose(obj.bounds, [2, 3, -1, 4, 5, 1])
+    assert pcsg.loads("{c = 1} uscale(c) sphere", params={"c": 2}, c=3).bounds[3] == 3
