@@ -402,3 +402,15 @@ def test_rays_of_another_shape_are_refused(shape):
     hits = obj.trace([0, 0, 5], [0, 0, -1])
     assert obj.trace([], []).t.shape == (0,)                      # no rays
     assert hits == hits and hits != obj.trace([0, 0, 5], [0, 0, -1])   # identity, not arrays
+
+
+@pytest.mark.parametrize("text, origin, want", [
+    ("scale(1e155, 1, 1) sphere", (0, 0.5, -5), (0, 0.5, -0.75 ** 0.5)),
+    ("scale(1e200, 1e-200, 1) sphere", (0, 0, -5), (0, 0, -1)),
+    ("scale(1e-160, 1e-160, 1) sphere", (0, 0, -5), (0, 0, -1)),
+])
+def test_normals_of_extreme_maps_are_unit_vectors(text, origin, want):
+    # the cofactors' squares overflowed (a normal of zeros, or nan) or underflowed
+    hits = pcsg.loads(text).trace(origin, (0, 0, 1))
+    assert hits.hit[0]
+    np.testing.assert_allclose(hits.normal[0], want, atol=1e-12)

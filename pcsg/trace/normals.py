@@ -64,6 +64,14 @@ def unit_world_normal(F, f, nx, ny, nz):
     y = s * (c10 * nx + c11 * ny + c12 * nz)
     z = s * (c20 * nx + c21 * ny + c22 * nz)
     length = math.sqrt(x * x + y * y + z * z)
+    if not 1e-150 < length < 1e150:
+        # the squares of the vector over- or underflow (scale(1e155, 1, 1) gave a normal
+        # of zeros, scale(1e-160, 1e-160, 1) one of nan): its largest component is 1 after
+        # this. (A map whose determinant overflows empties its instance: graph/bounds.py)
+        a = max(abs(x), abs(y), abs(z))
+        if 0.0 < a < np.inf:
+            x, y, z = x / a, y / a, z / a
+            length = math.sqrt(x * x + y * y + z * z)
     if length > 0.0:
         x /= length
         y /= length
