@@ -10,6 +10,7 @@ import importlib
 import importlib.util
 import json
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -378,10 +379,14 @@ def _outputs(files: list[str], output: str | None) -> list[Path]:
     return [out]
 
 
+_STANDARD = re.compile(r"/(dev/(stdout|stderr|fd/[0-9]+)|proc/self/fd/[0-9]+)")
+
+
 def _device(path: Path) -> bool:
     """A pipe, a terminal or /dev/stdout: written into, whatever its name (/dev/stdout
-    redirected to a file is that file, and still written into)."""
-    if str(path).startswith(("/dev/", "/proc/self/fd/")):
+    redirected to a file is that file, and still written into; not any path under /dev/,
+    where /dev/shm/other.pcsg is a grammar)."""
+    if _STANDARD.fullmatch(str(path)):
         return True
     try:
         return path.exists() and not path.is_file() and not path.is_dir()

@@ -58,16 +58,23 @@ def walk_limits_problem(max_depth, stack_depth, interval_rows, max_instances, bo
     for name, value, low, high, say, optional in checks:
         if value is None and optional:
             continue
-        if not low <= _whole(value) <= high:
-            return f"{option(name)}{value!r}: use {say}"
+        whole = _whole(value)
+        if not low <= whole <= high:
+            return f"{option(name)}{value!r}: use {'a whole number, ' if whole != whole else ''}{say}"
     return None
 
 
 def _whole(value) -> float:
-    """A whole number as itself (1e9 too), anything else as nan, which no range holds."""
-    if isinstance(value, bool):
+    """A whole number as itself (1e9 and numpy's float32(10) too), anything else as nan,
+    which no range holds."""
+    if isinstance(value, (bool, str, bytes)):
         return math.nan
     try:
         return operator.index(value)
     except TypeError:
-        return value if isinstance(value, float) and value.is_integer() else math.nan
+        pass
+    try:
+        number = float(value)
+    except (TypeError, ValueError, OverflowError):
+        return math.nan
+    return number if number.is_integer() else math.nan

@@ -2,7 +2,7 @@
 for Python users, and what the renderer builds on."""
 from __future__ import annotations
 
-import numbers
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -142,8 +142,8 @@ class Traced:
         exactly, either may show. Misses have t = inf and hit False."""
         for name, value in (("tmin", tmin), ("tmax", tmax), ("lod", lod)):
             # nan made every ray miss, a negative lod was 0
-            if not isinstance(value, numbers.Real) or isinstance(value, bool) or value != value \
-                    or (name == "lod" and not 0 <= value < np.inf):
+            number = _number(value)
+            if number is None or number != number or (name == "lod" and not 0 <= number < np.inf):
                 raise ValueError(f"{name}={value!r}: give a number" +
                                  (" from 0 (no level of detail)" if name == "lod" else ""))
         o, d = _rays(origins, "origins"), _rays(directions, "directions")
@@ -259,7 +259,26 @@ def _parameters(params: dict | None, overrides: dict) -> dict[str, float]:
     """The initial parameters given, as numbers: `c="abc"` failed inside with "could not
     convert string to float", and `c="3"` was taken."""
     given = {**(params or {}), **overrides}
+    out = {}
     for name, value in given.items():
-        if isinstance(value, (bool, str, bytes)) or not isinstance(value, numbers.Real):
+        number = _number(value)
+        if number is None:
             raise TypeError(f"parameter {name}={value!r}: give a number")
-    return {name: float(value) for name, value in given.items()}
+        if number != number and value == value:
+            raise ValueError(f"parameter {name}={value!r}: too large for a float")
+        out[name] = number
+    return out
+
+
+def _number(value) -> float | None:
+    """A real number (numpy's scalars and 0-d arrays too) as a float, nan for one too
+    large for a float; None for anything else (a string, a bool)."""
+    if isinstance(value, (bool, str, bytes, np.bool_)) or np.ndim(value) != 0 or \
+            np.iscomplexobj(value):
+        return None
+    try:
+        return float(value)
+    except OverflowError:
+        return math.nan
+    except (TypeError, ValueError):
+        return None

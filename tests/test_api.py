@@ -39,3 +39,18 @@ def test_parameters_named_like_an_argument_go_in_params():
                      params={"file": 3, "max_depth": 4})
     np.testing.assert_allclose(obj.bounds, [2, 3, -1, 4, 5, 1])
     assert pcsg.loads("{c = 1} uscale(c) sphere", params={"c": 2}, c=3).bounds[3] == 3
+
+
+@pytest.mark.parametrize("value, want", [(np.array(2.0), 2), (np.float32(2), 2), (2, 2)])
+def test_numpy_numbers_are_numbers(value, want):
+    assert pcsg.loads("{c = 1} uscale(c) sphere", c=value).bounds[3] == want
+    assert pcsg.loads("sphere", max_depth=np.float32(10)).max_depth == 10
+
+
+def test_what_cannot_be_a_float_is_said():
+    with pytest.raises(ValueError, match="too large for a float"):
+        pcsg.loads("{c = 1} uscale(c) sphere", c=10 ** 400)
+    with pytest.raises(TypeError, match="give a number"):
+        pcsg.loads("{c = 1} uscale(c) sphere", c=1 + 2j)
+    with pytest.raises(ValueError, match="use a whole number, 1 to 10000"):
+        pcsg.loads("sphere", max_depth=10.5)

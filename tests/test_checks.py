@@ -154,6 +154,13 @@ class TestTermination:
                                  "2: H → move(1, 0, 0) H ∪ rotz(90) H\n", "h.pcsg")
             [w] = [p for p in bound(graph)[2] if p.code == "non-contracting"]
             assert w.message.startswith("'H' calls itself without end")
+        # the one whose own maps do not contract, not one above it that grows with it
+        for both in ("A\n1: A → cube ∪ uscale(0.3) S ∪ uscale(0.5) move(2, 0, 0) A\n"
+                     "1: S → move(1, 0, 0) S ∪ uscale(0.5) S\n",
+                     "S ∪ A\n1: S → move(1, 0, 0) S ∪ uscale(0.5) S\n"
+                     "1: A → cube ∪ uscale(0.3) S ∪ uscale(0.5) move(2, 0, 0) A\n"):
+            [w] = derivation_faults(compile_text(both, "g.pcsg"))[1]
+            assert w.message.startswith("'S' is a graftal")
         # rotz(90) scale(1.5, 0.5, 0.5) stretches x into y, and contracts over two cycles:
         # its attractor, a line on the z axis, is bounded (the growth of its box was not)
         graph = compile_text(text.replace("move(1, 0, 0)", "rotz(90) scale(1.5, 0.5, 0.5)"),

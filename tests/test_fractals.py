@@ -227,3 +227,23 @@ def test_the_fractals_names_may_name_modules_named_expressions_and_parameters(te
     graph = compile_text(text, "f.pcsg")
     drawn = [n.name for n in graph.nodes if n.kind == PRIMITIVE]
     assert sorted(drawn) in (["julia", "sphere"], ["mandelbulb", "sphere"]) and not graph.warnings
+
+
+@pytest.mark.parametrize("text", [
+    # a parameter assigned on a line of its own in a block, and a named expression in a
+    # comment, took the fractal's name from the file (a valid file refused)
+    "{julia = 3} S ∪ move(4, 0, 0) julia(-0.2, 0.6, 0.2, 0)\nS if(julia > 0, 2, 1)\n"
+    "1: S → cube\n2: S → {\n  julia = julia - 1\n} uscale(0.5) S\n",
+    "/*\njulia = sphere\n*/\njulia(0.1, 0.2, 0.3, 0.4)\n",
+    "cube ∪ (julia // the set\n (0.1, 0.2, 0.3, 0.4))\n",
+])
+def test_the_fractal_stays_where_the_file_takes_its_name_for_no_module(text):
+    graph = compile_text(text, "f.pcsg")
+    assert [n.name for n in graph.nodes if n.kind == PRIMITIVE and n.name == "julia"]
+
+
+def test_the_file_s_own_julia_called_with_arguments_is_said_so():
+    # at a statement's start too ("unexpected ','" was said)
+    with pytest.raises(PcsgError) as e:
+        compile_text("julia = sphere\njulia(1, 2, 3, 4)\n", "f.pcsg")
+    assert "'julia' is this file's own module or named expression" in str(e.value)

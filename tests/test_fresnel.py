@@ -178,3 +178,18 @@ def test_the_reference_lets_nothing_through_a_glass_graftal_either(tmp_path):
                      "-o", str(out), *extra]) == 0
         pictures.append(np.asarray(Image.open(out)).astype(int))
     assert (np.abs(pictures[0] - pictures[1]).max(axis=2) > 8).sum() <= 3
+
+
+@pytest.mark.parametrize("axiom, what", [("S", 3), ("S ∩ uscale(10) cube", 1),
+                                         ("S \\ move(20, 0, 0) cube", 1)])
+def test_the_reference_says_what_the_tracer_hit(axiom, what):
+    # under ∩ or \ the tracer takes a graftal's volume from interval lists, a solid's
+    # ends: the reference said shell there, and drew a glass graftal otherwise
+    from pcsg.graph.cut import cut_of
+    from pcsg.trace.reference import Reference
+    obj = pcsg.loads(axiom + "\n1: S → uscale(0.5) (move(1, 1, 1) S ∪ move(-1, -1, 1) S ∪ "
+                     "move(1, -1, -1) S ∪ move(-1, 1, -1) S)\n", max_depth=2)
+    o, d = np.array([[0.1, 0.2, -5.0]]), np.array([[0.0, 0.0, 1.0]])
+    hits = obj.trace(o, d)
+    ref = Reference(obj.graph, cut=cut_of(obj)).trace(o, d, exits=True)
+    assert hits.what[0] == ref["what"][0] == what and hits.t[0] == ref["t"][0]

@@ -6,6 +6,7 @@ import sys
 import time
 
 import numpy as np
+import pytest
 from PIL import Image
 
 from pcsg.cli import main
@@ -338,3 +339,17 @@ def test_the_default_camera_frames_the_derived_object_as_its_expansion_does():
     expanded = loads(expand_file(system.graph, 3))
     a, b = make_camera(system, 4 / 3), make_camera(expanded, 4 / 3)
     assert np.allclose(a.eye, b.eye) and np.allclose(a.at, b.at)
+
+
+@pytest.mark.parametrize("text", [
+    # a plane under ∩ is no ground: the slab of the cube is the object, not the sphere
+    "((plane ∪ sphere) ∩ uscale(20) cube) ∪ move(0, -5, 0) plane\n",
+    # planes at every level: no finite part but the point they gather at
+    "S\n1: S → plane ∪ move(1, 0, 0) uscale(0.5) S\n",
+])
+def test_the_default_camera_does_not_frame_what_dropping_planes_made_up(text):
+    from pcsg.graph.bounds import finite_root
+    system = loads(text)
+    assert finite_root(system.graph) is None
+    box = finite_bounds(system)
+    assert np.all(box[3:] - box[:3] >= 2)

@@ -1,5 +1,7 @@
 """Diagnostics that say what the mistake most likely was: 'did you mean', the bracket
 left open, a warning in the user's terms, and what `check` says that only render said."""
+import os
+
 import pytest
 
 from pcsg.cli import main
@@ -328,3 +330,20 @@ def test_an_output_link_to_a_file_not_named_png_is_refused_and_dev_stdout_is_wri
     with Image.open(tmp_path / "out.png") as image:
         image.load()
         assert image.size == (32, 24)
+
+
+def test_an_output_under_dev_is_no_device_by_its_name(capsys, tmp_path):
+    # /dev/shm/other.pcsg, a grammar, was written over as "/dev/" things are
+    from pathlib import Path
+    from .conftest import GRAMMARS
+    shm = Path("/dev/shm")
+    if not shm.is_dir():
+        pytest.skip("no /dev/shm")
+    other = shm / f"pcsg-test-{os.getpid()}.pcsg"
+    other.write_text("sphere\n", encoding="utf-8")
+    try:
+        assert main(["render", str(GRAMMARS / "sierpinski.pcsg"), "-o", str(other)]) == 2
+        assert other.read_text(encoding="utf-8") == "sphere\n"
+    finally:
+        other.unlink()
+    capsys.readouterr()

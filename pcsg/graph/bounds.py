@@ -62,8 +62,13 @@ def not_contracting(graph: Graph, found: DoesNotContract) -> list[Diagnostic]:
     """The warning for states bound() found DoesNotContract: without bounds the tracer
     can neither cull them nor refine them to pixel size (every ray that meets them
     entered --max-instances instances and drew nothing)."""
+    from .checks import reachable
     from .volumes import graftal_nodes
-    i = found.nodes[0]
+    # the one that grows of itself: a state above it grows with it (A → uscale(0.3) S,
+    # where S's own maps do not contract, named A where A came first)
+    sinks = [i for i in found.nodes
+             if not any(reachable(graph, i)[j] for j in found.nodes if j != i)]
+    i = (sinks or found.nodes)[0]
     s = graph.nodes[i]
     what = ("is a graftal (no rule of it ends)" if i in graftal_nodes(graph) else
             "calls itself without end (with the same parameters)")
@@ -367,14 +372,27 @@ def finite_root(graph: Graph) -> np.ndarray | None:
     """The box of what the axiom derives, without the unbounded operands of its unions (a
     ground plane): the object's own box, which a module's hyper box below the axiom's
     block is not (it holds every instance of the module). None where the memoised walk
-    cannot bound the system (too many states) or nothing finite is left."""
+    cannot bound the system (too many states), where an unbounded operand stands under ∩
+    or \\ (`(plane ∪ sphere) ∩ cube` is the cube's slab, not the sphere), or where no
+    finite part is left but a point (planes at every level of a graftal)."""
+    from .checks import reachable
+    for i, n in enumerate(graph.nodes):
+        if n.kind in (INTERSECTION, DIFFERENCE):
+            below = reachable(graph, i)
+            if any(below[j] and m.kind == PRIMITIVE and not np.isfinite(
+                    object_box(m.name, graph.constant_args(j))).all()
+                   for j, m in enumerate(graph.nodes)):
+                return None
     try:
         with recursion_limit(20 * MAX_LEVELS):
             (boxes, _, _), _, _ = _memoised_walk(graph, None, False, _FiniteWalker)
     except (TooManyStates, PcsgError):
         return None
     box = boxes[graph.root]
-    return box if np.isfinite(box).all() and box[0] <= box[3] else None
+    if not (np.isfinite(box).all() and box[0] <= box[3]) or \
+            np.all(box[3:] - box[:3] <= 1e-9 * (1 + np.abs(box).max())):
+        return None
+    return box
 
 
 def _attractor_boxes(w: _Walker, round_) -> tuple[np.ndarray, dict]:

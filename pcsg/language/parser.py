@@ -363,10 +363,11 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner,
     word = _word_before(text, tok.start_pos)
     if tok.value == "/" and text.startswith("/*", tok.start_pos):
         msg = "comment opened with '/*' is never closed"
-    elif tok.type == "LPAR" and word and word[0] in joiner.owned:
-        msg = (f"'{word[0]}' is this file's own module or named expression, which takes no "
-               f"arguments: where a file defines '{word[0]}', the fractal of that name is "
+    elif owned := _owned_call(text, tok.end_pos, joiner.owned):
+        msg = (f"'{owned[0]}' is this file's own module or named expression, which takes no "
+               f"arguments: where a file defines '{owned[0]}', the fractal of that name is "
                f"not available")
+        span = owned[1]
     elif tok.type in _RESERVED_TOKENS and ("NAME" in expected or _next_is_eq(text, tok)):
         msg = f"'{tok.value}' is a reserved name ({_RESERVED_TOKENS[tok.type]})"
     elif tok.type == "EQUAL" and word and word[0] in RESERVED and word[0] not in FREE:
@@ -409,6 +410,19 @@ def _macro_below(source: Source, tok: Token, word) -> str:
         if said := source.defined_below(name, at):
             return f" ('{name}': {said[2:-1]})"
     return ""
+
+
+def _owned_call(text: str, pos: int, owned: frozenset):
+    """(name, span) of a fractal's name the file owns (postlex.owned_names) written before
+    its arguments on the line of the error, up to `pos`; None if none."""
+    if not owned:
+        return None
+    line = text.rfind("\n", 0, pos) + 1
+    found = None
+    for m in re.finditer(r"\b(mandelbulb|julia)[ \t]*\(", text[line:pos]):
+        if m.group(1) in owned:
+            found = m.group(1), (line + m.start(1), line + m.end(1))
+    return found
 
 
 def _in_block(joiner: LineJoiner) -> bool:

@@ -16,14 +16,22 @@ JOINERS = {"UNION", "INTER", "DIFF", "ARROW", "EQUAL",
            "OR", "AND", "CMP", "PLUS", "MINUS", "STAR", "SLASH", "PERCENT", "CARET",
            "BANG", "NOT"}
 OPENERS = {"LPAR": ")", "LBRACE": "}"}
+CLOSERS = {"RPAR", "RBRACE"}
 # a fractal's name that heads a rule or a named expression: the file's own
 _OWNED = re.compile(r"^[ \t]*(?:[0-9]+[ \t]*:[ \t]*(mandelbulb|julia)[ \t]*(?:→|->)"
                     r"|(mandelbulb|julia)[ \t]*=(?!=))", re.M)
+# what no statement's head stands in: comments, and calculation blocks (whose lines are
+# assignments to parameters, which may take the names too)
+_NOT_HEADS = re.compile(r"/\*.*?(?:\*/|\Z)|//[^\n]*|\{[^{}]*\}", re.S)
 
 
 def owned_names(text: str) -> frozenset:
-    return frozenset(m.group(1) or m.group(2) for m in _OWNED.finditer(text))
-CLOSERS = {"RPAR", "RBRACE"}
+    """The fractals' names that the file's rules or named expressions take."""
+    blank = lambda m: re.sub(r"[^\n]", " ", m.group())     # noqa: E731 (lines stay put)
+    heads, before = text, None
+    while heads != before:          # nested blocks, innermost first
+        before, heads = heads, _NOT_HEADS.sub(blank, heads)
+    return frozenset(m.group(1) or m.group(2) for m in _OWNED.finditer(heads))
 
 
 class LineJoiner:

@@ -229,9 +229,10 @@ def animate(anim: Animation) -> int:
     if problem := make_directory(anim.out_dir):
         raise BadAnimation(f"-o {anim.out_dir}: {problem}")
     manifest = Manifest(anim.out_dir)
-    for name in manifest.forget_others({j.png.name for j in jobs}):
-        # frames of a longer earlier run, and the GIF of an earlier run (written again
-        # below where this run has one too)
+    gif = {f"{anim.source.stem}.gif"} if anim.gif else set()
+    for name in manifest.forget_others({j.png.name for j in jobs} | gif):
+        # frames of a longer earlier run, and the GIF of an earlier run where this one
+        # writes none (kept till it is written again: a frame may fail)
         (anim.out_dir / name).unlink(missing_ok=True)
     todo = [j for j in jobs if anim.force or not manifest.complete(j.png, j.key)]
     workers = max(1, min(anim.jobs or cores(), len(todo)))

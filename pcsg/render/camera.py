@@ -138,10 +138,11 @@ def make_camera(traced, aspect: float, eye=None, at=None, up=None, fov=None) -> 
     file = traced.graph.scene.camera
     up = np.asarray(up if up is not None else file.get("up", DEFAULT_UP), float)
     fov = float(fov if fov is not None else file.get("fov", DEFAULT_FOV))
-    box = finite_bounds(traced)
-    centre = (box[:3] + box[3:]) / 2
-    at = np.asarray(at if at is not None else file.get("at", centre), float)
+    at = at if at is not None else file.get("at")
     eye = eye if eye is not None else file.get("eye")
+    # only where the view is not given: finite_bounds may walk the system once more
+    box = finite_bounds(traced) if at is None or eye is None else None
+    at = np.asarray(at if at is not None else (box[:3] + box[3:]) / 2, float)
     if eye is None:
         with np.errstate(over="ignore", invalid="ignore"):     # a box too large: below
             radius = max(np.linalg.norm(box[3:] - box[:3]) / 2, 1e-9)

@@ -80,8 +80,10 @@ def make_lighting(traced, camera, shadows=True, shadow_samples=8, max_bounces=3,
     occ = scene.occlusion
     ao = int(occ.get("samples", 0)) if ao is None else ao
     if ao_distance is None:
-        box = finite_bounds(traced)
-        ao_distance = occ.get("distance", AO_DISTANCE * float(np.linalg.norm(box[3:] - box[:3])))
+        ao_distance = occ.get("distance")
+    if ao_distance is None:     # the object's size, where occlusion is on without a distance
+        box = finite_bounds(traced) if ao > 0 else np.zeros(6)
+        ao_distance = AO_DISTANCE * float(np.linalg.norm(box[3:] - box[:3]))
     return Lighting(lights, horizon, zenith, mats, shadows, max(1, shadow_samples), max_bounces,
                     ao, float(ao_distance))
 

@@ -133,6 +133,10 @@ class Reference:
                 parent, slot = op.children, k
             material = graph.material_names.index(inst.material) if inst.material else -1
             paint = None if inst.paint is None else tuple(float(v) for v in inst.paint)
+            # under ∩ or \ the tracer takes every surface from interval lists, solids' ends
+            # (walk.py: HIT_SOLID there), a graftal's volume too
+            shell = inst.volume and not any(graph.nodes[node].kind in (INTERSECTION, DIFFERENCE)
+                                            for node, _ in inst.path)
             if inst.clip:           # a cut graftal instance: its volume ∩ those that clip it
                 op = Op(INTERSECTION, 1 + len(inst.clip))
                 parent[slot] = len(tree)
@@ -140,11 +144,11 @@ class Reference:
                 for k, (name, matrix) in enumerate(inst.clip, 1):
                     op.children[k] = len(tree)
                     tree.append(Leaf(primitives.CODES[name], name + CLIP, matrix, paint,
-                                     material, volume=True))
+                                     material, volume=shell))
                 parent, slot = op.children, 0
             parent[slot] = len(tree)
             tree.append(Leaf(primitives.CODES[inst.primitive], inst.primitive, inst.matrix,
-                             paint, material, inst.args, inst.volume))
+                             paint, material, inst.args, shell))
         return holder[0]
 
     @property
