@@ -159,6 +159,10 @@ def test_nothing_passes_through_a_fractal_or_a_graftal(shell):
     [warning] = [w for w in pcsg.loads(glass).graph.warnings if w.code == "opaque"]
     assert "is traced to its first surface only" in warning.message
     assert not [w for w in pcsg.loads(opaque).graph.warnings if w.code == "opaque"]
+    # under ∩ the graftal's volume is a solid's interval, which lets light through
+    cut = glass.replace(f"material(glass) {shell}", f"material(glass) ({shell} ∩ uscale(9) cube)")
+    assert shell == "julia(0, 0, 0, 0)" or not [
+        w for w in pcsg.loads(cut).graph.warnings if w.code == "opaque"]
 
 
 def test_the_reference_lets_nothing_through_a_glass_graftal_either(tmp_path):

@@ -311,7 +311,8 @@ def flat_under_solid_operators(graph: Graph) -> list[Diagnostic]:
 def glass_on_shells(graph: Graph) -> list[Diagnostic]:
     """A material that lets light through (transmit > 0) on a fractal or a graftal: both
     are traced to their first surface only, so nothing passes through them and they are
-    drawn opaque (trace/walk.py, HIT_SHELL). A material below it decides for what is below."""
+    drawn opaque (trace/walk.py, HIT_SHELL). A material below it decides for what is below;
+    under ∩ or \\ a graftal's volume is a solid's interval, and lets light through."""
     from .volumes import graftal_nodes
     nodes = graph.nodes
     graftals = set(graftal_nodes(graph))
@@ -325,7 +326,7 @@ def glass_on_shells(graph: Graph) -> list[Diagnostic]:
             if (nodes[j].kind == PRIMITIVE and nodes[j].name in FRACTAL_PRIMITIVES) or \
                     j in graftals:
                 found = j
-            elif nodes[j].kind != MATERIAL:
+            elif nodes[j].kind not in (MATERIAL, INTERSECTION, DIFFERENCE):
                 for c in nodes[j].children:
                     if c not in seen:
                         seen.add(c)
