@@ -67,14 +67,23 @@ def walk_limits_problem(max_depth, stack_depth, interval_rows, max_instances, bo
 def _whole(value) -> float:
     """A whole number as itself (1e9 and numpy's float32(10) too), anything else as nan,
     which no range holds."""
-    if isinstance(value, (bool, str, bytes)):
-        return math.nan
     try:
-        return operator.index(value)
+        return operator.index(value) if not isinstance(value, bool) else math.nan
     except TypeError:
-        pass
+        number = real_number(value)
+        return number if number is not None and number.is_integer() else math.nan
+
+
+def real_number(value) -> float | None:
+    """A real number (numpy's scalars and 0-d arrays too) as a float, nan for one too
+    large for a float; None for anything else (a string, a bool, a complex number)."""
+    import numpy as np      # here: the command line names the limits before numpy loads
+    if isinstance(value, (bool, str, bytes, np.bool_)) or np.ndim(value) != 0 or \
+            np.iscomplexobj(value):
+        return None
     try:
-        number = float(value)
-    except (TypeError, ValueError, OverflowError):
+        return float(value)
+    except OverflowError:
         return math.nan
-    return number if number.is_integer() else math.nan
+    except (TypeError, ValueError):
+        return None

@@ -2,7 +2,6 @@
 for Python users, and what the renderer builds on."""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -21,7 +20,8 @@ from .trace.pad import pad_boxes
 from .trace.nodes import (EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
                           EV_SINGULAR, EV_STACK, EV_VISITS, N_EVENTS, add_events,
                           no_events)
-from .limits import BOUNDS_BUDGET, INTERVAL_ROWS, MAX_INSTANCES, walk_limits_problem
+from .limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_INSTANCES, real_number,
+                     walk_limits_problem)
 from .trace.walk import R_HIT, R_MAT, R_N, R_PAINT, R_T, R_WIDTH
 
 BATCH = 1 << 16             # rays per kernel call: bounds the per-chunk event arrays
@@ -142,7 +142,7 @@ class Traced:
         exactly, either may show. Misses have t = inf and hit False."""
         for name, value in (("tmin", tmin), ("tmax", tmax), ("lod", lod)):
             # nan made every ray miss, a negative lod was 0
-            number = _number(value)
+            number = real_number(value)
             if number is None or number != number or (name == "lod" and not 0 <= number < np.inf):
                 raise ValueError(f"{name}={value!r}: give a number" +
                                  (" from 0 (no level of detail)" if name == "lod" else ""))
@@ -261,24 +261,10 @@ def _parameters(params: dict | None, overrides: dict) -> dict[str, float]:
     given = {**(params or {}), **overrides}
     out = {}
     for name, value in given.items():
-        number = _number(value)
+        number = real_number(value)
         if number is None:
             raise TypeError(f"parameter {name}={value!r}: give a number")
         if number != number and value == value:
             raise ValueError(f"parameter {name}={value!r}: too large for a float")
         out[name] = number
     return out
-
-
-def _number(value) -> float | None:
-    """A real number (numpy's scalars and 0-d arrays too) as a float, nan for one too
-    large for a float; None for anything else (a string, a bool)."""
-    if isinstance(value, (bool, str, bytes, np.bool_)) or np.ndim(value) != 0 or \
-            np.iscomplexobj(value):
-        return None
-    try:
-        return float(value)
-    except OverflowError:
-        return math.nan
-    except (TypeError, ValueError):
-        return None

@@ -67,7 +67,8 @@ def not_contracting(graph: Graph, found: DoesNotContract) -> list[Diagnostic]:
     # the one that grows of itself: a state above it grows with it (A → uscale(0.3) S,
     # where S's own maps do not contract, named A where A came first)
     sinks = [i for i in found.nodes
-             if not any(reachable(graph, i)[j] for j in found.nodes if j != i)]
+             if not any(below[j] for below in [reachable(graph, i)]
+                        for j in found.nodes if j != i)]
     i = (sinks or found.nodes)[0]
     s = graph.nodes[i]
     what = ("is a graftal (no rule of it ends)" if i in graftal_nodes(graph) else

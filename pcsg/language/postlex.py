@@ -27,6 +27,8 @@ _NOT_HEADS = re.compile(r"/\*.*?(?:\*/|\Z)|//[^\n]*|\{[^{}]*\}", re.S)
 
 def owned_names(text: str) -> frozenset:
     """The fractals' names that the file's rules or named expressions take."""
+    if "julia" not in text and "mandelbulb" not in text:
+        return frozenset()          # every parse asks: most files have neither
     blank = lambda m: re.sub(r"[^\n]", " ", m.group())     # noqa: E731 (lines stay put)
     heads, before = text, None
     while heads != before:          # nested blocks, innermost first
