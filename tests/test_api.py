@@ -54,3 +54,11 @@ def test_what_cannot_be_a_float_is_said():
         pcsg.loads("{c = 1} uscale(c) sphere", c=1 + 2j)
     with pytest.raises(ValueError, match="use a whole number, 1 to 10000"):
         pcsg.loads("sphere", max_depth=10.5)
+
+
+def test_an_unknown_parameter_is_said_without_the_command_lines_option():
+    # the API's user gave k=2, not --set k=2
+    with pytest.raises(pcsg.PcsgError) as e:
+        pcsg.loads("{c = 6} sphere", k=2)
+    message = e.value.diagnostics[0].message
+    assert message == "cannot set 'k': it is not an initial parameter (initial parameters: c)"

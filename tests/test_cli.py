@@ -128,7 +128,7 @@ def test_stats_text_and_json(capsys, sierpinski):
 
 def test_set_errors(capsys, sierpinski):
     code, out, err = run(capsys, "stats", str(sierpinski), "--set", "k=1")
-    assert code == 1 and "'k' is not an initial parameter (initial parameters: c)" in err
+    assert code == 1 and "cannot set 'k': it is not an initial parameter (initial parameters: c)" in err
     with pytest.raises(SystemExit) as e:
         main(["stats", str(sierpinski), "--set", "c=abc"])
     assert e.value.code == 2
@@ -565,7 +565,7 @@ def test_a_directive_value_in_error_is_reported_once(tmp_path):
 
 @pytest.mark.parametrize("args, code, message", [
     (["--set", "c=1..2", "--set", "c=3"], 2, "--set c is given twice"),
-    (["--set", "z=1..3"], 1, "'z' is not an initial parameter"),
+    (["--set", "z=1..3"], 1, "cannot set 'z': it is not an initial parameter"),
     (["--set", "c=1..100000000"], 2, "100,000,000 images; a sweep renders at most 10,000"),
 ])
 def test_sweep_usage_errors_are_said_once_before_any_image(capsys, tmp_path, args, code,

@@ -80,7 +80,7 @@ def test_the_report_quotes_the_line_with_a_caret_under_the_span():
 
 def test_set_of_an_unknown_parameter():
     e = pytest.raises(PcsgError, compile_text, "{c = 6} sphere", "x.pcsg", {"k": 2}).value
-    assert e.diagnostics[0].message == ("--set k: 'k' is not an initial parameter "
+    assert e.diagnostics[0].message == ("cannot set 'k': it is not an initial parameter "
                                         "(initial parameters: c)")
 
 

@@ -268,7 +268,7 @@ class _Builder:
             if name not in known:
                 listed = ", ".join(sorted(known)) or "none: the axiom has no calculation block"
                 self.errors.append(Diagnostic(
-                    "error", f"--set {name}: '{name}' is not an initial parameter "
+                    "error", f"cannot set '{name}': it is not an initial parameter "
                              f"(initial parameters: {listed})", None, self.source, code="set"))
             for a in initial:
                 if a.name == name:
