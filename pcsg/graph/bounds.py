@@ -504,8 +504,12 @@ def fault_warnings(graph: Graph, walked: Graph, faults, counted: bool) -> list[D
     instances: (kind, count, node) each, the count of instances where `counted`. Such an
     instance's box is empty too, so no ray reaches it to report a runtime error: the
     walk that met it does, once for its T-node (notation §4)."""
+    from .checks import constant_map_warning
     out = []
     for kind, count, node in faults:
+        if (said := constant_map_warning(walked, node)) is not None:
+            out.append(said)            # every instance, as check says
+            continue
         many = (f"{count:,} instance{'s' if count != 1 else ''}" if counted else
                 "some instances")
         what, code = FAULTS[kind]

@@ -113,31 +113,37 @@ def constant_maps(graph: Graph) -> list[Diagnostic]:
     """`check`'s word for a transformation of constant arguments that empties its
     operand in every instance, singular or not finite (notation §4): `scale(1, 0, 1)`
     passed check, and only render's bounding walk said so."""
+    live = reachable(graph)
+    out = [constant_map_warning(graph, i) for i in range(len(graph.nodes)) if live[i]]
+    return [d for d in out if d is not None]
+
+
+def constant_map_warning(graph: Graph, i: int) -> Diagnostic | None:
+    """The warning for node i if it is a transformation or paint of constant arguments
+    that empties its operand; None otherwise (render's bounding walk says it so too, not
+    "in some instances")."""
     from .bounds import FAULTS, singular
     from ..trace.transforms import matrix
-    live = reachable(graph)
-    out = []
-    for i, n in enumerate(graph.nodes):
-        if n.kind not in (TRANSFORM, PAINT) or not live[i]:
-            continue
-        args = [graph.exprs.constant(e) for e in n.exprs]
-        if any(a is None for a in args):
-            continue
-        if n.kind == PAINT:         # a colour that is not a number: the tracer empties it
-            if not all(math.isfinite(a) for a in args):
-                out.append(_diag(graph, "warning", "the colour of this paint is not finite: "
-                                 "it empties its operand", n.span, FAULTS[0][1]))
-            continue
-        with np.errstate(all="ignore"):
-            m = matrix(n.name, args)
-        kind = 0 if not np.isfinite(m).all() else 1 if singular(m) else None
-        if kind is not None:
-            what, code = FAULTS[kind]
-            if kind == 0 and all(math.isfinite(a) for a in args):
-                what = "the axis or the normal of this transformation is zero"
-            out.append(_diag(graph, "warning", f"{what}: it empties its operand", n.span,
-                             code))
-    return out
+    n = graph.nodes[i]
+    if n.kind not in (TRANSFORM, PAINT):
+        return None
+    args = [graph.exprs.constant(e) for e in n.exprs]
+    if any(a is None for a in args):
+        return None
+    if n.kind == PAINT:         # a colour that is not a number: the tracer empties it
+        if all(math.isfinite(a) for a in args):
+            return None
+        return _diag(graph, "warning", "the colour of this paint is not finite: it empties "
+                     "its operand", n.span, FAULTS[0][1])
+    with np.errstate(all="ignore"):
+        m = matrix(n.name, args)
+    kind = 0 if not np.isfinite(m).all() else 1 if singular(m) else None
+    if kind is None:
+        return None
+    what, code = FAULTS[kind]
+    if kind == 0 and all(math.isfinite(a) for a in args):
+        what = "the axis or the normal of this transformation is zero"
+    return _diag(graph, "warning", f"{what}: it empties its operand", n.span, code)
 
 
 def _diag(graph, severity, message, span, code, notes=()):
