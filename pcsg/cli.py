@@ -473,6 +473,8 @@ def cmd_export(args) -> int:
                                            lambda done: progress.update(done, done), cut=cut)
     finally:
         progress.close()
+    # the bounding walk's (where a map empties instances: the export leaves them out too)
+    _report(None, [w for w in traced.warnings if w not in graph.warnings])
     print(f"{out}: {_many(count, 'primitive')}, {out.stat().st_size / 1e6:.1f} MB, "
           f"{time.perf_counter() - start:.1f} s; render with: povray +I{out} +W{w} +H{h}")
     if empty:

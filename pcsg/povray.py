@@ -62,7 +62,8 @@ class _Block:
     key: tuple                  # the path prefix that names this operator instance
     kind: int
     size: int                   # operand count
-    present: set = field(default_factory=set)
+    k: int                      # which operand of the block above it this one is in
+    present: set = field(default_factory=set)   # its operands that drew something
     lines: list = field(default_factory=list)
     count: int = 0              # primitives among its lines
 
@@ -376,10 +377,13 @@ class _BodyWriter:
             common += 1
         while len(self.open) > common:
             self._close()
-        for key, kind, size, _ in needed[common:]:
-            self.open.append(_Block(key, kind, size))
-        for block, need in zip(self.open, needed):
-            block.present.add(need[3])
+        for i in range(common, len(needed)):
+            key, kind, size, _ = needed[i]
+            self.open.append(_Block(key, kind, size, needed[i - 1][3] if i else -1))
+        if self.open:
+            # the operand of the innermost block; those above learn of it when it closes
+            # with something in it (a ∩ inside a ∩ that came out empty empties its operand)
+            self.open[-1].present.add(needed[-1][3])
         self._emit(line, 1)
 
     def add_all(self, lines: list[str]):
@@ -400,11 +404,20 @@ class _BodyWriter:
     def _close(self):
         b = self.open.pop()
         if ((b.kind == DIFFERENCE and 0 not in b.present)        # nothing to subtract from
-                or (b.kind == INTERSECTION and len(b.present) < b.size)):  # an empty operand
+                or (b.kind == INTERSECTION and len(b.present) < b.size)  # an empty operand
+                or not b.lines):
             self.dropped += b.count
             return
-        word = {INTERSECTION: "intersection", DIFFERENCE: "difference"}.get(b.kind, "union")
-        self._emit(f"{word} {{\n" + "\n".join(b.lines) + "\n}", b.count)
+        if self.open:
+            self.open[-1].present.add(b.k)
+        # a difference with nothing to subtract is its first operand, and one object needs
+        # no block (POV-Ray warns of a CSG block of one object)
+        word = {INTERSECTION: "intersection", DIFFERENCE: "difference"}.get(
+            b.kind if len(b.present) > 1 else None, "union")
+        if len(b.lines) == 1 and word == "union":
+            self._emit(b.lines[0], b.count)
+        else:
+            self._emit(f"{word} {{\n" + "\n".join(b.lines) + "\n}", b.count)
 
     def close(self):
         while self.open:

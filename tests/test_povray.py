@@ -31,6 +31,7 @@ TERRAIN = ROOT / "grammars" / "carpenter_terrain.pcsg"
 CSG = Path(__file__).resolve().parent / "data" / "csg_export.pcsg"
 EMPTY = Path(__file__).resolve().parent / "data" / "empty_export.pcsg"
 THIN = Path(__file__).resolve().parent / "data" / "thin_export.pcsg"
+NESTED = Path(__file__).resolve().parent / "data" / "nested_empty_export.pcsg"
 FERN = ROOT / "grammars" / "barnsley_fern.pcsg"      # a graftal: cut at --max-depth
 
 
@@ -86,6 +87,17 @@ def test_empty_primitives_are_left_out_with_a_warning(tmp_path, capsys):
     assert "3 primitives left out" in err and "singular or not finite" in err
     # the count is what the file holds: not the cube that went with its intersection
     assert ": 2 primitives," in out and "1 more went with the ∩" in err
+
+
+def test_an_operand_whose_block_came_out_empty_is_empty(tmp_path, capsys):
+    """An ∩ inside an ∩ (or first under a \\) that loses an operand empties the operand
+    it is: the outer block went to POV-Ray with one object left (a whole cube where pcsg
+    draws nothing, the sphere to subtract drawn instead)."""
+    text = export(tmp_path, NESTED).read_text()
+    assert [m[:, 3].tolist() for m in matrices(text)] == [[3, 3, 0], [0, 0, -1]]
+    assert "\nintersection {" not in text and "\ndifference {" not in text
+    assert "object { P_cube" in text and "object { P_sphere" not in text
+    assert "; 8 more went with the ∩ or \\ that lost an operand" in capsys.readouterr().err
 
 
 def test_the_count_is_what_the_file_holds(tmp_path, capsys):
@@ -167,7 +179,7 @@ POVRAY = shutil.which("povray")
 
 @pytest.mark.skipif(POVRAY is None, reason="POV-Ray is not installed (apt-get install povray)")
 @pytest.mark.parametrize("grammar,options", [(SIERPINSKI, ["--set", "c=2"]), (CSG, []),
-                                             (EMPTY, []), (THIN, []),
+                                             (EMPTY, []), (THIN, []), (NESTED, []),
                                              (FERN, ["--max-depth", "4"])])
 def test_povray_draws_the_same_picture(tmp_path, grammar, options):
     pov = export(tmp_path, grammar, "--shadow-samples", "1", *options)
