@@ -131,6 +131,9 @@ def parser() -> argparse.ArgumentParser:
     x.add_argument("--shadow-samples", type=int, default=8, metavar="N",
                    help="1: lights are points; more: area lights stay area lights")
     x.add_argument("--no-shadows", action="store_true", help="lights cast no shadows")
+    x.add_argument("--force", action="store_true",
+                   help="write a scene past 20 million primitives (POV-Ray holds about a "
+                        "million in a GB of memory)")
     x.add_argument("--bounces", type=int, default=3, metavar="N",
                    help="reflection and refraction depth (default 3)")
     x.add_argument("--max-depth", type=int, metavar="N",

@@ -30,10 +30,14 @@ def open_atomic(path: Path, mode: str = "wb"):
     target = Path(os.path.realpath(path))
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent)
     try:
-        # mkstemp makes the file private; give it the permissions a plain open() would
-        umask = os.umask(0)
-        os.umask(umask)
-        os.fchmod(fd, 0o666 & ~umask)
+        # mkstemp makes the file private; give it the permissions of the file it replaces
+        # (a read-only image stayed read-only), or those a plain open() would
+        if kind is not None:
+            os.fchmod(fd, stat.S_IMODE(kind))
+        else:
+            umask = os.umask(0)
+            os.umask(umask)
+            os.fchmod(fd, 0o666 & ~umask)
         with os.fdopen(fd, mode) as f:
             yield f
             f.flush()

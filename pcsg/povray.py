@@ -10,8 +10,6 @@ hierarchy sees every object), so only ∩ and \\ subtrees are held until they cl
 from __future__ import annotations
 
 import math
-import shutil
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -131,10 +129,15 @@ class _Textures:
             most = _num(min(fin["reflect"] + fin["transmit"], 1.0))
             reflection = (f"reflection {{ {_num(fin['reflect'])}, {most} fresnel on }} "
                           "conserve_energy")
-        return ([float(c) for c in color], _num(fin["transmit"]) if fin["transmit"] > 0 else "",
-                f"finish {{ ambient rgb {_vec(self.ambient)} diffuse {_num(fin['diffuse'])} "
-                f"phong {_num(fin['specular'])} phong_size {_num(fin['shininess'])} "
-                f"{reflection} }}")
+        # pcsg's surface keeps 1 - reflect - transmit of its own colour (shade._bounces);
+        # POV-Ray adds reflection on top of the whole finish, and scales a transmitting
+        # pigment's own light by 1 - transmit itself
+        t = fin["transmit"]
+        own = max(1.0 - fin["reflect"] - t, 0.0) / (1.0 - t) if t < 1 else 0.0
+        return ([float(c) for c in color], _num(t) if t > 0 else "",
+                f"finish {{ ambient rgb {_vec(self.ambient * own)} "
+                f"diffuse {_num(fin['diffuse'] * own)} phong {_num(fin['specular'] * own)} "
+                f"phong_size {_num(fin['shininess'])} {reflection} }}")
 
     def interior(self, material: int) -> str:
         if material < 0:
@@ -276,13 +279,22 @@ def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
     names = leaf_names(graph)
     # the flat triangles' unit triangle (0,0), (s,0), (0,s): their s, 0 for the others
     triangle = np.array([{"tri1": 1, "tri2": -1}.get(name, 0) for name in names])
-    # the body streams to a side file: the declarations it needs are known at its end
-    with tempfile.TemporaryFile("w+", encoding="utf-8") as body_file:
-        body = _BodyWriter(graph, body_file)
+    # straight into the output (its temporary file beside it, open_atomic): a texture is
+    # declared where it is first needed, between the top-level objects; the blocks
+    # held in memory (∩, \\ and the mesh) are written after their declarations
+    with open_atomic(path, "w") as out:
+        out.write(_header(camera, lighting, size, graph))
+        for name, shape in SHAPES.items():
+            out.write(f"#declare P_{name} = {shape}\n")
+        body = _BodyWriter(graph, out)
+        declared = 0
         for leaves in leaf_chunks(graph, compiled, cut):
             kept = nonempty(leaves.world)
             empty += len(leaves) - int(kept.sum())
             tex = textures.of(leaves.paint, leaves.material, kept)
+            for line in textures.declares[declared:]:
+                out.write(line + "\n")
+            declared = len(textures.declares)
             sign = triangle[leaves.node]
             flat = kept & (sign != 0)
             mesh.add(leaves.world[flat], sign[flat], [tex[j] for j in np.flatnonzero(flat)])
@@ -304,15 +316,7 @@ def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
             if progress is not None:
                 progress(done)
         body.close()
-        body_file.seek(0)
-        with open_atomic(path, "w") as out:
-            out.write(_header(camera, lighting, size, graph))
-            for name, shape in SHAPES.items():
-                out.write(f"#declare P_{name} = {shape}\n")
-            for line in textures.declares:
-                out.write(line + "\n")
-            shutil.copyfileobj(body_file, out)
-            mesh.write(out)
+        mesh.write(out)
     return body.written + mesh.faces, empty, body.dropped
 
 

@@ -383,6 +383,10 @@ def test_written_files_get_ordinary_permissions(capsys, sierpinski, tmp_path):
     umask = os.umask(0)
     os.umask(umask)
     assert stat.S_IMODE(out.stat().st_mode) == 0o666 & ~umask
+    # a file replaced keeps its own (a read-only scene came back 644)
+    out.chmod(0o444)
+    assert run(capsys, "graph", str(sierpinski), "-o", str(out))[0] == 0
+    assert stat.S_IMODE(out.stat().st_mode) == 0o444
 
 
 SINGULAR = """{n = 2} S

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from pcsg.cli import _export_progress, main
+from pcsg.cli import _export_progress, _export_total, main
 from pcsg.compiler import compile_file, compile_text
 from pcsg.graph import leaves as leaves_module
 from pcsg.graph.cut import cut_of
@@ -32,6 +32,7 @@ CSG = Path(__file__).resolve().parent / "data" / "csg_export.pcsg"
 EMPTY = Path(__file__).resolve().parent / "data" / "empty_export.pcsg"
 THIN = Path(__file__).resolve().parent / "data" / "thin_export.pcsg"
 NESTED = Path(__file__).resolve().parent / "data" / "nested_empty_export.pcsg"
+MIRROR = Path(__file__).resolve().parent / "data" / "mirror_export.pcsg"
 FERN = ROOT / "grammars" / "barnsley_fern.pcsg"      # a graftal: cut at --max-depth
 
 
@@ -151,6 +152,32 @@ def test_export_errors_are_clean(tmp_path, capsys):
     assert "does not exist" in capsys.readouterr().err
 
 
+def test_a_directory_is_no_scene_file(tmp_path, capsys):
+    assert main(["export", str(SIERPINSKI), "--pov", str(tmp_path)]) == 2
+    assert "that is a directory; name a file in it" in capsys.readouterr().err
+
+
+def test_a_scene_past_what_povray_holds_is_refused_at_once(tmp_path, capsys):
+    # Sierpinski at 14: 268 million primitives, 15 GB of a hidden temporary file in ten
+    # minutes, and no word
+    out = tmp_path / "s.pov"
+    assert main(["export", str(SIERPINSKI), "--set", "c=14", "--pov", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "the derivation has 268,435,457 primitives" in err and "--force" in err
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_a_scene_the_disk_cannot_hold_is_refused_even_with_force(tmp_path, capsys,
+                                                                 monkeypatch):
+    import shutil
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: shutil._ntuple_diskusage(1e9, 1e9, 1e5))
+    out = tmp_path / "s.pov"
+    assert main(["export", str(SIERPINSKI), "--set", "c=6", "--pov", str(out), "--force"]) == 2
+    assert "the 4,097 primitives take at least 0.4 MB, and its disk has 0.1 MB free" in \
+        capsys.readouterr().err
+    assert not out.exists()
+
+
 def test_a_long_export_shows_its_progress_on_a_terminal(tmp_path):
     """The terrain at 10 (2 097 153 primitives) takes seconds: the line counts them out
     of the total stats counts, and the command is stopped once it shows."""
@@ -164,14 +191,14 @@ def test_export_progress_is_out_of_the_counted_primitives_and_off_with_quiet(mon
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True)    # as on a terminal
     graph = compile_file(TERRAIN, {"cnt": 3.0})
     args = argparse.Namespace(file=str(TERRAIN), quiet=False)
-    shown = _export_progress(args, graph, None)
+    shown = _export_progress(args, _export_total(graph, None))
     assert shown.enabled and shown.total == 129         # 128 triangles and the sea
     # cut at a depth: the derivation as the cut ends it (MNT, then T1 and T2 divided
     # once: 8 triangles and the sea)
-    cut = _export_progress(args, graph, cut_of(Traced(graph, max_depth=2)))
+    cut = _export_progress(args, _export_total(graph, cut_of(Traced(graph, max_depth=2))))
     assert cut.enabled and cut.total == 9
     args.quiet = True
-    assert not _export_progress(args, graph, None).enabled
+    assert not _export_progress(args, _export_total(graph, None)).enabled
 
 
 POVRAY = shutil.which("povray")
@@ -180,6 +207,7 @@ POVRAY = shutil.which("povray")
 @pytest.mark.skipif(POVRAY is None, reason="POV-Ray is not installed (apt-get install povray)")
 @pytest.mark.parametrize("grammar,options", [(SIERPINSKI, ["--set", "c=2"]), (CSG, []),
                                              (EMPTY, []), (THIN, []), (NESTED, []),
+                                             (MIRROR, []),
                                              (FERN, ["--max-depth", "4"])])
 def test_povray_draws_the_same_picture(tmp_path, grammar, options):
     pov = export(tmp_path, grammar, "--shadow-samples", "1", *options)
@@ -206,6 +234,20 @@ def test_glass_reflects_by_fresnel_in_povray_too(tmp_path):
     text = export(tmp_path, src).read_text()
     assert "reflection { 0.1, 0.9 fresnel on } conserve_energy" in text
     assert "interior { ior 1.5 }" in text and "reflection 0.7 }" in text
+
+
+def test_a_mirror_keeps_what_it_does_not_reflect_of_its_own_colour(tmp_path):
+    # POV-Ray adds reflection to the whole finish: a red mirror (reflect=1) was drawn pink,
+    # where pcsg's surface keeps 1 - reflect - transmit of its own colour (0 here)
+    text = export(tmp_path, MIRROR).read_text()
+    finishes = re.findall(r"finish \{ ambient rgb <([^>]*)> diffuse (\S+) phong (\S+) ", text)
+    mirror, half, glass, ground = [(np.array([float(x) for x in a.split(",")]), float(d),
+                                    float(p)) for a, d, p in finishes]
+    assert mirror[0].max() == mirror[1] == mirror[2] == 0
+    np.testing.assert_allclose([half[1], half[2]], [0.35, 0.15])
+    np.testing.assert_allclose(half[0], ground[0] / 2)
+    # 1 - 0.3 - 0.5 of its own, of which POV-Ray's transmit 0.5 takes half itself
+    np.testing.assert_allclose(glass[1], 0.7 * 0.2 / 0.5)
 
 
 @pytest.mark.parametrize("samples, grid", [(4, 2), (8, 3), (16, 4), (64, 8)])
