@@ -23,6 +23,7 @@ from .language import prefetch  # noqa: E402
 from .language.errors import PcsgError, labelled  # noqa: E402
 from .limits import bounces_problem, shadow_samples_problem, size_problem  # noqa: E402
 from .timings import Timings, note_startup  # noqa: E402
+from .statusout import StatusLines, is_stdout, status_stream  # noqa: E402
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
 
@@ -579,9 +580,16 @@ COMMANDS = {"check": cmd_check, "expand": cmd_expand, "stats": cmd_stats, "graph
             "export": cmd_export}
 
 
+FILE_COMMANDS = ("render", "sweep", "animate", "export")     # stdout: status lines only
+
+
 def main(argv: list[str] | None = None) -> int:
     redeliver_in_finalizers()
     args = parser().parse_args(argv)
+    if args.command in FILE_COMMANDS and not isinstance(sys.stdout, StatusLines):
+        image = args.pov if args.command == "export" else args.output
+        sys.stdout = status_stream(args.command in ("render", "export") and image is not None
+                                   and is_stdout(image))
     try:
         return COMMANDS[args.command](args)
     except PcsgError as e:

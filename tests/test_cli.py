@@ -733,3 +733,34 @@ def test_an_export_too_deep_names_the_option_that_ends_it(capsys, tmp_path):
     code, _, err = run(capsys, "export", str(src), "--pov", str(tmp_path / "up.pov"), "-q",
                        "--max-depth", "5")
     assert code == 0
+
+
+def test_a_reader_that_leaves_does_not_end_a_batch(tmp_path):
+    # `pcsg render *.pcsg -o out/ | head -1`: the batch ended at its second status line,
+    # with exit status 0 and the other images never written
+    files = []
+    for k in range(3):
+        files.append(tmp_path / f"g{k}.pcsg")
+        files[-1].write_text(f"move({k}, 0, 0) sphere\n", encoding="utf-8")
+    out = tmp_path / "out"
+    out.mkdir()
+    read, write = os.pipe()
+    os.close(read)                  # every write to stdout fails at once
+    try:
+        r = subprocess.run([sys.executable, "-m", "pcsg", "render", *map(str, files), "-o",
+                            f"{out}/", "--size", "16x12", "-q"], stdout=write,
+                           stderr=subprocess.PIPE, text=True, timeout=300)
+    finally:
+        os.close(write)
+    assert (r.returncode, r.stderr) == (0, "")
+    assert sorted(p.name for p in out.iterdir()) == ["g0.png", "g1.png", "g2.png"]
+
+
+def test_an_image_on_standard_output_gets_no_status_line_inside(tmp_path):
+    # the summary came after the PNG's end, in its stream; it goes to stderr there
+    r = subprocess.run([sys.executable, "-m", "pcsg", "render", str(GRAMMARS / "sierpinski.pcsg"),
+                        "-o", "/dev/stdout", "--size", "16x12", "-q", "--set", "c=1"],
+                       capture_output=True, timeout=300)
+    assert r.returncode == 0 and r.stdout.startswith(b"\x89PNG")
+    assert r.stdout.endswith(b"IEND\xaeB`\x82")
+    assert b"/dev/stdout: 16x12," in r.stderr
