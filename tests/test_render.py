@@ -353,3 +353,14 @@ def test_the_default_camera_does_not_frame_what_dropping_planes_made_up(text):
     assert finite_root(system.graph) is None
     box = finite_bounds(system)
     assert np.all(box[3:] - box[:3] >= 2)
+
+
+def test_a_render_of_many_samples_is_checked_after_each_samples_pass():
+    # --timeout and the progress line waited for a batch of 48 rows with all its samples:
+    # with --samples 1024, --timeout 1 stopped after 19 s
+    calls = []
+    frame_of(BALL, (16, 12), samples=9, check=lambda: calls.append(1))
+    assert len(calls) == 9 + 1          # each pass of the one batch, and the batch's end
+    calls.clear()
+    frame_of(BALL, (16, 12), samples=1, adaptive=False, check=lambda: calls.append(1))
+    assert len(calls) == 1

@@ -85,7 +85,8 @@ def _offsets(n: int, rng) -> np.ndarray:
 def render_frame(traced, camera: Camera, light: Lighting, width: int, height: int,
                  samples: int = 1, adaptive: bool = True, progress: Progress | None = None,
                  check=None, rows: tuple[int, int] | None = None, alpha: bool = False) -> Frame:
-    """`check()` runs between batches of rows and may raise to stop the render.
+    """`check()` runs between batches of rows (and after each sample's pass of one) and
+    may raise to stop the render.
     `rows=(y0, y1)` renders only those rows of the width x height image (a tile), with
     exactly the pixels the whole image has there. `alpha` keeps the object's own colour
     apart (Frame.object_rgb, for a transparent background): 7 MB more at 640x480, whose
@@ -120,6 +121,13 @@ def render_frame(traced, camera: Camera, light: Lighting, width: int, height: in
             o, d = camera.rays(width, height, xs + ox, ys + oy)
             c, t, hits = shade(traced, light, o, d, ids=sample_ids(pixels, k, width, height))
             _gather(order, c, hits.hit, t, acc, acc_obj, hit, band_depth, k == 0, alpha)
+            if len(offs) > 1:
+                # each sample's pass, not each batch's: with --samples 1024, --timeout 1
+                # stopped after 19 s and the progress line moved every 5 s
+                if progress:
+                    progress.update(y0 * width + n * (k + 1) // len(offs), light.rays[0])
+                if check:
+                    check()
         if len(offs) > 1:       # one sample: each division would be by 1, which changes nothing
             if alpha:
                 acc_obj /= np.maximum(hit, 1)[:, None]
