@@ -109,6 +109,8 @@ class Batch:
             for a in assemblers.values():
                 if a.image is not None:
                     a.discard()
+            for manifest in self.manifests.values():
+                manifest.flush()
 
     def _progress(self, n, total, what, outcome, worker):
         if self.quiet:

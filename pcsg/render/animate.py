@@ -254,6 +254,8 @@ def animate(anim: Animation) -> int:
         print(f"{anim.out_dir}: interrupted with {report.done} of {len(jobs)} frames done; "
               f"the same command resumes", file=sys.stderr)
         raise
+    finally:
+        manifest.flush()
     made = ""
     if not report.failed:
         from .movie import write_apng, write_gif
@@ -266,6 +268,7 @@ def animate(anim: Animation) -> int:
             # in the manifest, so that a later run without --gif takes it away as it does
             # an earlier run's extra frames (and no GIF the user put there)
             manifest.record(anim.out_dir / f"{stem}.gif", "animation")
+            manifest.flush()
             made += f" and {stem}.gif"
     seconds = time.perf_counter() - report.start
     unit = "worker" if anim.cluster is not None else "job"
