@@ -33,10 +33,16 @@ class UsageError(Exception):
 
 
 def expand_globs(patterns: list[str]) -> list[str]:
-    """Shell globs arrive expanded; quoted ones (or ones on shells that don't) are expanded here."""
+    """Shell globs arrive expanded; quoted ones (or ones on shells that don't) are expanded
+    here, and a directory is its .pcsg files (`pcsg render grammars/ -o out/`)."""
     out = []
     for pat in patterns:
-        if not os.path.exists(pat) and any(ch in pat for ch in "*?["):
+        if os.path.isdir(pat):
+            found = sorted(glob.glob(os.path.join(glob.escape(pat), "*.pcsg")))
+            if not found:
+                raise UsageError(f"{pat}: a directory without .pcsg files")
+            out += found
+        elif not os.path.exists(pat) and any(ch in pat for ch in "*?["):
             matches = sorted(glob.glob(pat))
             if not matches:
                 raise UsageError(f"no file matches '{pat}'")
@@ -359,6 +365,8 @@ def _exit(failed: int) -> int:
 def _outputs(files: list[str], output: str | None) -> list[Path]:
     """NAME.png here; or -o FILE.png for one file; or -o DIR/ (created) for any number."""
     names = [Path(f).stem + ".png" for f in files]
+    if output == "":
+        raise UsageError("-o '': name an image or a directory")
     if output is None:
         return _distinct(files, [Path(n) for n in names])
     out = Path(output)
@@ -417,8 +425,9 @@ def cmd_animate(args) -> int:
     opts = _options(args)
     if args.frames < 1:
         raise UsageError(f"--frames {args.frames}: give 1 or more")
-    if not args.fps > 0:
-        raise UsageError(f"--fps {args.fps:g}: give a positive number")
+    if not 0 < args.fps < 1000:
+        # an APNG's frame delay is a fraction of whole numbers: inf gave a delay of 0
+        raise UsageError(f"--fps {args.fps:g}: give a number above 0 and below 1000")
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs {args.jobs}: give 1 or more")
     if args.path is not None and args.eye is not None:

@@ -219,6 +219,7 @@ def test_the_default_sun_stays_put_while_the_camera_moves(capsys, tmp_path):
     (["--at", "1,2,3", "--at-path", "1,1,1 2,2,2"], "--at and --at-path both"),
     (["--frames", "0"], "--frames 0"),
     (["--gif", "--alpha"], "--gif cannot keep --alpha"),
+    (["--fps", "inf"], "--fps inf: give a number above 0 and below 1000"),
     (["--path", "0,0,0.6 0,0,0.6", "--at", "0,0,0.6"], "frame 0 (t = 0): the camera's eye"),
 ])
 def test_usage_errors(capsys, tmp_path, ball, extra, message):

@@ -466,6 +466,31 @@ def test_an_up_of_zero_is_no_direction(capsys, tmp_path):
     path.write_text("sphere\n", encoding="utf-8")
     assert main(["render", str(path), "--up", "0,0,0", "-o", str(tmp_path / "c.png")]) == 2
     assert "--up 0,0,0 is no direction" in capsys.readouterr().err
+    # an eye at the point it looks at is the command line's slip too (it failed as the file's)
+    assert main(["render", str(path), "--eye", "1,1,1", "--at", "1,1,1", "-o",
+                 str(tmp_path / "c.png")]) == 2
+    assert "--eye and --at are the same point 1,1,1" in capsys.readouterr().err
+
+
+def test_a_directory_is_its_pcsg_files_and_an_empty_output_name_is_refused(capsys, tmp_path):
+    for name in ("b.pcsg", "a.pcsg", "notes.txt"):
+        (tmp_path / name).write_text("sphere\n", encoding="utf-8")
+    assert main(["check", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert out.index("a.pcsg: ok") < out.index("b.pcsg: ok") and "notes" not in out
+    (tmp_path / "empty").mkdir()
+    assert main(["check", str(tmp_path / "empty")]) == 2
+    assert "a directory without .pcsg files" in capsys.readouterr().err
+    # -o '' rendered into the working directory
+    assert main(["render", str(tmp_path / "a.pcsg"), "-o", ""]) == 2
+    assert "-o '': name an image or a directory" in capsys.readouterr().err
+
+
+def test_a_size_past_the_limit_says_its_pixels_exactly(capsys, tmp_path):
+    # "10000x6401 is 64 million pixels ...; pcsg renders up to 64 million"
+    assert main(["render", str(GRAMMARS / "sierpinski.pcsg"), "--size", "10000x6401", "-o",
+                 str(tmp_path / "s.png")]) == 2
+    assert "is 64,010,000 pixels" in capsys.readouterr().err
 
 
 def test_an_animation_of_an_object_too_large_to_frame_fails_cleanly(capsys, tmp_path):

@@ -73,8 +73,8 @@ def check_options(o: Options) -> str | None:
     w, h = o.size
     if w * h > MAX_PIXELS:
         need = w * h * BYTES_PER_PIXEL / 2 ** 30
-        return (f"--size {w}x{h} is {w * h / 1e6:.0f} million pixels (about {need:.0f} GiB of "
-                f"memory); pcsg renders up to {MAX_PIXELS // 1_000_000} million")
+        return (f"--size {w}x{h} is {w * h:,} pixels (about {need:.0f} GiB of memory); "
+                f"pcsg renders up to {MAX_PIXELS:,}")
     if not 1 <= o.samples <= 1024:
         return f"--samples {o.samples}: use 1 to 1024"
     if o.timeout is not None and not o.timeout > 0:
@@ -93,6 +93,9 @@ def check_options(o: Options) -> str | None:
     if o.light is not None and not all(math.isfinite(v) for v in o.light):
         point = ",".join(f"{v:g}" for v in o.light)
         return f"--light {point}: give a point with finite coordinates"
+    if o.eye is not None and o.at is not None and tuple(o.eye) == tuple(o.at):
+        point = ",".join(f"{v:g}" for v in o.eye)
+        return f"--eye and --at are the same point {point}: the camera looks nowhere"
     if o.up is not None and not any(o.up):
         return "--up 0,0,0 is no direction: give one such as 0,0,1"
     if o.fov is not None and not 0 < o.fov < 180:
