@@ -175,6 +175,12 @@ def test_a_chained_comparison_is_warned_of():
                        "'1 < c && c < 3'")]
     assert not [x for x in warnings_of("{c = 2} S\nS if(1 < c && c < 3, 2, 1)\n1: S → sphere\n"
                                        "2: S → {c = c - 1} S\n") if x.code == "chained"]
+    # brackets say it is meant (the warning quoted it without them); (1) < c < 3 does not
+    for text, said in [("(1 < c) < 3", 0), ("((1 < c)) < 3", 0), ("(1) < c < 3", 1),
+                       ("(1) < (c) < 3", 1)]:
+        w = warnings_of(f"{{c = 2}} S\nS if({text}, 2, 1)\n1: S → sphere\n"
+                        "2: S → {c = c - 1} S\n")
+        assert len([x for x in w if x.code == "chained"]) == said, text
 
 
 def test_check_warns_of_a_derivation_that_meets_its_own_state_again(capsys, tmp_path):

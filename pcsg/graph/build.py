@@ -61,7 +61,7 @@ class _Builder:
             n = stack.pop()
             if isinstance(n, ast.Binary):
                 if n.op in COMPARISONS and isinstance(n.left, ast.Binary) and \
-                        n.left.op in COMPARISONS:
+                        n.left.op in COMPARISONS and not self._bracketed(n, n.left):
                     a, b = unparse_arith(n.left.left), unparse_arith(n.left.right)
                     c = unparse_arith(n.right)
                     self.warn(n.span, f"'{a} {n.left.op} {b} {n.op} {c}' compares ({a} "
@@ -72,6 +72,17 @@ class _Builder:
                 stack.append(n.operand)
             elif isinstance(n, ast.Call):
                 stack += n.args
+
+    def _bracketed(self, n, left) -> bool:
+        """Whether `left`, n's left operand, is written in brackets: `(1 < c) < 3` says
+        what it means."""
+        text = self.source.expanded[left.span[0]:left.span[1]]
+        depth = 0
+        for i, ch in enumerate(text):       # the bracket it opens with closes at its end
+            depth += (ch == "(") - (ch == ")")
+            if depth == 0:
+                return i == len(text) - 1 and text[0] == "("
+        return False
 
     # ---- the whole file
     def build(self) -> Graph:
