@@ -353,3 +353,16 @@ def test_an_output_under_dev_is_no_device_by_its_name(capsys, tmp_path):
     finally:
         other.unlink()
     capsys.readouterr()
+
+
+@pytest.mark.parametrize("rules, message", [
+    ("1: S → sphere\n2: Ss → {c = c-1} uscale(0.5) S\n",
+     "4:1: rules of 'Ss' must be numbered 1..1; rule 2 leaves a gap (missing: 1); "
+     "did you mean 'S'?"),
+    ("1: S → sphere\n2: S → uscale(0.5) S\n1: Ss → sphere\n2: Ss → {c = c-1} S\n",
+     "5:4: module 'Ss' has 2 rules but no selection; declare one, e.g. "
+     "'Ss if(..., 2, 1)'; did you mean 'S'?"),
+])
+def test_a_rule_head_that_misspells_a_module_names_it(rules, message):
+    text = "{c = 2} S\nS if(c > 0, 2, 1)\n" + rules
+    assert [placed(d) for d in diagnostics_of(text)] == [message]

@@ -171,6 +171,11 @@ class _Builder:
                     self.error(r.number_span, f"rule {n} of '{name}' is given twice "
                                               f"(first at {first})", "rule-number")
             expected = set(range(1, len(numbers) + 1))
+            decl = declared.get(name)
+            # a rule whose head misspells a module (`2: Ss → ...` for S): said as a gap or
+            # a missing selection, with no word of S
+            hint = "" if decl is not None else did_you_mean(
+                name, [m for m in declared if m != name])
             for n in sorted(set(numbers) - expected):
                 missing = sorted(expected - set(numbers))
                 if n < 1:
@@ -179,13 +184,12 @@ class _Builder:
                     continue
                 self.error(numbers[n][0].number_span,
                            f"rules of '{name}' must be numbered 1..{len(numbers)}; "
-                           f"rule {n} leaves a gap (missing: {', '.join(map(str, missing))})",
-                           "rule-number")
-            decl = declared.get(name)
+                           f"rule {n} leaves a gap (missing: {', '.join(map(str, missing))})"
+                           + hint, "rule-number")
             if decl is None and len(numbers) > 1:
                 self.error(rs[0].module_span,
                            f"module '{name}' has {len(numbers)} rules but no selection; declare "
-                           f"one, e.g. '{name} if(..., 2, 1)'", "no-selection")
+                           f"one, e.g. '{name} if(..., 2, 1)'" + hint, "no-selection")
             out[name] = (decl, [numbers[n][0] for n in sorted(numbers)])
         return out
 
