@@ -31,9 +31,12 @@ def _compile(text: str, file: str, overrides: dict[str, float] | None) -> Graph:
             run_checks(graph)
             return graph
     except RecursionError:
-        raise PcsgError([Diagnostic("error", "the expressions are nested too deeply to compile "
-                                             "(more than about 10 000 levels)", None,
-                                    Source(file, text), code="nesting")]) from None
+        # a flat sum nests too: 1+1+...+1 is ((1+1)+1)+..., and 20 000 terms compile
+        raise PcsgError([Diagnostic(
+            "error", "an expression is nested too deeply to compile (a chain of tens of "
+                     "thousands of operators, or brackets as deep): split it, with named "
+                     "expressions or parameters for its parts", None, Source(file, text),
+            code="nesting")]) from None
 
 
 def compile_file(path: str | Path, overrides: dict[str, float] | None = None) -> Graph:
