@@ -83,6 +83,8 @@ def cmd_check(args) -> int:
         _report(None, graph.warnings)
         if args.werror and graph.warnings:
             failed += 1
+            n = len(graph.warnings)
+            print(f"{path}: failed: {_counted(n, 'warning')} with --werror", file=sys.stderr)
         elif not args.quiet:
             from .graph.volumes import graftal_nodes
             n = len(graph.warnings)

@@ -67,7 +67,7 @@ def test_check_warnings_and_werror(capsys, tmp_path):
     code, out, err = run(capsys, "check", str(p))
     assert code == 0 and "warning: 'S' can call itself here" in err and "2 warnings" in out
     code, out, err = run(capsys, "check", "--werror", str(p))
-    assert code == 1
+    assert code == 1 and err.endswith(f"{p}: failed: 2 warnings with --werror\n")
 
 
 def test_check_counts_graftals_and_the_samples_pass_werror(capsys):

@@ -162,6 +162,8 @@ def test_a_value_that_is_not_finite_is_said_as_nan_or_inf(capsys, tmp_path):
     ("sphere ⋃ cube\n", "1:8: unexpected character '⋃' (U+22C3): write '∪' or '|' instead"),
     ("{c = 1} S\nS c ? 1 : 2\n1: S → sphere\n2: S → cube\n",
      "2:5: unexpected character '?': the notation has no 'c ? a : b'; write if(c, a, b)"),
+    ("café = sphere\ncafé\n",
+     "1:4: unexpected character 'é': names are ASCII letters, digits and '_' (notation §1)"),
 ])
 def test_a_lookalike_character_is_named_with_what_to_write(text, message):
     assert placed(diagnostics_of(text)[0]) == message

@@ -152,5 +152,8 @@ def lookalike(ch: str) -> str | None:
         return "unexpected character '?': the notation has no 'c ? a : b'; write if(c, a, b)"
     instead = LOOKALIKES.get(ch)
     if instead is None:
+        if ch.isalpha() or ch.isdigit():    # `café`: a letter, but not one a name may hold
+            return (f"unexpected character {ch!r}: names are ASCII letters, digits and '_' "
+                    f"(notation §1)")
         return None
     return f"unexpected character {ch!r} (U+{ord(ch):04X}): write {instead} instead"
