@@ -93,3 +93,28 @@ def test_only_surfaces_facing_a_light_send_shadow_rays(kernel):
             assert 0 < facing < hits.hit.sum()            # both halves are in view
             assert light.rays[0] == len(o) + facing
     np.testing.assert_allclose(pictures[0], pictures[1], rtol=0, atol=1e-12)
+
+
+BALL_ABOVE = """
+#camera eye=(5, 0, 0.5) at=(0, 0, 0) up=(0, 0, 1) fov=40
+#light at=(0, 0, 10)
+#material glass transmit={t} ior=1.5
+{ball} move(0, 0, 2) sphere ∪ paint(0.8, 0.8, 0.8) plane
+"""
+
+
+@pytest.mark.parametrize("kernel", [False, True], ids=["model", "kernel"])
+def test_glass_lets_its_transmit_through_each_surface_to_the_shadow(kernel):
+    # glass cast a full shadow; the light straight under the ball's centre crosses two
+    # surfaces: transmit squared of it comes through (POV-Ray's `transmit` does the same)
+    def lit(t, ball="material(glass)"):
+        obj = pcsg.loads(BALL_ABOVE.replace("{t}", str(t)).replace("{ball}", ball))
+        cam = make_camera(obj, 1.0)
+        light = make_lighting(obj, cam, True, 1, 3)
+        o, d = np.array([[5.0, 0, 0.5]]), np.array([[-5.0, 0, -0.5]])   # onto (0, 0, 0)
+        c, t_hit, hits = shade(obj, light, o, d, kernel=kernel)
+        assert hits.hit[0] and abs(t_hit[0] - 1) < 1e-12
+        return c[0]
+    dark, bare = lit(0), lit(0, "uscale(0.001) move(1000, 0, 0)")
+    for t in (0.5, 0.9):
+        np.testing.assert_allclose((lit(t) - dark) / (bare - dark), t * t, rtol=1e-9)

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..scene import MATERIAL_DEFAULTS
 from ..trace.jit import threads
-from ..trace.shading import GOLDEN, MIN_WEIGHT
+from ..trace.shading import GOLDEN, MAX_CROSSINGS, MIN_WEIGHT
 from ..trace.walk import HIT_SHEET, HIT_SHELL
 from ..trace.vm import hash_to_unit_array, splitmix64_array
 from ..tracer import Hits
@@ -203,15 +203,51 @@ def _visibility(traced, light: Lighting, lt: Light, origin: np.ndarray, n: np.nd
     facing = n[:, 0] * ldir[:, 0] + n[:, 1] * ldir[:, 1] + n[:, 2] * ldir[:, 2] > 0.0
     seen = np.zeros(len(origin))
     o = origin[facing]
+    glass = bool(len(light.materials)) and bool((light.materials[:, 8] > 0).any())
     for k in range(samples if len(o) else 0):
         # one sample: the light is a point at its centre
         target = lt.position + (_disk(k, samples, lt.radius, ldir[facing])
                                 if samples > 1 else 0.0)
+        target = np.broadcast_to(target, o.shape)
         hit = traced.trace(o, target - o, tmin=1e-9, tmax=1.0 - 1e-9, any_hit=True,
                            lod=light.lod)
         light.rays[0] += len(o)
-        seen[facing] += ~hit.hit
+        passed = (~hit.hit).astype(float)
+        if glass and hit.hit.any():
+            passed[hit.hit] = _through_glass(traced, light, o[hit.hit], target[hit.hit])
+        seen[facing] += passed
     return seen / samples, ldir
+
+
+def _through_glass(traced, light: Lighting, o: np.ndarray, target: np.ndarray):
+    """The light that comes through to points o from targets on a light, whose shadow
+    rays met something: walked again surface by surface, nearest first, each surface of
+    a material that transmits letting through its transmit, anything else (or a shell)
+    stopping it; past MAX_CROSSINGS surfaces, none."""
+    out = np.zeros(len(o))
+    passing = np.ones(len(o))
+    origin = o.copy()
+    active = np.arange(len(o))
+    for _ in range(MAX_CROSSINGS):
+        if not len(active):
+            break
+        d = target[active] - origin[active]
+        h = traced.trace(origin[active], d, tmin=1e-9, tmax=1.0 - 1e-9, lod=light.lod)
+        light.rays[0] += len(active)
+        out[active[~h.hit]] = passing[active[~h.hit]]
+        through = np.zeros(len(active))
+        if h.hit.any():
+            through[h.hit] = _finish(light, h.material[h.hit], h.paint[h.hit])[:, 8]
+            if h.what is not None:
+                through = np.where(h.what == HIT_SHELL, 0.0, through)
+        go = h.hit & (through > 0)
+        active, d, t = active[go], d[go], h.t[go]
+        passing[active] *= through[go]
+        p = origin[active] + t[:, None] * d
+        dn = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])
+        scale = 1.0 + np.abs(p).max(axis=1)
+        origin[active] = p + d / dn[:, None] * EPS * scale[:, None]
+    return out
 
 
 def _disk(k: int, n: int, radius: float, normal: np.ndarray) -> np.ndarray:

@@ -44,8 +44,13 @@ P_WIDTH = 11
 # colour so far, weight, base colour; then its finish and what its bounces need
 SH_Q, SH_N, SH_U, SH_P, SH_C, SH_W, SH_B = 0, 3, 6, 9, 12, 15, 18
 (SH_KD, SH_KS, SH_SHIN, SH_REFL, SH_IOR, SH_TRANS, SH_INSIDE, SH_CONE, SH_SCALE, SH_PIX,
- SH_SEEN, SH_FACING) = range(21, 33)
-SH_WIDTH = 33
+ SH_SEEN, SH_FACING, SH_PASS) = range(21, 34)
+SH_G = 34                   # the point on the light a surface's shadow ray aims at
+SH_WIDTH = 37
+M_TRANSMIT = 8              # the material table's transmit column (shade.FINISH_KEYS)
+# the surfaces a shadow ray passes through, at most: past them the light is taken as
+# blocked (0.9 ** 16 of it would be left through glass of transmit 0.9)
+MAX_CROSSINGS = 16
 GOLDEN = 0.6180339887498949                    # the pattern's azimuths: k * GOLDEN mod 1
 
 
@@ -86,6 +91,12 @@ def shade_share(w, workers, flat, origins, directions, lights, horizon, zenith, 
     # the walk twice took 50 s more
     nearest = n < 0
     blocker = not nearest
+    # glass lets light through to what it shades; without any, shadow rays stop at the
+    # first surface they meet, as they did before there was glass
+    glass = False
+    for r in range(materials.shape[0]):
+        glass = glass or materials[r, M_TRANSMIT] > 0.0
+    slot = np.empty(PACKET, dtype=np.int64)
     ev = events[w]
     for c in range(w, chunks, workers):
         i0 = c * CHUNK
@@ -126,7 +137,8 @@ def shade_share(w, workers, flat, origins, directions, lights, horizon, zenith, 
                                     max_depth, S, P, together, blocker, ev, occ, sh)
             for li in range(lights.shape[0]):
                 traced += light_up(flat, lights, li, shadows, shadow_samples, hits, lod,
-                                   max_depth, S, P, together, blocker, ev, occ, sh)
+                                   max_depth, S, P, together, blocker, ev, occ, sh, glass,
+                                   materials, default, slot)
             top = bounce(pend, count, depths, top, depth, max_bounces, hits, sh, rgb)
         rays[c] = traced
 
@@ -235,10 +247,12 @@ def to_light(lights, li, sh, j):
 
 @inline
 def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S, P, together,
-             any_hit, ev, occ, sh):
+             any_hit, ev, occ, sh, glass, materials, default, slot):
     """Light li's diffuse and specular terms on every surface, times the fraction of
-    its samples that no shadow ray finds blocked (one packet per sample). Returns the
-    rays traced."""
+    its samples that no shadow ray finds blocked (one packet per sample); with `glass`,
+    a shadow ray that meets glass goes on through it (through_glass). Returns the rays
+    traced."""
+    rays = 0
     radius = lights[li, L_RADIUS]
     samples = shadow_samples if radius > 0 else 1
     # an int64 from the start: numba types the trace call below while it still takes
@@ -269,18 +283,27 @@ def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S,
                     g0 += e0
                     g1 += e1
                     g2 += e2
+                sh[j, SH_G], sh[j, SH_G + 1], sh[j, SH_G + 2] = g0, g1, g2
                 aim(P, k, sh, j, g0 - sh[j, SH_Q], g1 - sh[j, SH_Q + 1],
                     g2 - sh[j, SH_Q + 2])
                 k += 1
             trace(flat, facing, 1e-9, 1.0 - 1e-9, any_hit, lod, max_depth, S, P, together, ev,
                   occ)
+            rays += facing
             k = 0
+            blocked = 0
             for j in range(hits):
                 if sh[j, SH_FACING] == 0.0:
                     continue
                 if occ[k, R_HIT] == 0.0:
                     sh[j, SH_SEEN] += 1.0
+                elif glass:
+                    slot[blocked] = j
+                    blocked += 1
                 k += 1
+            if blocked > 0:
+                rays += through_glass(flat, blocked, slot, lod, max_depth, S, P, together,
+                                      not any_hit, ev, occ, sh, materials, default)
     for j in range(hits):
         vis = sh[j, SH_SEEN] / samples if shadows else 1.0
         l0, l1, l2 = to_light(lights, li, sh, j)
@@ -295,7 +318,57 @@ def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S,
         for a in range(3):
             sh[j, SH_C + a] += vis * lights[li, L_COLOR + a] * (kd * sh[j, SH_B + a] * ndl
                                                                 + ks * spec * lit)
-    return facing * samples if shadows else 0
+    return rays
+
+
+@inline
+def through_glass(flat, n, slot, lod, max_depth, S, P, together, nearest, ev, occ, sh,
+                  materials, default):
+    """The shadow rays of surfaces slot[:n], which met something on the way to their
+    light, walked again surface by surface, nearest first: each surface of a material
+    that transmits lets through its transmit (a ball of glass twice, going in and out,
+    as POV-Ray's shadows through `transmit`), anything else, or a shell, stops the
+    light. What comes through adds to the surface's SH_SEEN. Returns the rays traced."""
+    rays = 0
+    for i in range(n):
+        j = slot[i]
+        sh[j, SH_PASS] = 1.0
+        aim(P, i, sh, j, sh[j, SH_G] - sh[j, SH_Q], sh[j, SH_G + 1] - sh[j, SH_Q + 1],
+            sh[j, SH_G + 2] - sh[j, SH_Q + 2])
+    for _ in range(MAX_CROSSINGS):
+        if n == 0:
+            break
+        trace(flat, n, 1e-9, 1.0 - 1e-9, nearest, lod, max_depth, S, P, together, ev, occ)
+        rays += n
+        kept = 0
+        for i in range(n):
+            j = slot[i]
+            if occ[i, R_HIT] == 0.0:
+                sh[j, SH_SEEN] += sh[j, SH_PASS]
+                continue
+            mat = int(occ[i, R_MAT])
+            through = materials[mat, M_TRANSMIT] if mat >= 0 else default[M_TRANSMIT]
+            if occ[i, R_HIT] == HIT_SHELL or not through > 0.0:
+                continue
+            sh[j, SH_PASS] *= through
+            # on from just past the surface, as a refracted ray starts (shade._bounces)
+            t = occ[i, R_T]
+            d0, d1, d2 = P.D[i, 0], P.D[i, 1], P.D[i, 2]
+            p0, p1, p2 = P.O[i, 0] + t * d0, P.O[i, 1] + t * d1, P.O[i, 2] + t * d2
+            dn = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            scale = 1.0 + max(abs(p0), abs(p1), abs(p2))
+            o0 = p0 + d0 / dn * EPS * scale
+            o1 = p1 + d1 / dn * EPS * scale
+            o2 = p2 + d2 / dn * EPS * scale
+            slot[kept] = j
+            P.O[kept, 0], P.O[kept, 1], P.O[kept, 2] = o0, o1, o2
+            P.D[kept, 0] = sh[j, SH_G] - o0
+            P.D[kept, 1] = sh[j, SH_G + 1] - o1
+            P.D[kept, 2] = sh[j, SH_G + 2] - o2
+            P.cone[kept] = sh[j, SH_CONE]
+            kept += 1
+        n = kept
+    return rays
 
 
 @kernel
