@@ -215,6 +215,10 @@ def test_check_warns_of_a_derivation_that_meets_its_own_state_again(capsys, tmp_
     # ASCII arrow, and a '#' comment after a statement
     ("S\nS -> sphere\n", "2:1: a rule starts with its number"),
     ("S\n1: S → sphere # the ball\n", "2:15: '#' does not start a comment"),
+    # a rule without its number and arrow reads as a declaration with a selection
+    ("{c = 1} T\nT move(1,0,0) sphere\n", "2:1: 'T move(1,0,0)' reads as module 'T' with "
+     "the selection move(1,0,0); a rule is written '1: T → move(1,0,0) sphere'"),
+    ("{c = 1} T\nT if(c > 0, 2, 1) sphere\n", "2:19: unexpected 'sphere'"),
 ])
 def test_the_slip_hints_hold_back_where_the_slip_is_another(text, first):
     d = diagnostics_of(text)[0]

@@ -85,6 +85,22 @@ def rule_without_number(text: str, pos: int):
             (line_start + m.start(1), pos + 1))
 
 
+def rule_as_selection(text: str, pos: int):
+    """`T move(1, 0, 0) sphere`: a module's name and a transformation at the start of a
+    line read as the module's declaration with that transformation as its selection, and
+    the operand after it was said as unexpected. `pos` is the operand's."""
+    line_start = text.rfind("\n", 0, pos) + 1
+    m = re.match(r"[ \t]*([A-Za-z_][A-Za-z0-9_]*)[ \t]+(([A-Za-z_][A-Za-z0-9_]*)[ \t]*\(.*\))"
+                 r"[ \t]*$", text[line_start:pos])
+    if m is None or m.group(3) not in TRANSFORMS or m.group(1) in PRIMITIVES:
+        return None
+    end = text.find("\n", pos)
+    body = f"{m.group(2)} {text[pos:end if end >= 0 else len(text)].strip()}"
+    return (f"'{m.group(1)} {m.group(2)}' reads as module '{m.group(1)}' with the selection "
+            f"{m.group(2)}; a rule is written '1: {m.group(1)} → {body}'",
+            (line_start + m.start(1), line_start + m.end(1)))
+
+
 def assignment_for_comparison(expected) -> str | None:
     """`if(c = 0, ...)`: '=' where a comparison may stand."""
     if "CMP" in expected and "EQUAL" not in expected:

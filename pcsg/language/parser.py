@@ -13,7 +13,8 @@ from . import ast
 from .errors import Diagnostic, PcsgError
 from .files import line_ends, read_source_text
 from .mistakes import (HASH_COMMENT, assignment_for_comparison, lookalike, missing_operator,
-                       rule_without_number, unknown_call, unknown_directive)
+                       rule_as_selection, rule_without_number, unknown_call,
+                       unknown_directive)
 from .names import FREE, RESERVED
 from .postlex import LineJoiner, owned_names
 from .preprocess import code_of, preprocess
@@ -385,7 +386,8 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner,
                   or (tok.value == ">" and text[tok.start_pos - 1:tok.start_pos] == "-"
                       and rule_without_number(text, tok.start_pos - 1))
                   or (not _in_block(joiner) and unknown_call(text, tok.start_pos))
-                  or missing_operator(text, tok.type, tok.value, tok.start_pos, expected)):
+                  or missing_operator(text, tok.type, tok.value, tok.start_pos, expected)
+                  or rule_as_selection(text, tok.start_pos)):
         msg, span = said
     elif tok.type == "EQUAL" and joiner.open_brackets and \
             (said := assignment_for_comparison(expected)):
