@@ -214,9 +214,21 @@ def _visibility(traced, light: Lighting, lt: Light, origin: np.ndarray, n: np.nd
         light.rays[0] += len(o)
         passed = (~hit.hit).astype(float)
         if glass and hit.hit.any():
-            passed[hit.hit] = _through_glass(traced, light, o[hit.hit], target[hit.hit])
+            # what stops light, met first, stops it whatever else is there
+            again = hit.hit.copy()
+            again[hit.hit] = _passes(light, hit, hit.hit) > 0
+            passed[again] = _through_glass(traced, light, o[again], target[again])
         seen[facing] += passed
     return seen / samples, ldir
+
+
+def _passes(light: Lighting, hits: Hits, which: np.ndarray) -> np.ndarray:
+    """The share of light the surfaces hit at `which` let through: their material's
+    transmit, 0 for a shell."""
+    through = _finish(light, hits.material[which], hits.paint[which])[:, 8]
+    if hits.what is not None:
+        through = np.where(hits.what[which] == HIT_SHELL, 0.0, through)
+    return through
 
 
 def _through_glass(traced, light: Lighting, o: np.ndarray, target: np.ndarray):
@@ -236,10 +248,7 @@ def _through_glass(traced, light: Lighting, o: np.ndarray, target: np.ndarray):
         light.rays[0] += len(active)
         out[active[~h.hit]] = passing[active[~h.hit]]
         through = np.zeros(len(active))
-        if h.hit.any():
-            through[h.hit] = _finish(light, h.material[h.hit], h.paint[h.hit])[:, 8]
-            if h.what is not None:
-                through = np.where(h.what == HIT_SHELL, 0.0, through)
+        through[h.hit] = _passes(light, h, h.hit)
         go = h.hit & (through > 0)
         active, d, t = active[go], d[go], h.t[go]
         passing[active] *= through[go]

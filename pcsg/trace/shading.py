@@ -297,7 +297,9 @@ def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S,
                     continue
                 if occ[k, R_HIT] == 0.0:
                     sh[j, SH_SEEN] += 1.0
-                elif glass:
+                elif glass and passes(occ, k, materials, default) > 0.0:
+                    # what it met lets light through: walked again, there may be more
+                    # (what stops light, met first, stops it whatever else is there)
                     slot[blocked] = j
                     blocked += 1
                 k += 1
@@ -319,6 +321,16 @@ def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S,
             sh[j, SH_C + a] += vis * lights[li, L_COLOR + a] * (kd * sh[j, SH_B + a] * ndl
                                                                 + ks * spec * lit)
     return rays
+
+
+@inline
+def passes(occ, i, materials, default):
+    """The share of light the surface of hit i lets through: its material's transmit, 0
+    for a shell (walk.HIT_SHELL)."""
+    if occ[i, R_HIT] == HIT_SHELL:
+        return 0.0
+    mat = int(occ[i, R_MAT])
+    return materials[mat, M_TRANSMIT] if mat >= 0 else default[M_TRANSMIT]
 
 
 @inline
@@ -346,9 +358,8 @@ def through_glass(flat, n, slot, lod, max_depth, S, P, together, nearest, ev, oc
             if occ[i, R_HIT] == 0.0:
                 sh[j, SH_SEEN] += sh[j, SH_PASS]
                 continue
-            mat = int(occ[i, R_MAT])
-            through = materials[mat, M_TRANSMIT] if mat >= 0 else default[M_TRANSMIT]
-            if occ[i, R_HIT] == HIT_SHELL or not through > 0.0:
+            through = passes(occ, i, materials, default)
+            if not through > 0.0:
                 continue
             sh[j, SH_PASS] *= through
             # on from just past the surface, as a refracted ray starts (shade._bounces)
