@@ -23,7 +23,7 @@ from .language import prefetch  # noqa: E402
 from .language.errors import PcsgError, labelled  # noqa: E402
 from .limits import bounces_problem, shadow_samples_problem, size_problem  # noqa: E402
 from .timings import Timings, note_startup  # noqa: E402
-from .statusout import StatusLines, is_stdout, status_stream  # noqa: E402
+from .statusout import is_stdout, status_stream  # noqa: E402
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
 
@@ -37,18 +37,17 @@ def expand_globs(patterns: list[str]) -> list[str]:
     here, and a directory is its .pcsg files (`pcsg render grammars/ -o out/`)."""
     out = []
     for pat in patterns:
-        if os.path.isdir(pat):
-            found = sorted(glob.glob(os.path.join(glob.escape(pat), "*.pcsg")))
-            if not found:
-                raise UsageError(f"{pat}: a directory without .pcsg files")
-            out += found
-        elif not os.path.exists(pat) and any(ch in pat for ch in "*?["):
+        if not os.path.exists(pat) and any(ch in pat for ch in "*?["):
             matches = sorted(glob.glob(pat))
             if not matches:
                 raise UsageError(f"no file matches '{pat}'")
-            out += matches
         else:
-            out.append(pat)
+            matches = [pat]
+        for m in matches:
+            found = sorted(glob.glob(os.path.join(glob.escape(m), "*.pcsg"))) \
+                if os.path.isdir(m) else []
+            # one without any fails alone, as a file that cannot be read does
+            out += found or [m]
     return out
 
 
@@ -367,8 +366,6 @@ def _exit(failed: int) -> int:
 def _outputs(files: list[str], output: str | None) -> list[Path]:
     """NAME.png here; or -o FILE.png for one file; or -o DIR/ (created) for any number."""
     names = [Path(f).stem + ".png" for f in files]
-    if output == "":
-        raise UsageError("-o '': name an image or a directory")
     if output is None:
         return _distinct(files, [Path(n) for n in names])
     out = Path(output)
@@ -486,7 +483,7 @@ def cmd_export(args) -> int:
     progress = _export_progress(args, total)
     try:
         count, empty, dropped = export_pov(traced, camera, lighting, out, args.size,
-                                           lambda done: progress.update(done, done), cut=cut)
+                                           _export_watch(args, out, total, progress), cut=cut)
     finally:
         progress.close()
     # the bounding walk's (where a map empties instances: the export leaves them out too)
@@ -509,6 +506,7 @@ def _many(n: int, what: str) -> str:
 PROGRESS_STATES = 20_000     # _export_total's count: about 0.2 s at most
 EXPORT_LIMIT = 20_000_000    # primitives: POV-Ray holds about a million in a GB
 BYTES_AT_LEAST = 100         # a primitive's bytes in the scene (a mesh's triangle: 109)
+MIN_FREE = 100_000_000       # bytes an export leaves free on its disk, or stops
 
 
 def _export_cut(args, traced):
@@ -566,6 +564,33 @@ def _export_fits(args, out: Path, total: int):
                          f"{_bytes(total * BYTES_AT_LEAST)}, and its disk has {_bytes(free)} free")
 
 
+def _export_watch(args, out: Path, total: int, progress):
+    """The export's callback after each chunk: its progress line, and the refusals of
+    _export_fits for a derivation that could not be counted beforehand (a binary tree
+    whose parameter is in its selection: 65,536 primitives, counted 0), as it goes: past
+    EXPORT_LIMIT, or with the disk nearly full, it stops, and nothing is written."""
+    import shutil
+    import stat
+    plain = stat.S_ISREG(_mode(out))
+
+    def watch(done: int):
+        progress.update(done, done)
+        if done > EXPORT_LIMIT and not args.force and not total:
+            raise UsageError(f"{args.file}: the derivation has passed {EXPORT_LIMIT:,} "
+                             f"primitives (POV-Ray holds about a million in a GB of memory); "
+                             f"stopped, nothing written: lower the order (--set), cut it "
+                             f"(--max-depth N), or --force to write it")
+        if plain:
+            try:
+                free = shutil.disk_usage(out.parent).free
+            except OSError:
+                return
+            if free < MIN_FREE:
+                raise UsageError(f"--pov {out}: its disk has {_bytes(free)} free; stopped "
+                                 f"after {done:,} primitives, nothing written")
+    return watch
+
+
 def _bytes(n: float) -> str:
     return f"{n / 1e9:.1f} GB" if n >= 1e9 else f"{n / 1e6:.1f} MB"
 
@@ -597,11 +622,25 @@ FILE_COMMANDS = ("render", "sweep", "animate", "export")     # stdout: status li
 def main(argv: list[str] | None = None) -> int:
     redeliver_in_finalizers()
     args = parser().parse_args(argv)
-    if args.command in FILE_COMMANDS and not isinstance(sys.stdout, StatusLines):
-        image = args.pov if args.command == "export" else args.output
-        sys.stdout = status_stream(args.command in ("render", "export") and image is not None
-                                   and is_stdout(image))
+    if args.command not in FILE_COMMANDS:
+        return _run(args)
+    image = args.pov if args.command == "export" else args.output
+    saved = sys.stdout
+    sys.stdout = status_stream(args.command in ("render", "export") and bool(image)
+                               and is_stdout(image))
     try:
+        return _run(args)
+    finally:                    # a caller's own prints go where they went before
+        sys.stdout.flush()
+        sys.stdout = saved
+
+
+def _run(args) -> int:
+    try:
+        for attr, flag in (("output", "-o"), ("pov", "--pov"), ("depth", "--depth")):
+            if getattr(args, attr, None) == "":
+                # it was the working directory, or the default name, or an error of another
+                raise UsageError(f"{flag} '': name a file or a directory")
         return COMMANDS[args.command](args)
     except PcsgError as e:
         _report(e, [])
@@ -726,6 +765,8 @@ def run() -> None:
     note_startup(IMPORTS_BEGAN)
     code = main()
     for stream in (sys.stdout, sys.stderr):
+        if stream is None:                      # started with it closed (`>&-`)
+            continue
         try:
             stream.flush()
         except (BrokenPipeError, ValueError):   # a reader that left, or a closed stream

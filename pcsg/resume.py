@@ -67,10 +67,11 @@ class Manifest:
                 and entry.get("sha256") == _sha(out) and _valid_png(out))
 
     def record(self, out: Path, key: str):
-        """Saved at most every SAVE_EVERY seconds (flush saves the rest): the whole file
-        written after every frame took 137 ms a frame at 20,000 entries, and a long
-        animation's parent fell behind its workers. A record lost to a crash only
-        renders its file again."""
+        """Saved with the first record SAVE_EVERY seconds after the last save, and at
+        the end (flush, on every way out but a kill): the whole file written after every
+        frame took 137 ms a frame at 20,000 entries, and a long animation's parent fell
+        behind its workers. A record a kill loses (one that came within the second, with
+        none after it) only renders its file again."""
         self.entries[Path(out).name] = {"key": key, "sha256": _sha(out)}
         self._unsaved = True
         if time.monotonic() - self._saved >= SAVE_EVERY:

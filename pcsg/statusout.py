@@ -16,7 +16,7 @@ import sys
 class StatusLines(io.TextIOBase):
     def __init__(self, stream):
         self._stream = stream
-        self._gone = False
+        self._gone = stream is None         # started with it closed (`>&-`)
 
     def write(self, text: str) -> int:
         if not self._gone:
@@ -39,20 +39,31 @@ class StatusLines(io.TextIOBase):
         # /dev/null rather than the closed pipe
         try:
             null = os.open(os.devnull, os.O_WRONLY)
-            os.dup2(null, sys.__stdout__.fileno())
+            os.dup2(null, self._stream.fileno())
             os.close(null)
         except (OSError, AttributeError, ValueError):
             pass
+
+    def writable(self) -> bool:
+        return True
 
     def isatty(self) -> bool:
         return not self._gone and self._stream.isatty()
 
     def fileno(self) -> int:
+        if self._stream is None:
+            raise io.UnsupportedOperation("standard output is closed")
         return self._stream.fileno()
 
     @property
     def encoding(self):
-        return self._stream.encoding
+        return getattr(self._stream, "encoding", "utf-8")
+
+    def __getattr__(self, name):
+        # what else a library asks of sys.stdout (buffer, name, reconfigure ...)
+        if self._stream is None:
+            raise AttributeError(name)
+        return getattr(self._stream, name)
 
 
 def status_stream(images_to_stdout: bool):

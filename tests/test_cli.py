@@ -2,6 +2,7 @@
 import json
 import os
 import re
+import shlex
 import shutil
 import subprocess
 import sys
@@ -154,7 +155,7 @@ def test_graph_marks_the_operand_a_difference_takes_away(capsys, tmp_path):
 
 
 def test_unreadable_inputs(capsys, tmp_path):
-    code, out, err = run(capsys, "check", str(tmp_path))
+    code, out, err = run(capsys, "check", str(tmp_path))      # its .pcsg files: none
     assert code == 1 and "is a directory" in err
     code, out, err = run(capsys, "check", str(tmp_path / "missing.pcsg"))
     assert code == 1 and "cannot read: No such file or directory" in err
@@ -438,7 +439,8 @@ def test_timeout_stops_a_long_bounding_walk(capsys, tmp_path):
     # the object's box overflows the framing: the eye would be at infinity
     ("move(1e300, 0, 0) sphere ∪ move(-1e300, 0, 0) sphere\n", [],
      "is too large to frame: place the camera with #camera eye=... at=..."),
-    (SIERPINSKI, ["--eye", "1,1,1", "--at", "1,1,1"],
+    # the file's eye and the command line's at (both on the command line: a usage error)
+    ("#camera eye=(1, 1, 1) at=(0, 0, 0)\n" + SIERPINSKI, ["--at", "1,1,1"],
      "the camera's eye and at are the same point (1, 1, 1)"),
     (SIERPINSKI, ["--eye", "0,0,5", "--at", "0,0,0"],
      "the camera's up (0, 0, 1) is parallel to its viewing direction"),
@@ -479,11 +481,24 @@ def test_a_directory_is_its_pcsg_files_and_an_empty_output_name_is_refused(capsy
     out = capsys.readouterr().out
     assert out.index("a.pcsg: ok") < out.index("b.pcsg: ok") and "notes" not in out
     (tmp_path / "empty").mkdir()
-    assert main(["check", str(tmp_path / "empty")]) == 2
-    assert "a directory without .pcsg files" in capsys.readouterr().err
+    assert main(["check", str(tmp_path / "empty")]) == 1
+    assert "empty: error: is a directory, not a .pcsg file" in capsys.readouterr().err
     # -o '' rendered into the working directory
     assert main(["render", str(tmp_path / "a.pcsg"), "-o", ""]) == 2
-    assert "-o '': name an image or a directory" in capsys.readouterr().err
+    assert "-o '': name a file or a directory" in capsys.readouterr().err
+    for args in (["sweep", str(tmp_path / "a.pcsg"), "--set", "c=1..2", "-o", ""],
+                 ["animate", str(tmp_path / "a.pcsg"), "-o", ""],
+                 ["export", str(tmp_path / "a.pcsg"), "--pov", ""]):
+        assert main(args) == 2, args
+        assert "'': name a file or a directory" in capsys.readouterr().err
+    # a quoted glob that matches a directory: its files too
+    assert main(["check", str(tmp_path / "[a-z]mpty"), str(tmp_path / "?.pcsg")]) == 1
+    assert "empty: error: is a directory" in capsys.readouterr().err
+    sub = tmp_path / "sub"
+    sub.mkdir()
+    (sub / "c.pcsg").write_text("sphere\n", encoding="utf-8")
+    assert main(["check", str(tmp_path / "s?b")]) == 0
+    assert "c.pcsg: ok" in capsys.readouterr().out
 
 
 def test_a_size_past_the_limit_says_its_pixels_exactly(capsys, tmp_path):
@@ -789,3 +804,24 @@ def test_an_image_on_standard_output_gets_no_status_line_inside(tmp_path):
     assert r.returncode == 0 and r.stdout.startswith(b"\x89PNG")
     assert r.stdout.endswith(b"IEND\xaeB`\x82")
     assert b"/dev/stdout: 16x12," in r.stderr
+
+
+def test_main_gives_the_callers_standard_output_back(capsys, tmp_path):
+    # it kept its wrapper: a caller's prints, and a later render's status line over an
+    # image on /dev/stdout, went where the first render had sent its own
+    before = sys.stdout
+    src = tmp_path / "g.pcsg"
+    src.write_text("sphere\n", encoding="utf-8")
+    assert main(["render", str(src), "-o", str(tmp_path / "g.png"), "--size", "8x6", "-q"]) == 0
+    assert sys.stdout is before
+    assert "g.png: 8x6" in capsys.readouterr().out
+
+
+def test_a_render_with_standard_output_closed_writes_its_image(tmp_path):
+    # `pcsg render ... >&-`: "internal error" and status 120, the PNG written
+    src = tmp_path / "g.pcsg"
+    src.write_text("sphere\n", encoding="utf-8")
+    r = subprocess.run(f"{shlex.quote(sys.executable)} -m pcsg render {src} -o "
+                       f"{tmp_path / 'g.png'} --size 8x6 -q >&-", shell=True,
+                       capture_output=True, text=True, timeout=300)
+    assert (r.returncode, r.stderr) == (0, "") and (tmp_path / "g.png").exists()

@@ -164,9 +164,10 @@ def test_an_output_that_is_a_directory_is_named(capsys, tmp_path):
     src = tmp_path / "s.pcsg"
     src.write_text(SPHERE, encoding="utf-8")
     (tmp_path / "adir").mkdir()
-    assert main(["graph", str(src), "-o", str(tmp_path / "adir")]) == 1
+    assert main(["graph", str(src), "-o", str(tmp_path / "adir")]) == 2
     err = capsys.readouterr().err
-    assert f"Is a directory: {tmp_path / 'adir'}" in err and ".part" not in err
+    assert f"-o {tmp_path / 'adir'}: that is a directory; name a file in it" in err
+    assert ".part" not in err
     assert _leftovers(tmp_path) == []
 
 

@@ -178,6 +178,25 @@ def test_a_scene_the_disk_cannot_hold_is_refused_even_with_force(tmp_path, capsy
     assert not out.exists()
 
 
+@pytest.mark.parametrize("limit, free, said", [
+    (10, 10 ** 12, "the derivation has passed 10 primitives"),
+    (10 ** 9, 10 ** 6, "its disk has 1.0 MB free; stopped after 4,097 primitives"),
+])
+def test_an_export_that_could_not_be_counted_stops_as_it_goes(tmp_path, capsys, monkeypatch,
+                                                              limit, free, said):
+    # counted 0 (past 20 000 states), the refusals before it did not apply: a scene of any
+    # size went on to a full disk
+    import shutil
+    import pcsg.cli as cli
+    monkeypatch.setattr(cli, "_export_total", lambda graph, cut: 0)
+    monkeypatch.setattr(cli, "EXPORT_LIMIT", limit)
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: shutil._ntuple_diskusage(1e12, 0, free))
+    out = tmp_path / "s.pov"
+    assert main(["export", str(SIERPINSKI), "--set", "c=6", "--pov", str(out)]) == 2
+    assert said in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []           # nor its temporary file
+
+
 def test_a_long_export_shows_its_progress_on_a_terminal(tmp_path):
     """The terrain at 10 (2 097 153 primitives) takes seconds: the line counts them out
     of the total stats counts, and the command is stopped once it shows."""

@@ -291,7 +291,7 @@ def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S,
                   occ)
             rays += facing
             k = 0
-            blocked = 0
+            blocked = np.int64(0)       # as facing above: no literal 0 into the trace
             for j in range(hits):
                 if sh[j, SH_FACING] == 0.0:
                     continue
@@ -352,7 +352,7 @@ def through_glass(flat, n, slot, lod, max_depth, S, P, together, nearest, ev, oc
             break
         trace(flat, n, 1e-9, 1.0 - 1e-9, nearest, lod, max_depth, S, P, together, ev, occ)
         rays += n
-        kept = 0
+        kept = np.int64(0)
         for i in range(n):
             j = slot[i]
             if occ[i, R_HIT] == 0.0:
