@@ -349,6 +349,10 @@ def cmd_sweep(args) -> int:
     if out_dir.exists() and not out_dir.is_dir():
         raise UsageError(f"-o {args.output}: a sweep writes one image per value into a "
                          f"directory, and this is a file")
+    if not out_dir.exists() and out_dir.suffix.lower() == ".png":
+        # it made a directory of that name
+        raise UsageError(f"-o {args.output}: a sweep writes one image per value into a "
+                         f"directory; name it, e.g. -o {out_dir.with_suffix('')}/")
     # the file's errors and unknown names once, not once for every image
     _compile(args.file, {**fixed, name: values[0]})
     _make_directory(out_dir, args.output)

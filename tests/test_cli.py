@@ -631,6 +631,11 @@ def test_sweep_into_a_file_is_a_usage_error(capsys, tmp_path):
                  str(out)]) == 2
     assert "a sweep writes one image per value into a directory" in capsys.readouterr().err
     assert out.read_bytes() == b"old"
+    # a name like an image's, not there yet: it made a directory of that name
+    assert main(["sweep", str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=1..2", "-o",
+                 str(tmp_path / "x.png")]) == 2
+    assert f"name it, e.g. -o {tmp_path / 'x'}/" in capsys.readouterr().err
+    assert not (tmp_path / "x.png").exists()
 
 
 @pytest.mark.parametrize("text, message", [
