@@ -103,6 +103,8 @@ def _counted(n: int, word: str) -> str:
 
 def _write(text: str, output: str | None, source: str):
     if output is None:
+        if sys.stdout is None:          # started with it closed (`>&-`): said, not lost
+            raise UsageError("standard output is closed: give -o FILE")
         sys.stdout.write(text)
         return
     _output_directory(output)
@@ -584,14 +586,14 @@ def _export_watch(args, out: Path, total: int, progress):
                              f"primitives (POV-Ray holds about a million in a GB of memory); "
                              f"stopped, nothing written: lower the order (--set), cut it "
                              f"(--max-depth N), or --force to write it")
-        if plain:
+        if plain and not total:         # a counted one was measured against its disk
             try:
                 free = shutil.disk_usage(out.parent).free
             except OSError:
                 return
             if free < MIN_FREE:
                 raise UsageError(f"--pov {out}: its disk has {_bytes(free)} free; stopped "
-                                 f"after {done:,} primitives, nothing written")
+                                 f"after {_many(done, 'primitive')}, nothing written")
     return watch
 
 
@@ -634,8 +636,9 @@ def main(argv: list[str] | None = None) -> int:
                                and is_stdout(image))
     try:
         return _run(args)
-    finally:                    # a caller's own prints go where they went before
-        sys.stdout.flush()
+    finally:
+        # a caller's own prints go where they went before (the wrapper holds no text of
+        # its own: what it took is in that stream, flushed by whoever owns it)
         sys.stdout = saved
 
 

@@ -822,6 +822,23 @@ def test_main_gives_the_callers_standard_output_back(capsys, tmp_path):
     assert "g.png: 8x6" in capsys.readouterr().out
 
 
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="no /dev/full here")
+def test_standard_output_that_cannot_be_written_is_said(tmp_path):
+    # a full disk under stdout: a traceback and status 120 where main flushed it itself
+    src = tmp_path / "g.pcsg"
+    src.write_text("sphere\n", encoding="utf-8")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}   # as users run it
+    with open("/dev/full", "w") as full:
+        r = subprocess.run([sys.executable, "-m", "pcsg", "render", str(src), "-o",
+                            str(tmp_path / "g.png"), "--size", "8x6", "-q"], stdout=full,
+                           stderr=subprocess.PIPE, text=True, timeout=300, env=env)
+    assert (r.returncode, r.stderr) == (1, "pcsg: error: No space left on device\n")
+    # expand's text is its product: a closed stdout is said, not lost
+    r = subprocess.run(f"{shlex.quote(sys.executable)} -m pcsg expand {src} >&-", shell=True,
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 2 and "standard output is closed: give -o FILE" in r.stderr
+
+
 def test_a_render_with_standard_output_closed_writes_its_image(tmp_path):
     # `pcsg render ... >&-`: "internal error" and status 120, the PNG written
     src = tmp_path / "g.pcsg"

@@ -195,6 +195,13 @@ def test_an_export_that_could_not_be_counted_stops_as_it_goes(tmp_path, capsys, 
     assert main(["export", str(SIERPINSKI), "--set", "c=6", "--pov", str(out)]) == 2
     assert said in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []           # nor its temporary file
+    # counted, the same export is measured against its disk once, before it starts: 4,097
+    # primitives fit in 1 MB at 100 bytes each, whatever the floor for uncounted ones
+    monkeypatch.undo()
+    monkeypatch.setattr(cli, "EXPORT_LIMIT", max(limit, 5000))
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: shutil._ntuple_diskusage(1e12, 0, free))
+    assert main(["export", str(SIERPINSKI), "--set", "c=6", "--pov", str(out)]) == 0
+    assert out.exists()
 
 
 def test_a_long_export_shows_its_progress_on_a_terminal(tmp_path):
