@@ -553,19 +553,11 @@ def _export_fits(args, out: Path, total: int):
     """Refuse, before hours of writing, a scene the disk cannot hold (Sierpinski at 14,
     268 million primitives, filled 15 GB of a temporary file in ten minutes and said
     nothing), and past EXPORT_LIMIT one POV-Ray could not hold, unless --force."""
-    import shutil
-    import stat
     if total > EXPORT_LIMIT and not args.force:
-        raise UsageError(
-            f"{args.file}: the derivation has {total:,} primitives, a scene of "
-            f"{_bytes(total * 150)} or so that POV-Ray needs about {total / 1e6:.0f} GB of "
-            f"memory to parse; "
-            f"lower the order (--set), cut it (--max-depth N), or --force to write it")
-    try:
-        free = shutil.disk_usage(out.parent if not out.exists() else out).free
-    except OSError:
-        return
-    if total * BYTES_AT_LEAST > free and stat.S_ISREG(_mode(out)):
+        _too_many(args, f"has {total:,} primitives, a scene of {_bytes(total * 150)} or so "
+                        f"that POV-Ray needs about {total / 1e6:.0f} GB of memory to parse")
+    free = _free(out)
+    if free is not None and total * BYTES_AT_LEAST > free:
         raise UsageError(f"--pov {out}: the {total:,} primitives take at least "
                          f"{_bytes(total * BYTES_AT_LEAST)}, and its disk has {_bytes(free)} free")
 
@@ -575,38 +567,39 @@ def _export_watch(args, out: Path, total: int, progress):
     _export_fits for a derivation that could not be counted beforehand (a binary tree
     whose parameter is in its selection: 65,536 primitives, counted 0), as it goes: past
     EXPORT_LIMIT, or with the disk nearly full, it stops, and nothing is written."""
-    import shutil
-    import stat
-    plain = stat.S_ISREG(_mode(out))
-
     def watch(done: int):
         progress.update(done, done)
-        if done > EXPORT_LIMIT and not args.force and not total:
-            raise UsageError(f"{args.file}: the derivation has passed {EXPORT_LIMIT:,} "
-                             f"primitives (POV-Ray holds about a million in a GB of memory); "
-                             f"stopped, nothing written: lower the order (--set), cut it "
-                             f"(--max-depth N), or --force to write it")
-        if plain and not total:         # a counted one was measured against its disk
-            try:
-                free = shutil.disk_usage(out.parent).free
-            except OSError:
-                return
-            if free < MIN_FREE:
-                raise UsageError(f"--pov {out}: its disk has {_bytes(free)} free; stopped "
-                                 f"after {_many(done, 'primitive')}, nothing written")
+        if total:                       # counted: measured against both before it began
+            return
+        if done > EXPORT_LIMIT and not args.force:
+            _too_many(args, f"has passed {EXPORT_LIMIT:,} primitives (POV-Ray holds about a "
+                            f"million in a GB of memory); stopped, nothing written")
+        free = _free(out)
+        if free is not None and free < MIN_FREE:
+            raise UsageError(f"--pov {out}: its disk has {_bytes(free)} free; stopped "
+                             f"after {_many(done, 'primitive')}, nothing written")
     return watch
+
+
+def _too_many(args, said: str):
+    raise UsageError(f"{args.file}: the derivation {said}; lower the order (--set), cut it "
+                     f"(--max-depth N), or --force to write it")
+
+
+def _free(out: Path) -> int | None:
+    """The bytes free on the disk `out` is written to; None for a pipe or device (or a
+    disk that does not say)."""
+    import shutil
+    if _device(out):
+        return None
+    try:
+        return shutil.disk_usage(out if out.exists() else out.parent).free
+    except OSError:
+        return None
 
 
 def _bytes(n: float) -> str:
     return f"{n / 1e9:.1f} GB" if n >= 1e9 else f"{n / 1e6:.1f} MB"
-
-
-def _mode(path: Path) -> int:
-    import stat
-    try:
-        return os.stat(path).st_mode
-    except OSError:
-        return stat.S_IFREG     # not there yet: a plain file
 
 
 def _export_progress(args, total: int):

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..scene import MATERIAL_DEFAULTS
 from ..trace.jit import threads
-from ..trace.shading import GOLDEN, MAX_CROSSINGS, MIN_WEIGHT
+from ..trace.shading import GOLDEN, M_TRANSMIT, MAX_CROSSINGS, MIN_WEIGHT
 from ..trace.walk import HIT_SHEET, HIT_SHELL
 from ..trace.vm import hash_to_unit_array, splitmix64_array
 from ..tracer import Hits
@@ -203,7 +203,7 @@ def _visibility(traced, light: Lighting, lt: Light, origin: np.ndarray, n: np.nd
     facing = n[:, 0] * ldir[:, 0] + n[:, 1] * ldir[:, 1] + n[:, 2] * ldir[:, 2] > 0.0
     seen = np.zeros(len(origin))
     o = origin[facing]
-    glass = bool(len(light.materials)) and bool((light.materials[:, 8] > 0).any())
+    glass = bool(len(light.materials)) and bool((light.materials[:, M_TRANSMIT] > 0).any())
     for k in range(samples if len(o) else 0):
         # one sample: the light is a point at its centre
         target = lt.position + (_disk(k, samples, lt.radius, ldir[facing])
@@ -225,7 +225,7 @@ def _visibility(traced, light: Lighting, lt: Light, origin: np.ndarray, n: np.nd
 def _passes(light: Lighting, hits: Hits, which: np.ndarray) -> np.ndarray:
     """The share of light the surfaces hit at `which` let through: their material's
     transmit, 0 for a shell."""
-    through = _finish(light, hits.material[which], hits.paint[which])[:, 8]
+    through = _finish(light, hits.material[which], hits.paint[which])[:, M_TRANSMIT]
     if hits.what is not None:
         through = np.where(hits.what[which] == HIT_SHELL, 0.0, through)
     return through
