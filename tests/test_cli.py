@@ -681,6 +681,18 @@ def test_a_sweep_of_one_value_renders_it(capsys, tmp_path):
     assert [p.name for p in out.glob("*.png")] == ["sierpinski_c=2.png"]
 
 
+def test_a_local_sweep_reports_each_image_once(capsys, tmp_path):
+    # each image was reported twice: "[1/2] ... on this process" and its summary line
+    out = tmp_path / "sweep"
+    assert main(["sweep", str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=1..2", "--size",
+                 "24x18", "-o", str(out)]) == 0
+    captured = capsys.readouterr()
+    lines = (captured.out + captured.err).splitlines()
+    for name in ("sierpinski_c=1.png", "sierpinski_c=2.png"):
+        assert len([line for line in lines if name in line]) == 1, lines
+    assert "rendered 2 of 2 images" in captured.out
+
+
 def test_stats_json_of_several_files_is_a_list_whatever_fails(capsys, tmp_path, sierpinski):
     bad = tmp_path / "bad.pcsg"
     bad.write_text("sphere ∪\n", encoding="utf-8")

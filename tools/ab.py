@@ -11,6 +11,11 @@ A load is a sample's name or a .pcsg path (from the repository's root), and its 
     python tools/ab.py /tmp/before . tests/data/bush_uscale.pcsg:d=12 \
         --options "--size 160x120 --eye 5,-6,3 --at 0,0,1.8"
 
+More versions at once (their order turning every round), renders only, with the bounds
+kept on disk after each version's first walk:
+    python tools/ab.py /tmp/s61 . --also /tmp/mid --keep-bounds carpenter_terrain:cnt=12
+(/tmp/mid is compared with A as B is.)
+
 Each version runs from its own source tree (PYTHONPATH, from /tmp so that neither tree's
 working directory shadows it), with its own kernel cache; compile both before timing.
 """
@@ -39,10 +44,10 @@ def grammar_path(grammar: str) -> Path:
 
 
 def render(tree: Path, grammar: str, setting: str, png: Path,
-           look: list[str] = BENCH) -> tuple[dict, str]:
+           look: list[str] = BENCH, keep_bounds: bool = False) -> tuple[dict, str]:
     """({phase: s} of --timings, PNG digest) of one fresh process of the pcsg in `tree`."""
     # the bounds walked in every process: kept ones would time a file read (graph/boxcache.py)
-    env = dict(os.environ, PYTHONPATH=str(tree), PCSG_BOUNDS_CACHE="0")
+    env = dict(os.environ, PYTHONPATH=str(tree), PCSG_BOUNDS_CACHE="1" if keep_bounds else "0")
     out = subprocess.run([sys.executable, "-m", "pcsg.cli", "render",
                           str(grammar_path(grammar)), "--set", setting,
                           "--size", "640x480", *look, "--timings", "-q", "-o", str(png)],
@@ -60,6 +65,13 @@ def main():
     ap.add_argument("b", type=Path, help="the source tree of version B (after)")
     ap.add_argument("loads", nargs="+", metavar="GRAMMAR:NAME=VALUE",
                     help="a sample's name or a .pcsg path, and one --set")
+    ap.add_argument("--also", type=Path, action="append", default=[], metavar="TREE",
+                    help="a further version, compared with A as B is (repeatable); the "
+                         "order of the versions turns by one every round")
+    ap.add_argument("--keep-bounds", action="store_true",
+                    help="the bounds kept on disk after each version's first walk: compares "
+                         "renders of systems whose walk takes long (the terrain at 12) in a "
+                         "fraction of the time; bounds and totals then time a file read")
     ap.add_argument("--rounds", type=int, default=6)
     ap.add_argument("--phases", action="store_true",
                     help="also every phase of --timings (interpreter, imports, compile, ...)")
@@ -70,7 +82,7 @@ def main():
                     "one string: \"--size 160x120 --eye 5,-6,3\"")
     args = ap.parse_args()
     look = ([] if args.user_defaults else BENCH) + shlex.split(args.options)
-    trees = (args.a.resolve(), args.b.resolve())
+    trees = tuple(t.resolve() for t in (args.a, args.b, *args.also))
     # both trees' modules as bytecode, as bench.py has them: where PYTHONDONTWRITEBYTECODE
     # is set (this machine), a tree without them compiled its sources at every start, and
     # its imports took 0.04 s longer than the other's
@@ -81,23 +93,31 @@ def main():
             grammar, setting = load.rsplit(":", 1)
             phases = {t: {} for t in trees}
             digests = {}
+            if args.keep_bounds:        # each version's walk, kept before the first round
+                for t in trees:
+                    render(t, grammar, setting, Path(tmp) / "fill.png", look, True)
             for i in range(args.rounds):
-                for t in (trees if i % 2 == 0 else trees[::-1]):
+                k = i % len(trees)         # with two versions: each goes first every other round
+                for t in trees[k:] + trees[:k]:
                     times, d = render(t, grammar, setting, Path(tmp) / f"{trees.index(t)}.png",
-                                      look)
+                                      look, args.keep_bounds)
                     for name, seconds in times.items():
                         phases[t].setdefault(name, []).append(seconds)
                     digests.setdefault(t, set()).add(d)
 
             def median(t, name):
                 return statistics.median(phases[t].get(name, [0.0]))
-            a, b = (median(t, "render") for t in trees)
-            ba, bb = (median(t, "bounds") for t in trees)
-            wa, wb = (median(t, "total") for t in trees)
-            same = len(digests[trees[0]] | digests[trees[1]]) == 1
-            print(f"{grammar} {setting}: render A {a:.4f} s, B {b:.4f} s (B/A {b / a:.3f}); "
-                  f"bounds A {ba:.3f} s, B {bb:.3f} s; total A {wa:.3f} s, B {wb:.3f} s "
-                  f"(B/A {wb / wa:.3f}); same PNG bytes: {same}", flush=True)
+            for other in trees[1:]:
+                pair = (trees[0], other)
+                a, b = (median(t, "render") for t in pair)
+                ba, bb = (median(t, "bounds") for t in pair)
+                wa, wb = (median(t, "total") for t in pair)
+                same = len(digests[pair[0]] | digests[pair[1]]) == 1
+                name = "B" if other == trees[1] else other.name
+                print(f"{grammar} {setting}: render A {a:.4f} s, {name} {b:.4f} s "
+                      f"({name}/A {b / a:.3f}); bounds A {ba:.3f} s, {name} {bb:.3f} s; total "
+                      f"A {wa:.3f} s, {name} {wb:.3f} s ({name}/A {wb / wa:.3f}); same PNG "
+                      f"bytes: {same}", flush=True)
             if args.phases:
                 for name in phases[trees[0]]:
                     pa, pb = median(trees[0], name), median(trees[1], name)

@@ -90,7 +90,9 @@ class Batch:
                     self.per_worker[worker] += 1
                 what = (job.name or job.label) + (f" rows {unit.rows[0]}-{unit.rows[1] - 1}"
                                                   if unit.rows else "")
-                self._progress(n, total, what, outcome, worker)
+                if unit.rows is not None or worker != LOCAL:
+                    # a whole image made here has its summary line; this would say it twice
+                    self._progress(n, total, what, outcome, worker)
                 if exc is not None:
                     outcome = Outcome(error=f"pcsg render: {what}: failed on the cluster: "
                                             f"{type(exc).__name__}: {exc}")
