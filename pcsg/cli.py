@@ -18,7 +18,8 @@ from pathlib import Path
 IMPORTS_BEGAN = time.perf_counter()     # for --timings: the imports start here
 
 from .arguments import parser  # noqa: E402
-from .interrupt import redeliver_in_finalizers, release_compiler_lock  # noqa: E402
+from .interrupt import (Terminated, redeliver_in_finalizers, release_compiler_lock,  # noqa: E402
+                        terminate_as_interrupt)
 from .language import prefetch  # noqa: E402
 from .language.errors import PcsgError, labelled  # noqa: E402
 from .limits import bounces_problem, shadow_samples_problem, size_problem  # noqa: E402
@@ -657,16 +658,24 @@ def _run(args) -> int:
         what = f"{e.strerror or e}" + (f": {e.filename}" if e.filename else "")
         print(f"pcsg {args.command}: error: {what}", file=sys.stderr)
         return EXIT_ERRORS
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as e:
         release_compiler_lock()
-        print("pcsg: interrupted", file=sys.stderr)
-        return 130
+        return _interrupted(e)
     except Exception as e:  # noqa: BLE001 -- a user sees one line, never a traceback
         if os.environ.get("PCSG_DEBUG"):
             raise
         print(f"pcsg: internal error: {type(e).__name__}: {e}\n"
               f"  (this is a bug in pcsg; PCSG_DEBUG=1 shows the traceback)", file=sys.stderr)
         return EXIT_INTERNAL
+
+
+def _interrupted(e: KeyboardInterrupt) -> int:
+    """Ctrl-C's message and status (130), or SIGTERM's or SIGHUP's (143, 129)."""
+    if isinstance(e, Terminated):
+        print(f"pcsg: terminated ({e})", file=sys.stderr, flush=True)
+        return e.exit_status
+    print("pcsg: interrupted", file=sys.stderr, flush=True)
+    return 130
 
 
 def needs_kernels(argv: list[str]) -> bool:
@@ -756,12 +765,12 @@ def run() -> None:
     walked them all again (0.1 to 0.25 s of a terrain render)."""
     redeliver_in_finalizers()
     try:
+        terminate_as_interrupt()
         if needs_kernels(sys.argv[1:]):
             prefetch.first_file(sys.argv[1:])       # parsed on the other core meanwhile
             import_kernels()
-    except KeyboardInterrupt:       # main reports one from then on
-        print("pcsg: interrupted", file=sys.stderr, flush=True)
-        os._exit(130)
+    except KeyboardInterrupt as e:      # main reports one from then on
+        os._exit(_interrupted(e))
     note_startup(IMPORTS_BEGAN)
     code = main()
     for stream in (sys.stdout, sys.stderr):

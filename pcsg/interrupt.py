@@ -1,4 +1,5 @@
-"""Ctrl-C where Python handles it badly: in a finalizer, and inside numba's compiler lock.
+"""Ctrl-C where Python handles it badly: in a finalizer, and inside numba's compiler lock;
+and SIGTERM and SIGHUP handled as Ctrl-C is.
 
 In a finalizer: Python cannot raise out of a `__del__` (llvmlite's
 and numba's objects have them, and run while kernels load): it prints "Exception ignored
@@ -46,3 +47,42 @@ def release_compiler_lock() -> None:
     owned = getattr(lock, "_is_owned", None)
     while owned is not None and owned():
         lock.release()
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP (`kill`, `timeout`, a scheduler, a closed terminal), raised where
+    Ctrl-C's KeyboardInterrupt is and handled as it is: the walk or render stops, what is
+    being written is removed, manifests are saved. Killed outright, the command left the
+    hidden `.NAME.part` file it was writing (an export's, gigabytes), and animate's
+    workers told of leaked semaphores."""
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+    @property
+    def exit_status(self) -> int:
+        return 128 + self.signum
+
+
+_terminating = False
+
+
+def _terminate(signum, frame) -> None:
+    # once: a second SIGTERM (`timeout` signals the group, then the user the command)
+    # raised inside the first one's clean-up cut it short, and animate then waited for
+    # ever on a worker that no one had told to stop
+    global _terminating
+    if _terminating:
+        return
+    _terminating = True
+    raise Terminated(signum)
+
+
+def terminate_as_interrupt() -> None:
+    """The console command's (never the API's: a library leaves a program's signals
+    alone). Where the signal was ignored when the command started (nohup, a parent that
+    chose so), it stays ignored."""
+    for signum in (signal.SIGTERM, signal.SIGHUP):
+        if signal.getsignal(signum) is not signal.SIG_IGN:
+            signal.signal(signum, _terminate)

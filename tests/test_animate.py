@@ -243,6 +243,28 @@ def test_the_growing_tree_grows(capsys):
     assert counts == sorted(set(counts)) and counts[0] < 100 < 50_000 < counts[-1]
 
 
+def test_sigterm_of_the_command_alone_stops_its_workers_too(tmp_path):
+    """`kill PID` reaches the command, not its workers: it passes the signal on, keeps
+    the finished frames, and exits with 143 (killed outright, multiprocessing's tracker
+    told of leaked semaphores and the workers' frames were left to finish)."""
+    out = tmp_path / "a"
+    cmd = [sys.executable, "-m", "pcsg", "animate", str(GRAMMARS / "growing_tree.pcsg"),
+           "--frames", "16", "--size", "48x36", "--jobs", "2", "-o", str(out)]
+    p = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True)
+    first = p.stdout.readline()                 # a frame is finished: the workers are busy
+    p.terminate()
+    rest, err = p.communicate(timeout=300)
+    assert "frame_" in first and p.returncode == 143, err
+    assert "the same command resumes" in err and "pcsg: terminated (SIGTERM)" in err
+    assert "Traceback" not in err and "leaked" not in err, err
+    done = frames(out)
+    assert 1 <= len(done) < 16 and not list(out.glob(".*.part"))
+    for png in done:
+        with Image.open(png) as im:
+            im.verify()
+
+
 def test_ctrl_c_keeps_finished_frames_and_the_rerun_resumes(tmp_path):
     """Ctrl-C at the terminal reaches the whole process group: the command and its workers."""
     out = tmp_path / "a"

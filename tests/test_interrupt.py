@@ -80,3 +80,75 @@ def test_a_compiler_lock_left_held_by_an_interrupt_is_released_for_the_other_thr
         release_compiler_lock()
     assert another_thread_gets_it()
     release_compiler_lock()         # not held: nothing to do, no error
+
+
+def test_stoppable_raises_what_tick_raises_once_every_share_has_stopped():
+    """jit.stoppable: the shares run on helper threads and read stop[0]; an exception
+    in the waiting thread (Ctrl-C, SIGTERM, --timeout's check) sets it."""
+    import numpy as np
+    import pytest
+    from pcsg.trace.jit import stoppable
+    ended = {}
+
+    def share(w, workers, stop, steps):
+        import time
+        for k in range(steps):          # minutes, unless stopped
+            if stop[0] != 0:
+                break
+            time.sleep(0.001)
+        ended[w] = (k, int(stop[0]))
+
+    ticks = []
+
+    def tick():
+        ticks.append(1)
+        if len(ticks) == 3:
+            raise TimeoutError("stopped by tick")
+    with pytest.raises(TimeoutError):
+        stoppable(share, 2, 200_000, tick=tick, every=0.01)
+    assert sorted(ended) == [0, 1] and all(k < 200_000 - 1 and s == 1
+                                          for k, s in ended.values()), ended
+    done = np.zeros(2, dtype=np.int64)
+
+    def quick(w, workers, stop, out):
+        out[w] = w + 1
+    stoppable(quick, 2, done)                   # no tick: waits for the shares, returns
+    assert done.tolist() == [1, 2]
+
+
+def test_the_compiled_shares_read_the_stop_flag_before_each_chunk():
+    """With stop[0] set, trace_share traces no chunk: its rows keep what they held."""
+    import numpy as np
+    import pcsg
+    from pcsg.trace.kernel import CHUNK, trace_share
+    from pcsg.trace.nodes import no_events
+    from pcsg.trace.walk import R_WIDTH
+    obj = pcsg.loads("sphere")
+    n = 3 * CHUNK
+    o = np.tile([0.0, 0.0, 5.0], (n, 1))
+    d = np.tile([0.0, 0.0, -1.0], (n, 1))
+    for stop, traced in ((1, False), (0, True)):
+        out = np.full((n, R_WIDTH), -7.0)
+        events = no_events(len(obj.graph.nodes), 3)
+        trace_share(0, 1, np.array([stop], dtype=np.int64), obj.flat, o, d, 1e-9, np.inf,
+                    False, 0.0, obj.max_depth, obj.limits, False, out, events)
+        assert (out != -7.0).any() == traced
+
+
+def test_sigterm_is_raised_once_and_a_second_one_does_not_cut_the_clean_up_short():
+    program = """
+import os, signal, time
+from pcsg.interrupt import Terminated, terminate_as_interrupt
+terminate_as_interrupt()
+try:
+    os.kill(os.getpid(), signal.SIGTERM)
+    time.sleep(5)
+    print("went on")
+except Terminated as e:
+    os.kill(os.getpid(), signal.SIGTERM)       # the second, during the clean-up
+    time.sleep(0.2)
+    print("cleaned up", e.exit_status, e)
+"""
+    p = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True,
+                       timeout=60)
+    assert p.stdout.split() == ["cleaned", "up", "143", "SIGTERM"], (p.stdout, p.stderr)

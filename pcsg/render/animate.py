@@ -15,12 +15,13 @@ import signal
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..interrupt import release_compiler_lock
+from ..interrupt import Terminated, release_compiler_lock
 from ..language.errors import PcsgError, labelled
 from .job import Options, RenderFailed, render_file, traced_for
 from .path import bezier
@@ -152,10 +153,12 @@ def _init_worker(threads: int):
 
     def on_sigint(signum, frame):
         global _interrupted
+        once = not _interrupted         # a SIGTERM sent to the group and forwarded too
         _interrupted = True
-        if _busy:
+        if _busy and once:
             raise KeyboardInterrupt
-    signal.signal(signal.SIGINT, on_sigint)
+    for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(signum, on_sigint)
 
 
 def _render_job(job: FrameJob, in_worker: bool = True):
@@ -322,12 +325,29 @@ def _run_parallel(todo, workers, manifest, report):
             for f in as_completed(list(pending)):
                 pending.discard(f)
                 report.finished(manifest, f.result())
-        except KeyboardInterrupt:
-            # frames being rendered stop (the workers saw Ctrl-C too) or finish; either
-            # way what they wrote is whole, and finished ones go into the manifest
+        except KeyboardInterrupt as e:
+            # frames being rendered stop (the workers saw Ctrl-C too; a SIGTERM or SIGHUP
+            # of this process alone is passed on to them) or finish; either way what they
+            # wrote is whole, and finished ones go into the manifest
             for f in pending:
                 f.cancel()
+            if isinstance(e, Terminated):
+                _signal_workers(pool, e.signum)
             for f in pending:
-                if not f.cancelled():
+                if f.cancelled():
+                    continue
+                try:
                     report.finished(manifest, f.result())
+                except BrokenProcessPool:       # a worker killed before it took signals
+                    pass
             raise
+
+
+def _signal_workers(pool, signum: int) -> None:
+    # the pool keeps its processes by pid in a private mapping; a worker that has gone
+    # already is skipped
+    for pid in list(getattr(pool, "_processes", None) or {}):
+        try:
+            os.kill(pid, signum)
+        except (ProcessLookupError, PermissionError):
+            pass

@@ -119,7 +119,8 @@ def render_frame(traced, camera: Camera, light: Lighting, width: int, height: in
         pixels = (ys * width + xs).astype(np.int64)
         for k, (ox, oy) in enumerate(offs):
             o, d = camera.rays(width, height, xs + ox, ys + oy)
-            c, t, hits = shade(traced, light, o, d, ids=sample_ids(pixels, k, width, height))
+            c, t, hits = shade(traced, light, o, d, ids=sample_ids(pixels, k, width, height),
+                               check=check)
             _gather(order, c, hits.hit, t, acc, acc_obj, hit, band_depth, k == 0, alpha)
             if len(offs) > 1:
                 # each sample's pass, not each batch's: with --samples 1024, --timeout 1
@@ -190,7 +191,7 @@ def _refine(traced, camera, light, rgb, obj, cover, rng, height, a0, keep, check
     for c0 in range(0, len(ys), REFINE_BATCH):
         chunk = blocks[c0:c0 + REFINE_BATCH]
         _oversample(traced, camera, light, rgb, obj, cover, height, a0, offs,
-                    ys[chunk], xs[chunk])
+                    ys[chunk], xs[chunk], check)
         if bar:
             bar.update(c0 + len(chunk), light.rays[0] - rays0)
         if check:
@@ -199,7 +200,8 @@ def _refine(traced, camera, light, rgb, obj, cover, rng, height, a0, keep, check
         bar.close()
 
 
-def _oversample(traced, camera, light, rgb, obj, cover, height, a0, offs, ys, xs):
+def _oversample(traced, camera, light, rgb, obj, cover, height, a0, offs, ys, xs,
+                check=None):
     """Pixels (ys, xs) of the band get the samples `offs` more, averaged with the one
     they have. A pixel's samples are traced side by side, in one packet: packets of
     sample k alone, with the pixels sparse, took three times as long per ray (the
@@ -213,7 +215,7 @@ def _oversample(traced, camera, light, rgb, obj, cover, height, a0, offs, ys, xs
     o, d = camera.rays(w, height, (xs[:, None] + offs[:, 0]).ravel(),
                        (ys[:, None] + a0 + offs[:, 1]).ravel())
     ids = sample_ids(pixels[:, None], 1 + np.arange(m), w, height).ravel()
-    c, _, hits = shade(traced, light, o, d, ids=ids)
+    c, _, hits = shade(traced, light, o, d, ids=ids, check=check)
     c, covered = c.reshape(len(ys), m, 3), hits.hit.reshape(len(ys), m)
     for k in range(m):          # sample after sample, as they were added before: the same bits
         acc += c[:, k]

@@ -114,17 +114,17 @@ def _finish(light: Lighting, material: np.ndarray, paint: np.ndarray):
 
 
 def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: bool = True,
-          ids=None, weight=None):
+          ids=None, weight=None, check=None):
     """Linear RGB for each ray, its first-hit distance (inf for the sky) and its hits.
     ids (default 0, 1, ...) name each ray's pixel and sample for the ambient occlusion
     pattern; bounces keep their camera ray's id. weight (default 1): what each ray's
     colour is multiplied by on its way into the pixel. The graph tracer shades in one numba
-    kernel (trace/shading.py); this numpy code is the model it follows, and shades the
-    reference renders."""
+    kernel (trace/shading.py), which calls check() every 50 ms and stops if it raises;
+    this numpy code is the model it follows, and shades the reference renders."""
     ids = np.arange(len(origins), dtype=np.int64) if ids is None else ids
     weight = np.ones(len(origins)) if weight is None else weight
     if kernel and depth == 0 and hasattr(traced, "flat"):
-        return _shade_kernel(traced, light, origins, directions, ids)
+        return _shade_kernel(traced, light, origins, directions, ids, check)
     hits = traced.trace(origins, directions, lod=light.lod)
     light.rays[0] += len(origins)
     color = light.sky(directions)
@@ -161,7 +161,7 @@ def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: 
     return color, hits.t, hits
 
 
-def _shade_kernel(traced, light: Lighting, origins, directions, ids):
+def _shade_kernel(traced, light: Lighting, origins, directions, ids, check=None):
     from ..trace.shading import CHUNK, shade_rays
     from ..trace.nodes import add_events, no_events
     o = np.ascontiguousarray(origins, dtype=np.float64)
@@ -184,7 +184,7 @@ def _shade_kernel(traced, light: Lighting, origins, directions, ids):
                float(light.lod), traced.max_depth, traced.limits, workers,
                AMBIENT, int(light.ao_samples), float(light.ao_distance),
                np.ascontiguousarray(ids, dtype=np.int64), traced._packets(light.packets), rgb,
-               t, hit, rays, events)
+               t, hit, rays, events, tick=check)
     add_events(traced.events, events)
     light.rays[0] += int(rays.sum())
     return rgb, t, Hits(t=t, normal=None, paint=None, material=None, hit=hit)

@@ -88,6 +88,29 @@ def on_threads(fn, workers: int, *args) -> None:
         job.result()
 
 
+def stoppable(fn, workers: int, *args, tick=None, every: float = 0.05) -> None:
+    """fn(w, workers, stop, *args) for every worker w, all on helper threads while this
+    thread waits, calling tick() every `every` seconds if given. Ctrl-C (or SIGTERM), or
+    an exception from tick, sets stop[0], which the shares read before each chunk of
+    rays, and is raised once they have stopped. Run on this thread as on_threads runs
+    share 0, a batch of a heavy render (the terrain at 12 with area lights: 4 to 6 s)
+    held Ctrl-C, SIGTERM and --timeout until it ended. The hand-over costs a 640x480
+    render of Sierpinski 6 about 2.5 ms of its 80 (medians of 20 in one process;
+    tools/performance_notes.md)."""
+    import numpy as np
+    stop = np.zeros(1, dtype=np.int64)
+    jobs = [_helpers(workers).submit(fn, w, workers, stop, *args) for w in range(workers)]
+    try:
+        while wait(jobs, timeout=every if tick is not None else None).not_done:
+            tick()
+    except BaseException:
+        stop[0] = 1
+        wait(jobs)
+        raise
+    for job in jobs:
+        job.result()
+
+
 def watched(calls, watch, tick=None, every: float = 0.05) -> list:
     """Each call (fn, args) on a helper thread while this thread waits, calling tick()
     every `every` seconds (progress, a deadline); returns their results. Ctrl-C, or an

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .jit import on_threads, share
+from .jit import share, stoppable
 from .packet import PACKET, make_packet, trace
 from .scratch import make_scratch
 from .walk import R_WIDTH
@@ -15,22 +15,25 @@ CHUNK = PACKET
 def trace_rays(flat, origins, directions, tmin, tmax, any_hit, lod, max_depth, limits,
                workers, together, out, events):
     """out[i] = the R_* row of ray i; events[chunk] counts per event kind and node.
-    With `together`, a chunk's rays walk the graph as one packet (packet.py)."""
-    on_threads(trace_share, workers, flat, origins, directions, tmin, tmax, any_hit, lod,
-               max_depth, limits, together, out, events)
+    With `together`, a chunk's rays walk the graph as one packet (packet.py). Ctrl-C
+    stops it after the chunk each worker is tracing (jit.stoppable)."""
+    stoppable(trace_share, workers, flat, origins, directions, tmin, tmax, any_hit, lod,
+              max_depth, limits, together, out, events)
 
 
 @share
-def trace_share(w, workers, flat, origins, directions, tmin, tmax, any_hit, lod, max_depth,
-                limits, together, out, events):
+def trace_share(w, workers, stop, flat, origins, directions, tmin, tmax, any_hit, lod,
+                max_depth, limits, together, out, events):
     """Worker w's share: every workers-th chunk, with scratch of its own, allocated once
-    per call (fresh pages per chunk cost a tenth of the time)."""
+    per call (fresh pages per chunk cost a tenth of the time), until stop[0] is set."""
     n = origins.shape[0]
     chunks = (n + CHUNK - 1) // CHUNK
     S = make_scratch(flat, limits)
     P = make_packet(flat)
     res = np.empty((PACKET, R_WIDTH))
     for c in range(w, chunks, workers):
+        if stop[0] != 0:
+            break
         i0 = c * CHUNK
         m = min(n, i0 + CHUNK) - i0
         for k in range(m):

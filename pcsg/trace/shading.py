@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from .jit import inline, kernel, on_threads, share
+from .jit import inline, kernel, share, stoppable
 from .packet import PACKET, make_packet, trace
 from .scratch import make_scratch
 from .vm import hash_to_unit, splitmix64
@@ -57,25 +57,27 @@ GOLDEN = 0.6180339887498949                    # the pattern's azimuths: k * GOL
 def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, default,
                shadows, shadow_samples, max_bounces, lod, max_depth, limits, workers, ambient,
                ao_samples, ao_distance, ids, together, rgb, first_t, first_hit_out, rays,
-               events):
+               events, tick=None):
     """rgb[i] = the linear colour of camera ray i; first_t / first_hit_out its first hit;
     rays[chunk] = rays traced; events[worker] as trace_rays' events[chunk]: counts add and
     levels are maxima, so the totals are the same however the chunks are shared out, and
     one array per worker is cheaper to clear and fold than one per chunk. ids[i] seeds
     the ambient occlusion pattern of ray i and of its bounces. With `together` the rays
-    of each packet walk the graph together."""
-    on_threads(shade_share, workers, flat, origins, directions, lights, horizon, zenith,
-               materials, default, shadows, shadow_samples, max_bounces, lod, max_depth,
-               limits, ambient, ao_samples, ao_distance, ids, together, rgb, first_t,
-               first_hit_out, rays, events)
+    of each packet walk the graph together. Ctrl-C, or an exception from tick() (called
+    every 50 ms), stops it after the chunk each worker is shading (jit.stoppable)."""
+    stoppable(shade_share, workers, flat, origins, directions, lights, horizon, zenith,
+              materials, default, shadows, shadow_samples, max_bounces, lod, max_depth,
+              limits, ambient, ao_samples, ao_distance, ids, together, rgb, first_t,
+              first_hit_out, rays, events, tick=tick)
 
 
 @share
-def shade_share(w, workers, flat, origins, directions, lights, horizon, zenith, materials,
-                default, shadows, shadow_samples, max_bounces, lod, max_depth, limits, ambient,
-                ao_samples, ao_distance, ids, together, rgb, first_t, first_hit_out, rays,
-                events):
-    """Worker w's share of shade_rays: every workers-th chunk, with scratch of its own."""
+def shade_share(w, workers, stop, flat, origins, directions, lights, horizon, zenith,
+                materials, default, shadows, shadow_samples, max_bounces, lod, max_depth,
+                limits, ambient, ao_samples, ao_distance, ids, together, rgb, first_t,
+                first_hit_out, rays, events):
+    """Worker w's share of shade_rays: every workers-th chunk, with scratch of its own,
+    until stop[0] is set."""
     n = origins.shape[0]
     chunks = (n + CHUNK - 1) // CHUNK
     S = make_scratch(flat, limits)
@@ -99,6 +101,8 @@ def shade_share(w, workers, flat, origins, directions, lights, horizon, zenith, 
     slot = np.empty(PACKET, dtype=np.int64)
     ev = events[w]
     for c in range(w, chunks, workers):
+        if stop[0] != 0:
+            break
         i0 = c * CHUNK
         m = min(n, i0 + CHUNK) - i0
         for k in range(m):
