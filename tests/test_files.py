@@ -193,3 +193,21 @@ def test_an_output_to_dev_stdout_reaches_a_pipe(tmp_path):
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     assert "digraph" in r.stdout
+
+
+def test_an_endless_device_or_pipe_is_refused_at_the_size_limit():
+    """/dev/zero, or a pipe (`<(...)`), has size 0: the limit was checked against that,
+    and the read went on until the system's memory ran out (24 GB, then the OOM killer).
+    In a child process held to 1 GiB of memory, so that a regression fails this test
+    rather than the machine."""
+    program = ("import resource; resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))\n"
+               "from pcsg.language.errors import PcsgError\n"
+               "from pcsg.language.files import read_source_text\n"
+               "try:\n"
+               "    read_source_text('/dev/zero')\n"
+               "except PcsgError as e:\n"
+               "    print(e.diagnostics[0].format())\n")
+    p = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True,
+                       timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert "/dev/zero: error: file is more than 8,388,608 bytes" in p.stdout, p.stdout

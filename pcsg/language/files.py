@@ -19,13 +19,21 @@ def read_source_text(path: str | Path) -> str:
             raise PcsgError([Diagnostic("error", "is a directory, not a .pcsg file", None,
                                         Source(name, ""), code="io")])
         size = p.stat().st_size
-        if size > MAX_FILE_BYTES:
+        if size <= MAX_FILE_BYTES:
+            # at most one byte past the limit, whatever the size said: a device or a pipe
+            # (/dev/zero, <(...)) has size 0, and /dev/zero was read until the system's
+            # memory ran out
+            with open(p, "rb") as f:
+                data = f.read(MAX_FILE_BYTES + 1)
+            if len(data) > MAX_FILE_BYTES:
+                size = None
+        if size is None or size > MAX_FILE_BYTES:
             # in bytes: a file just over 8 MiB was "8.0 MiB", over a limit of "8 MiB"
-            raise PcsgError([Diagnostic("error", f"file is {size:,} bytes; pcsg reads grammars "
+            what = f"more than {MAX_FILE_BYTES:,}" if size is None else f"{size:,}"
+            raise PcsgError([Diagnostic("error", f"file is {what} bytes; pcsg reads grammars "
                                         f"of up to {MAX_FILE_BYTES:,} bytes ({MAX_FILE_BYTES >> 20}"
                                         f" MiB; an expanded derivation that large: use fewer "
                                         f"steps)", None, Source(name, ""), code="io")])
-        data = p.read_bytes()
     except OSError as e:
         raise PcsgError([Diagnostic("error", f"cannot read: {e.strerror or e}", None,
                                     Source(name, ""), code="io")]) from None
