@@ -227,6 +227,28 @@ def test_the_slip_hints_hold_back_where_the_slip_is_another(text, first):
         assert not d.notes
 
 
+@pytest.mark.parametrize("text, first", [
+    # calculations' logical operators between operands: the parse stopped after them
+    ("sphere and cube\n", "1:8: 'and' is the logical and of calculations (notation §6); "
+     "the intersection of two operands is written '∩' or '&'"),
+    ("sphere || cube\n", "1:8: '||' is the logical or of calculations (notation §6); "
+     "the union of two operands is written '∪' or '|'"),
+    ("S\n1: S → sphere && move(1, 0, 0) cube\n", "2:15: '&&' is the logical and"),
+    ("S\n1: S → sphere or cube\n", "2:15: 'or' is the logical or"),
+    # a flip given a parameter: the bracket read as the operand it flips
+    ("{c = 1} flipxy(c) sphere\n", "1:9: 'flipxy' takes no arguments: a '(...)' after it "
+     "is the operand it applies to"),
+    ("{c = 1} flipyz(c * 2) sphere\n", "1:9: 'flipyz' takes no arguments"),
+    ("flipxz() sphere\n", "1:1: 'flipxz' takes no arguments"),
+])
+def test_slips_said_as_themselves(text, first):
+    assert placed(diagnostics_of(text)[0]).startswith(first)
+
+
+def test_logical_operators_inside_calculations_stay_valid():
+    compile_text("{c = 1 and 0 || 1} S\nS if(c or 0, 1, 1)\n1: S → sphere\n", "t.pcsg")
+
+
 def test_an_axiom_slip_leaves_the_module_its_declaration():
     # `S - cube` with two rules: also "has 2 rules but no selection" before
     assert [d.message[:36] for d in diagnostics_of("S - cube\n1: S → sphere\n2: S → cube\n")] \

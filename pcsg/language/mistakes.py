@@ -37,8 +37,17 @@ def unknown_call(text: str, pos: int):
     if TRANSFORMS.get(word) == 0 or (word in PRIMITIVES and word not in CALLABLE):
         # `flipxy (sphere ∪ cube) cone` is a flip of a group: only numbers are arguments
         args = text[line_start + m.end(1):].lstrip(" \t")[1:].lstrip(" \t")
-        if re.match(r"[-+.0-9]", args):
+        if re.match(r"[-+.0-9)]", args):
             return f"'{word}' takes no arguments", span
+        # `flipxy(c)`, `flipxy(c * 2)`: a parameter in brackets reads as the operand the
+        # flip takes, and the parse stopped after it; a group of operands has a CSG
+        # operator or a primitive in it
+        inner = re.match(r"[^()\n]*", args).group(0)
+        names = re.findall(r"[A-Za-z_][A-Za-z0-9_]*", inner)
+        if names and not re.search(r"[∪∩∖\\|&]", inner) and \
+                not any(n in PRIMITIVES or n in TRANSFORMS for n in names):
+            return (f"'{word}' takes no arguments: a '(...)' after it is the operand it "
+                    f"applies to", span)
         return None
     if word in CALLABLE:
         return None
@@ -145,6 +154,30 @@ def missing_operator(text: str, tok_type: str, tok_value: str, pos: int, expecte
     between = f"between '{m.group(1)}' and" if m and m.group(1) != ")" else "before"
     return (f"expected an operator (∪, ∩ or \\) {between} '{tok_value}'",
             (pos, pos + len(tok_value)))
+
+
+LOGICAL = {"and": ("and", "intersection", "'∩' or '&'"), "&&": ("and", "intersection", "'∩' or '&'"),
+           "or": ("or", "union", "'∪' or '|'"), "||": ("or", "union", "'∪' or '|'")}
+
+
+def logical_for_csg(text: str, tok_value: str, pos: int, expected):
+    """`sphere and cube`, `sphere && cube`: calculations' logical operators between two
+    operands, where the CSG ones stand. The parse stops at 'and' where an operator may
+    follow, at the operand after it in an axiom (read as a module with the selection
+    `and`), or at the second '&' of '&&' (the first is an intersection)."""
+    line_start = text.rfind("\n", 0, pos) + 1
+    if tok_value in ("and", "or") and "UNION" in expected:
+        word, span = tok_value, (pos, pos + len(tok_value))
+    elif tok_value in ("&", "|") and text[pos - 1:pos] == tok_value:
+        word, span = tok_value * 2, (pos - 1, pos + 1)
+    else:
+        m = re.search(r"[A-Za-z0-9_)][ \t]+(and|or)[ \t]+$", text[line_start:pos])
+        if m is None or text[line_start:pos].lstrip().startswith("#"):
+            return None
+        word, span = m.group(1), (line_start + m.start(1), line_start + m.end(1))
+    logic, csg, spelt = LOGICAL[word]
+    return (f"'{word}' is the logical {logic} of calculations (notation §6); the {csg} of "
+            f"two operands is written {spelt}", span)
 
 
 CSG_SLIPS = {"-": "the difference of two operands is written '\\' or '∖'",

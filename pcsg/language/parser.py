@@ -12,7 +12,8 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 from . import ast
 from .errors import Diagnostic, PcsgError
 from .files import line_ends, read_source_text
-from .mistakes import (HASH_COMMENT, assignment_for_comparison, lookalike, missing_operator,
+from .mistakes import (HASH_COMMENT, assignment_for_comparison, logical_for_csg, lookalike,
+                       missing_operator,
                        rule_as_selection, rule_without_number, unknown_call,
                        unknown_directive)
 from .names import FREE, RESERVED
@@ -386,6 +387,8 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner,
                   or (tok.value == ">" and text[tok.start_pos - 1:tok.start_pos] == "-"
                       and rule_without_number(text, tok.start_pos - 1))
                   or (not _in_block(joiner) and unknown_call(text, tok.start_pos))
+                  or (not joiner.open_brackets and logical_for_csg(text, tok.value,
+                                                                   tok.start_pos, expected))
                   or missing_operator(text, tok.type, tok.value, tok.start_pos, expected)
                   or rule_as_selection(text, tok.start_pos)):
         msg, span = said
