@@ -28,22 +28,13 @@ class Instance:
     volume: bool = False          # a cut graftal instance's volume: a surface, no solid
 
 
-def determinants(a: np.ndarray) -> np.ndarray:
-    """Of each 3x3 of (k, 3, 3) as the tracer's singular_map computes it (cofactors, in its
-    order): numpy's LU gave -7.1e-15 for matrix(1,2,3,4, 5,6,7,8, 9,10,11,12), which the
-    tracer, check and render take as singular, and export and the reference drew."""
-    (a, b, c), (d, e, g), (p, q, r) = np.moveaxis(a, (1, 2), (0, 1))
-    return a * (e * r - g * q) + b * (g * p - d * r) + c * (d * q - e * p)
-
-
 def leaf_inverse(matrix: np.ndarray) -> np.ndarray | None:
     """The inverse of a leaf's world matrix, or None when the leaf is empty: a singular
     or non-finite matrix (a runtime error in its calculations or transforms) draws nothing.
     The contract of trace/reference.py, which the graph tracer and the export keep."""
     if not np.all(np.isfinite(matrix)):
         return None
-    with np.errstate(all="ignore"):
-        det = determinants(matrix[None, :3, :3])[0]
+    det = np.linalg.det(matrix[:3, :3])
     if det == 0.0 or not np.isfinite(det):
         return None
     inv = np.linalg.inv(matrix)
@@ -58,7 +49,7 @@ def nonempty(world: np.ndarray) -> np.ndarray:
     m[:, 3, 3] = 1.0
     ok = np.isfinite(m).all(axis=(1, 2))
     with np.errstate(all="ignore"):
-        det = determinants(m[ok, :3, :3])
+        det = np.linalg.det(m[ok, :3, :3])
         fine = (det != 0.0) & np.isfinite(det)
         ok[np.flatnonzero(ok)[~fine]] = False
         inv = np.linalg.inv(m[ok])
