@@ -670,12 +670,14 @@ def _run(args) -> int:
 
 
 def _interrupted(e: KeyboardInterrupt) -> int:
-    """Ctrl-C's message and status (130), or SIGTERM's or SIGHUP's (143, 129)."""
-    if isinstance(e, Terminated):
-        print(f"pcsg: terminated ({e})", file=sys.stderr, flush=True)
-        return e.exit_status
-    print("pcsg: interrupted", file=sys.stderr, flush=True)
-    return 130
+    """Ctrl-C's message and status (130), or SIGTERM's or SIGHUP's (143, 129). The
+    message may have nowhere to go (SIGHUP: the terminal is gone); the status stays."""
+    said = f"pcsg: terminated ({e})" if isinstance(e, Terminated) else "pcsg: interrupted"
+    try:
+        print(said, file=sys.stderr, flush=True)
+    except (OSError, ValueError):
+        pass
+    return e.exit_status if isinstance(e, Terminated) else 130
 
 
 def needs_kernels(argv: list[str]) -> bool:

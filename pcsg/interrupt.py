@@ -18,17 +18,23 @@ import threading
 
 def _hook(unraisable) -> None:
     if unraisable.exc_type is not None and issubclass(unraisable.exc_type, KeyboardInterrupt):
+        # a SIGTERM or SIGHUP (Terminated) is delivered again as itself: as Ctrl-C, the
+        # command said "interrupted" and exited with 130
+        signum = getattr(unraisable.exc_value, "signum", signal.SIGINT)
         returned = threading.Event()
-        threading.Thread(target=_later, args=(returned,), name="pcsg-interrupt",
+        threading.Thread(target=_later, args=(returned, signum), name="pcsg-interrupt",
                          daemon=True).start()
         returned.set()      # the thread needs the interpreter's lock, which this keeps
         return              # until it has left the hook
     sys.__unraisablehook__(unraisable)
 
 
-def _later(returned: threading.Event) -> None:
+def _later(returned: threading.Event, signum: int) -> None:
+    global _terminating
     returned.wait()
-    _thread.interrupt_main(signal.SIGINT)
+    if signum != signal.SIGINT:
+        _terminating = False        # the first was lost in the finalizer: not a second one
+    _thread.interrupt_main(signum)
 
 
 def redeliver_in_finalizers() -> None:

@@ -152,3 +152,46 @@ except Terminated as e:
     p = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True,
                        timeout=60)
     assert p.stdout.split() == ["cleaned", "up", "143", "SIGTERM"], (p.stdout, p.stderr)
+
+
+def test_a_sigterm_lost_in_a_finalizer_is_delivered_again_as_itself():
+    """As Ctrl-C's is (above): redelivered as SIGINT, it made the command say
+    "interrupted" and exit with 130 instead of 143."""
+    program = """
+import signal, time
+from pcsg.interrupt import Terminated, redeliver_in_finalizers, terminate_as_interrupt
+terminate_as_interrupt()
+redeliver_in_finalizers()
+class Finalized:
+    def __del__(self):
+        raise Terminated(signal.SIGTERM)    # as the handler would, inside the finalizer
+try:
+    Finalized()
+    start = time.monotonic()
+    while time.monotonic() - start < 20:
+        pass
+    print("went on")
+except Terminated as e:
+    print("terminated", e.exit_status)
+except KeyboardInterrupt:
+    print("interrupted")
+"""
+    p = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True,
+                       timeout=60)
+    assert p.stdout.split() == ["terminated", "143"], (p.stdout, p.stderr)
+
+
+def test_animate_workers_keep_a_sighup_that_was_ignored():
+    """`nohup pcsg animate ... &` then logging out: the command ignores SIGHUP (it kept
+    nohup's SIG_IGN), and so must its workers, which inherit it across the spawn."""
+    program = """
+import signal
+signal.signal(signal.SIGHUP, signal.SIG_IGN)
+from pcsg.render.animate import _init_worker
+_init_worker(1)
+print(signal.getsignal(signal.SIGHUP) is signal.SIG_IGN,
+      signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL)
+"""
+    p = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True,
+                       timeout=120)
+    assert p.stdout.split() == ["True", "True"], (p.stdout, p.stderr)

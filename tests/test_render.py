@@ -197,6 +197,26 @@ def test_sigterm_ends_an_export_as_ctrl_c_does(tmp_path):
     assert b"Traceback" not in err and list(tmp_path.iterdir()) == []
 
 
+def test_the_render_checks_its_deadline_while_a_batch_is_traced():
+    """render_frame's check (--timeout, and where Ctrl-C and SIGTERM land) runs every 50
+    ms while the shading kernel traces a batch, not only between batches: a batch that
+    traces for seconds is stopped in it. The first call comes before the first batch has
+    counted any ray (the counts are added when a batch ends)."""
+    obj = loads("#camera eye=(0,-0.5,6) at=(0,0,0) fov=30\n"
+                "#light at=(3,-4,8) radius=2\nplane ∪ sphere\n")
+    cam = make_camera(obj, 4 / 3)
+    light = make_lighting(obj, cam, shadow_samples=256)
+    counted = []
+
+    def check():
+        counted.append(int(light.rays[0]))
+        raise TimeoutError("stopped")
+    with pytest.raises(TimeoutError):
+        # 30,720 camera rays in its first batch, 256 shadow rays each: seconds of work
+        render_frame(obj, cam, light, 640, 480, adaptive=False, check=check)
+    assert counted == [0]
+
+
 def test_sigterm_stops_a_render_mid_batch(tmp_path):
     """SIGTERM (or Ctrl-C) while the shading kernel runs: its shares stop before their
     next chunk of rays, and the render ends as from Ctrl-C, its earlier PNG kept. A

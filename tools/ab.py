@@ -83,6 +83,8 @@ def main():
     args = ap.parse_args()
     look = ([] if args.user_defaults else BENCH) + shlex.split(args.options)
     trees = tuple(t.resolve() for t in (args.a, args.b, *args.also))
+    if len(set(trees)) < len(trees):
+        ap.error("a version is given twice (their samples would be pooled)")
     # both trees' modules as bytecode, as bench.py has them: where PYTHONDONTWRITEBYTECODE
     # is set (this machine), a tree without them compiled its sources at every start, and
     # its imports took 0.04 s longer than the other's
@@ -118,11 +120,13 @@ def main():
                       f"({name}/A {b / a:.3f}); bounds A {ba:.3f} s, {name} {bb:.3f} s; total "
                       f"A {wa:.3f} s, {name} {wb:.3f} s ({name}/A {wb / wa:.3f}); same PNG "
                       f"bytes: {same}", flush=True)
-            if args.phases:
-                for name in phases[trees[0]]:
-                    pa, pb = median(trees[0], name), median(trees[1], name)
-                    print(f"  {name:12s} A {1000 * pa:8.1f} ms  B {1000 * pb:8.1f} ms  "
-                          f"B-A {1000 * (pb - pa):+7.1f} ms", flush=True)
+            for other in trees[1:] if args.phases else ():
+                name = "B" if other == trees[1] else other.name
+                print(f"  phases of {name} against A:")
+                for phase in phases[trees[0]]:
+                    pa, pb = median(trees[0], phase), median(other, phase)
+                    print(f"  {phase:12s} A {1000 * pa:8.1f} ms  {name} {1000 * pb:8.1f} ms  "
+                          f"{name}-A {1000 * (pb - pa):+7.1f} ms", flush=True)
 
 if __name__ == "__main__":
     main()

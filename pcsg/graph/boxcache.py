@@ -91,6 +91,10 @@ def store(k: str, result, found) -> None:
     except Exception:       # noqa: BLE001 -- a full disk, a read-only folder: keep nothing
         if tmp is not None:
             Path(tmp).unlink(missing_ok=True)
+    except BaseException:   # Ctrl-C, SIGTERM: no .tmp left (_trim counts only entries)
+        if tmp is not None:
+            Path(tmp).unlink(missing_ok=True)
+        raise
 
 
 def _trim(where: Path) -> None:

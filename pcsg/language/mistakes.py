@@ -41,11 +41,12 @@ def unknown_call(text: str, pos: int):
             return f"'{word}' takes no arguments", span
         # `flipxy(c)`, `flipxy(c * 2)`: a parameter in brackets reads as the operand the
         # flip takes, and the parse stopped after it; a group of operands has a CSG
-        # operator or a primitive in it
+        # operator, a primitive or a module (a name with rules) in it
         inner = re.match(r"[^()\n]*", args).group(0)
         names = re.findall(r"[A-Za-z_][A-Za-z0-9_]*", inner)
-        if names and not re.search(r"[∪∩∖\\|&]", inner) and \
-                not any(n in PRIMITIVES or n in TRANSFORMS for n in names):
+        modules = set(re.findall(r"(?m)^[ \t]*\d+[ \t]*:[ \t]*([A-Za-z_][A-Za-z0-9_]*)", text))
+        if TRANSFORMS.get(word) == 0 and names and not re.search(r"[∪∩∖\\|&]", inner) and \
+                not any(n in PRIMITIVES or n in TRANSFORMS or n in modules for n in names):
             return (f"'{word}' takes no arguments: a '(...)' after it is the operand it "
                     f"applies to", span)
         return None

@@ -151,14 +151,19 @@ def _init_worker(threads: int):
     set_threads(threads)
     redeliver_in_finalizers()
 
-    def on_sigint(signum, frame):
+    def on_signal(signum, frame):
         global _interrupted
-        once = not _interrupted         # a SIGTERM sent to the group and forwarded too
+        # SIGTERM and SIGHUP once: sent to the group and passed on by the command too.
+        # Ctrl-C every time: a second one is the finalizer hook's redelivery of the first
+        again = _interrupted and signum != signal.SIGINT
         _interrupted = True
-        if _busy and once:
+        if _busy and not again:
             raise KeyboardInterrupt
-    for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-        signal.signal(signum, on_sigint)
+    signal.signal(signal.SIGINT, on_signal)     # ignored across the spawn on purpose
+    for signum in (signal.SIGTERM, signal.SIGHUP):
+        # as the command's own: where it was ignored (nohup), it stays ignored
+        if signal.getsignal(signum) is not signal.SIG_IGN:
+            signal.signal(signum, on_signal)
 
 
 def _render_job(job: FrameJob, in_worker: bool = True):
@@ -254,8 +259,11 @@ def animate(anim: Animation) -> int:
         else:
             _run_parallel(todo, workers, manifest, report)
     except KeyboardInterrupt:
-        print(f"{anim.out_dir}: interrupted with {report.done} of {len(jobs)} frames done; "
-              f"the same command resumes", file=sys.stderr)
+        try:        # a SIGHUP's terminal is gone: the manifest below matters more
+            print(f"{anim.out_dir}: interrupted with {report.done} of {len(jobs)} frames "
+                  f"done; the same command resumes", file=sys.stderr)
+        except (OSError, ValueError):
+            pass
         raise
     finally:
         manifest.flush()
@@ -316,12 +324,15 @@ def _run_parallel(todo, workers, manifest, report):
         # the first submit starts the workers; a Ctrl-C that reached one before its
         # initializer took SIGINT over would print a traceback from Python's start-up,
         # so they start with SIGINT ignored (kept across exec), and _init_worker takes it
-        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        pending = set()
         try:
-            pending = {pool.submit(_render_job, job) for job in todo}
-        finally:
-            signal.signal(signal.SIGINT, previous)
-        try:
+            previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+            try:
+                # in the try: a SIGTERM as the workers start cancels what was submitted
+                for job in todo:
+                    pending.add(pool.submit(_render_job, job))
+            finally:
+                signal.signal(signal.SIGINT, previous)
             for f in as_completed(list(pending)):
                 pending.discard(f)
                 report.finished(manifest, f.result())
