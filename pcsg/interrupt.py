@@ -26,7 +26,19 @@ def _hook(unraisable) -> None:
                          daemon=True).start()
         returned.set()      # the thread needs the interpreter's lock, which this keeps
         return              # until it has left the hook
+    if _closed_twice(unraisable):
+        return
     sys.__unraisablehook__(unraisable)
+
+
+def _closed_twice(unraisable) -> bool:
+    """llvmlite's ObjectRef.__del__ run again on a reference whose close an interrupt cut
+    short (in an animate worker stopped as kernels load): it fails on the attribute its
+    first close removed, and nothing is left to free; the traceback was noise beside the
+    command's own 'interrupted'."""
+    return (unraisable.exc_type is AttributeError
+            and getattr(unraisable.object, "__qualname__", "") == "ObjectRef.__del__"
+            and "_as_parameter_" in str(unraisable.exc_value))
 
 
 def _later(returned: threading.Event, signum: int) -> None:

@@ -195,3 +195,22 @@ print(signal.getsignal(signal.SIGHUP) is signal.SIG_IGN,
     p = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True,
                        timeout=120)
     assert p.stdout.split() == ["True", "True"], (p.stdout, p.stderr)
+
+
+def test_only_llvmlites_second_close_is_kept_quiet():
+    """An interrupt that cut an ObjectRef's close short makes its finalizer fail on the
+    attribute the first close removed: that is noise; any other failure is reported."""
+    from types import SimpleNamespace
+    from pcsg.interrupt import _closed_twice
+
+    class ObjectRef:
+        def __del__(self):
+            pass
+    gone = AttributeError("'GlobalContextRef' object has no attribute '_as_parameter_'")
+    assert _closed_twice(SimpleNamespace(exc_type=AttributeError, exc_value=gone,
+                                         object=ObjectRef.__del__))
+    assert not _closed_twice(SimpleNamespace(exc_type=AttributeError,
+                                             exc_value=AttributeError("other"),
+                                             object=ObjectRef.__del__))
+    assert not _closed_twice(SimpleNamespace(exc_type=ValueError, exc_value=ValueError(),
+                                             object=ObjectRef.__del__))

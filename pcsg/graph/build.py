@@ -209,7 +209,9 @@ class _Builder:
             if slip is None:
                 kept.append(d)
                 continue
-            self.error(slip[1], slip[0], "syntax")
+            # `Y sphere` above `#define Y move(1,0,0)`: the macro is not replaced there
+            self.error(slip[1], slip[0] + self.source.defined_below(d.name, d.name_span[0]),
+                       "syntax")
             slipped = True
             if d.name in modules:
                 # it stays the module's declaration, of a selection that says nothing

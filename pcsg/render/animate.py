@@ -140,15 +140,24 @@ def cores() -> int:
 
 _busy = False
 _interrupted = False
+HELD = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}     # held back across the spawn
 
 
 def _init_worker(threads: int):
     """A worker: its share of the cores for the tracer's threads; Ctrl-C (sent to the whole
     process group) stops the frame it renders, which then writes nothing, and the frames
     already queued for it; it never kills an idle worker mid-protocol."""
+    import threading
+    from concurrent.futures import wait
     from ..interrupt import redeliver_in_finalizers
-    from ..trace.jit import set_threads
+    from ..trace.jit import _helpers, set_threads
     set_threads(threads)
+    # the helper threads the kernels run on, started before the handlers below can
+    # raise: an interrupt inside a thread's start() left that thread out of the list
+    # concurrent.futures ends at exit, and the worker's exit waited for it for ever
+    # (once in 20 under load). A barrier, so that each task takes a thread of its own
+    started = threading.Barrier(threads)
+    wait([_helpers(threads).submit(started.wait) for _ in range(threads)])
     redeliver_in_finalizers()
 
     def on_signal(signum, frame):
@@ -159,11 +168,13 @@ def _init_worker(threads: int):
         _interrupted = True
         if _busy and not again:
             raise KeyboardInterrupt
-    signal.signal(signal.SIGINT, on_signal)     # ignored across the spawn on purpose
+    signal.signal(signal.SIGINT, on_signal)
     for signum in (signal.SIGTERM, signal.SIGHUP):
         # as the command's own: where it was ignored (nohup), it stays ignored
         if signal.getsignal(signum) is not signal.SIG_IGN:
             signal.signal(signum, on_signal)
+    # held back since the spawn (_run_parallel): what came meanwhile is taken now
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD)
 
 
 def _render_job(job: FrameJob, in_worker: bool = True):
@@ -321,18 +332,20 @@ def _run_parallel(todo, workers, manifest, report):
     pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
                                initializer=_init_worker, initargs=(threads,))
     with pool:
-        # the first submit starts the workers; a Ctrl-C that reached one before its
-        # initializer took SIGINT over would print a traceback from Python's start-up,
-        # so they start with SIGINT ignored (kept across exec), and _init_worker takes it
+        # the submits start the workers; a Ctrl-C that reached one before its
+        # initializer took it over printed a traceback from Python's start-up, and a
+        # SIGTERM passed on to it killed it, which broke the pool (and CPython's clean-up
+        # of a broken pool with cancelled futures fails, and the command hung). So the
+        # signals are held back across the spawn (the mask is kept across exec) and
+        # _init_worker takes them; here they come once the submits are done
         pending = set()
         try:
-            previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+            signal.pthread_sigmask(signal.SIG_BLOCK, HELD)
             try:
-                # in the try: a SIGTERM as the workers start cancels what was submitted
                 for job in todo:
                     pending.add(pool.submit(_render_job, job))
             finally:
-                signal.signal(signal.SIGINT, previous)
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD)
             for f in as_completed(list(pending)):
                 pending.discard(f)
                 report.finished(manifest, f.result())

@@ -7,6 +7,7 @@ fifth of the walk's time, and the per-node steps passed the whole Flat (twenty
 arrays) at each call. The per-node steps are inlined into the walks."""
 import os
 import threading
+import time
 from concurrent.futures import ThreadPoolExecutor, wait
 
 from numba import config
@@ -99,16 +100,8 @@ def stoppable(fn, workers: int, *args, tick=None, every: float = 0.05) -> None:
     tools/performance_notes.md)."""
     import numpy as np
     stop = np.zeros(1, dtype=np.int64)
-    jobs = [_helpers(workers).submit(fn, w, workers, stop, *args) for w in range(workers)]
-    try:
-        while wait(jobs, timeout=every if tick is not None else None).not_done:
-            tick()
-    except BaseException:
-        stop[0] = 1
-        wait(jobs)
-        raise
-    for job in jobs:
-        job.result()
+    _run_watched([(fn, (w, workers, stop, *args)) for w in range(workers)], stop, tick,
+                 every)
 
 
 def watched(calls, watch, tick=None, every: float = 0.05) -> list:
@@ -117,13 +110,37 @@ def watched(calls, watch, tick=None, every: float = 0.05) -> list:
     exception from tick, sets watch[0], which the walks read every few milliseconds
     (boxwalk.walk_in), and is raised once they have stopped: a walk of several seconds
     on this thread would hold the signal until it ended."""
-    jobs = [_helpers(len(calls)).submit(fn, *args) for fn, args in calls]
+    return _run_watched(calls, watch, tick, every)
+
+
+def _run_watched(calls, flag, tick, every: float) -> list:
+    """The calls on the helper pool, this thread waiting on an Event their completions
+    set, not in concurrent.futures.wait: an interrupt that lands in wait() while it takes
+    the futures' locks one by one leaves some held, and the next wait, or a helper's
+    set_result, blocks for ever (animate's worker hung so on SIGTERM, once in 20 under
+    load). An exception here sets flag[0] and is raised once every call has ended."""
+    if not calls:
+        return []
+    finished = threading.Event()
+    lock = threading.Lock()
+    left = [len(calls)]
+
+    def one_ended(_job):
+        with lock:
+            left[0] -= 1
+            if left[0] == 0:
+                finished.set()
+    jobs = []
     try:
-        while wait(jobs, timeout=every).not_done:
-            if tick is not None:
-                tick()
+        for fn, args in calls:
+            jobs.append(_helpers(len(calls)).submit(fn, *args))
+            jobs[-1].add_done_callback(one_ended)
+        while not finished.wait(every if tick is not None else None):
+            tick()
     except BaseException:
-        watch[0] = 1
-        wait(jobs)
+        flag[0] = 1
+        for job in jobs:            # a poll, which takes no lock across an interrupt
+            while not job.done():
+                time.sleep(0.001)
         raise
     return [job.result() for job in jobs]
