@@ -206,6 +206,7 @@ def test_only_llvmlites_second_close_is_kept_quiet():
     class ObjectRef:
         def __del__(self):
             pass
+    ObjectRef.__del__.__qualname__ = "ObjectRef.__del__"      # as llvmlite's, at top level
     gone = AttributeError("'GlobalContextRef' object has no attribute '_as_parameter_'")
     assert _closed_twice(SimpleNamespace(exc_type=AttributeError, exc_value=gone,
                                          object=ObjectRef.__del__))
