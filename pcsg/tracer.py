@@ -162,7 +162,7 @@ class Traced:
         add_events(self.events, events)
         return Hits(t=out[:, R_T], normal=out[:, R_N:R_N + 3], paint=out[:, R_PAINT:R_PAINT + 3],
                     material=out[:, R_MAT].astype(np.int64), hit=out[:, R_HIT] > 0,
-                    events=events, what=out[:, R_HIT])
+                    events=events, what=out[:, R_HIT].astype(np.int64))
 
     def _packets(self, wanted: bool) -> bool:
         # graftal normals average the boxes along each ray's own path: no packets there
@@ -171,6 +171,12 @@ class Traced:
     def describe_events(self, events: np.ndarray, kinds=None) -> list[str]:
         """One line per kind of thing that happened (of `kinds`: all), naming where."""
         g = self.graph
+        shape = (2 * N_EVENTS, len(g.nodes))
+        if not isinstance(events, np.ndarray) or events.shape != shape:
+            # np.zeros(3) was "Calling nonzero on 0d arrays", None "not subscriptable"
+            got = events.shape if isinstance(events, np.ndarray) else type(events).__name__
+            raise ValueError(f"events: give an array a trace counted (Hits.events, or "
+                             f"Traced.events), of shape {shape}; got {got}")
 
         def where(kind):
             nodes = np.nonzero(events[kind])[0]

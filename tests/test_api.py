@@ -62,3 +62,16 @@ def test_an_unknown_parameter_is_said_without_the_command_lines_option():
         pcsg.loads("{c = 6} sphere", k=2)
     message = e.value.diagnostics[0].message
     assert message == "cannot set 'k': it is not an initial parameter (initial parameters: c)"
+
+
+def test_what_a_hit_is_an_integer_code():
+    hits = pcsg.loads("sphere").trace([[0, -5, 0]], [[0, 1, 0]])
+    assert hits.what.dtype == np.int64 and hits.what.tolist() == [1]
+
+
+@pytest.mark.parametrize("events", [np.zeros(3), None, np.zeros((2, 2), dtype=np.int64)])
+def test_describe_events_says_what_it_takes(events):
+    obj = pcsg.loads("sphere")
+    with pytest.raises(ValueError, match=r"events: give an array a trace counted"):
+        obj.describe_events(events)
+    assert obj.describe_events(obj.trace([[0, -5, 0]], [[0, 1, 0]]).events) == []
