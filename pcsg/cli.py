@@ -19,7 +19,7 @@ IMPORTS_BEGAN = time.perf_counter()     # for --timings: the imports start here
 
 from .arguments import parser  # noqa: E402
 from .interrupt import (Terminated, redeliver_in_finalizers, release_compiler_lock,  # noqa: E402
-                        terminate_as_interrupt)
+                        tell, terminate_as_interrupt)
 from .language import prefetch  # noqa: E402
 from .language.errors import PcsgError, labelled  # noqa: E402
 from .limits import bounces_problem, shadow_samples_problem, size_problem  # noqa: E402
@@ -672,11 +672,7 @@ def _run(args) -> int:
 def _interrupted(e: KeyboardInterrupt) -> int:
     """Ctrl-C's message and status (130), or SIGTERM's or SIGHUP's (143, 129). The
     message may have nowhere to go (SIGHUP: the terminal is gone); the status stays."""
-    said = f"pcsg: terminated ({e})" if isinstance(e, Terminated) else "pcsg: interrupted"
-    try:
-        print(said, file=sys.stderr, flush=True)
-    except (OSError, ValueError):
-        pass
+    tell(f"pcsg: terminated ({e})" if isinstance(e, Terminated) else "pcsg: interrupted")
     return e.exit_status if isinstance(e, Terminated) else 130
 
 

@@ -97,10 +97,28 @@ def _terminate(signum, frame) -> None:
     raise Terminated(signum)
 
 
+TERMINATIONS = (signal.SIGTERM, signal.SIGHUP)     # handled as Ctrl-C is
+STOPS = (signal.SIGINT, *TERMINATIONS)
+
+
 def terminate_as_interrupt() -> None:
     """The console command's (never the API's: a library leaves a program's signals
-    alone). Where the signal was ignored when the command started (nohup, a parent that
-    chose so), it stays ignored."""
-    for signum in (signal.SIGTERM, signal.SIGHUP):
+    alone)."""
+    take_unless_ignored(TERMINATIONS, _terminate)
+
+
+def take_unless_ignored(signums, handler) -> None:
+    """handler for each signal, but one that was ignored when the process started (nohup,
+    a parent that chose so) stays ignored."""
+    for signum in signums:
         if signal.getsignal(signum) is not signal.SIG_IGN:
-            signal.signal(signum, _terminate)
+            signal.signal(signum, handler)
+
+
+def tell(text: str) -> None:
+    """A line on stderr that may have nowhere to go (SIGHUP: the terminal is gone): what
+    follows it (the exit status, a manifest) matters more."""
+    try:
+        print(text, file=sys.stderr, flush=True)
+    except (OSError, ValueError):
+        pass

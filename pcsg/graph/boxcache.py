@@ -88,13 +88,11 @@ def store(k: str, result, found) -> None:
                      vals=vals, faults=np.array(found, dtype=np.int64))
         os.replace(tmp, where / f"{k}.npz")
         _trim(where)
-    except Exception:       # noqa: BLE001 -- a full disk, a read-only folder: keep nothing
-        if tmp is not None:
-            Path(tmp).unlink(missing_ok=True)
-    except BaseException:   # Ctrl-C, SIGTERM: no .tmp left (_trim counts only entries)
-        if tmp is not None:
-            Path(tmp).unlink(missing_ok=True)
-        raise
+    except BaseException as e:      # noqa: BLE001 -- a full disk, a read-only folder: keep
+        if tmp is not None:         # nothing; Ctrl-C, SIGTERM: no .tmp left either (_trim
+            Path(tmp).unlink(missing_ok=True)      # counts only entries), and go on up
+        if not isinstance(e, Exception):
+            raise
 
 
 def _trim(where: Path) -> None:

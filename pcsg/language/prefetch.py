@@ -16,6 +16,7 @@ import pickle
 import signal
 import sys
 
+from ..interrupt import STOPS, take_unless_ignored
 from .errors import PcsgError
 
 _children: dict[str, tuple[int, int]] = {}     # the file's real path -> (pid, pipe)
@@ -41,11 +42,6 @@ def first_file(argv: list[str]) -> None:
             return
 
 
-# Ctrl-C, SIGTERM and SIGHUP reach the child with the group (`timeout` signals it): it
-# just ends, and the command reports them
-CHILD_ENDS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
-
-
 def start(path: str) -> None:
     """Parse `path` in a child process, for take()."""
     key = os.path.realpath(path)
@@ -58,7 +54,7 @@ def start(path: str) -> None:
     # Ctrl-C reaches the whole process group: the parent reports it, the child just
     # ends. Held back across the fork, so that no KeyboardInterrupt can take the child
     # back into the command's own code before its handler says so
-    held = signal.pthread_sigmask(signal.SIG_BLOCK, set(CHILD_ENDS))
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, set(STOPS))
     try:
         child = _fork_parse(path, held)
     finally:
@@ -82,9 +78,8 @@ def _fork_parse(path: str, held) -> tuple[int, int] | None:
         return None
     if pid == 0:
         try:
-            for signum in CHILD_ENDS:
-                if signal.getsignal(signum) is not signal.SIG_IGN:
-                    signal.signal(signum, lambda *_: os._exit(1))
+            # SIGTERM and SIGHUP reach it with the group too (`timeout` signals it)
+            take_unless_ignored(STOPS, lambda *_: os._exit(1))
             signal.pthread_sigmask(signal.SIG_SETMASK, held)
             os.close(read)
             with os.fdopen(write, "wb") as out:

@@ -21,7 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..interrupt import Terminated, release_compiler_lock
+from ..interrupt import (STOPS, TERMINATIONS, Terminated, release_compiler_lock,
+                         take_unless_ignored, tell)
 from ..language.errors import PcsgError, labelled
 from .job import Options, RenderFailed, render_file, traced_for
 from .path import bezier
@@ -140,7 +141,6 @@ def cores() -> int:
 
 _busy = False
 _interrupted = False
-HELD = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}     # held back across the spawn
 
 
 def _init_worker(threads: int):
@@ -169,12 +169,9 @@ def _init_worker(threads: int):
         if _busy and not again:
             raise KeyboardInterrupt
     signal.signal(signal.SIGINT, on_signal)
-    for signum in (signal.SIGTERM, signal.SIGHUP):
-        # as the command's own: where it was ignored (nohup), it stays ignored
-        if signal.getsignal(signum) is not signal.SIG_IGN:
-            signal.signal(signum, on_signal)
+    take_unless_ignored(TERMINATIONS, on_signal)        # as the command's own (nohup)
     # held back since the spawn (_run_parallel): what came meanwhile is taken now
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOPS)
 
 
 def _render_job(job: FrameJob, in_worker: bool = True):
@@ -275,11 +272,8 @@ def animate(anim: Animation) -> int:
         else:
             _run_parallel(todo, workers, manifest, report)
     except KeyboardInterrupt:
-        try:        # a SIGHUP's terminal is gone: the manifest below matters more
-            print(f"{anim.out_dir}: interrupted with {report.done} of {len(jobs)} frames "
-                  f"done; the same command resumes", file=sys.stderr)
-        except (OSError, ValueError):
-            pass
+        tell(f"{anim.out_dir}: interrupted with {report.done} of {len(jobs)} frames done; "
+             f"the same command resumes")
         raise
     finally:
         manifest.flush()
@@ -345,12 +339,12 @@ def _run_parallel(todo, workers, manifest, report):
         # _init_worker takes them; here they come once the submits are done
         pending = set()
         try:
-            signal.pthread_sigmask(signal.SIG_BLOCK, HELD)
+            signal.pthread_sigmask(signal.SIG_BLOCK, STOPS)
             try:
                 for job in todo:
                     pending.add(pool.submit(_render_job, job))
             finally:
-                signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD)
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, STOPS)
             for f in as_completed(list(pending)):
                 pending.discard(f)
                 report.finished(manifest, f.result())
