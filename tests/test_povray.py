@@ -90,6 +90,17 @@ def test_empty_primitives_are_left_out_with_a_warning(tmp_path, capsys):
     assert ": 2 primitives," in out and "1 more went with the ∩" in err
 
 
+def test_a_matrix_the_tracer_takes_as_singular_is_left_out_too(tmp_path, capsys):
+    """numpy's LU determinant of this matrix is -7.1e-15; the tracer's (cofactors) is 0,
+    so check warns, render draws nothing, and export wrote the sphere."""
+    f = tmp_path / "sing.pcsg"
+    f.write_text("matrix(1,2,3,4, 5,6,7,8, 9,10,11,12) sphere ∪ move(3,0,0) cube\n",
+                 encoding="utf-8")
+    text = export(tmp_path, f).read_text()
+    assert "object { P_sphere" not in text and "object { P_cube" in text
+    assert "1 primitive left out" in capsys.readouterr().err
+
+
 def test_an_operand_whose_block_came_out_empty_is_empty(tmp_path, capsys):
     """An ∩ inside an ∩ (or first under a \\) that loses an operand empties the operand
     it is: the outer block went to POV-Ray with one object left (a whole cube where pcsg

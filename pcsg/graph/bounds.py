@@ -11,8 +11,6 @@ own heights), the numba walk in pcsg.trace.boxwalk visits every instance.
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..language.errors import Diagnostic, PcsgError
@@ -23,6 +21,7 @@ from ..trace.primitives import CODES, hull, object_box
 from .dependence import StateKey
 from .derive import Deriver, State
 from .fuse import fuse_runs
+from .linear import singular
 from .passthrough import fill_boxes, without_passable
 from .model import CALC, DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, UNION, Graph
 from .states import StateTable, state_table
@@ -489,14 +488,6 @@ EMPTIED.flags.writeable = False
 FAULTS = (("the arguments of this transformation are not finite", "non-finite-map"),
            ("this transformation is singular (a zero scale) or too large to invert",
             "singular-map"))
-
-
-def singular(m: np.ndarray) -> bool:
-    """Whether the map's linear part is singular, by the determinant the tracer computes
-    (nodes.singular_map, transform_map), which empties such an instance."""
-    (a, b, c), (d, e, g), (p, q, r) = m[:3, :3].tolist()    # Python's: inf, no warning
-    det = a * (e * r - g * q) + b * (g * p - d * r) + c * (d * q - e * p)
-    return not (det != 0.0 and math.isfinite(det))
 
 
 def fault_warnings(graph: Graph, walked: Graph, faults, counted: bool) -> list[Diagnostic]:

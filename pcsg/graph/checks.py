@@ -122,7 +122,8 @@ def constant_map_warning(graph: Graph, i: int) -> Diagnostic | None:
     """The warning for node i if it is a transformation or paint of constant arguments
     that empties its operand; None otherwise (render's bounding walk says it so too, not
     "in some instances")."""
-    from .bounds import FAULTS, singular
+    from .bounds import FAULTS
+    from .linear import singular
     from ..trace.transforms import matrix
     n = graph.nodes[i]
     if n.kind not in (TRANSFORM, PAINT):

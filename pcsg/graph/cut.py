@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .checks import reachable
+from .linear import affine_inverses, invertible
 from .model import SELECT
 
 NO_VOLUME, BOX, SPHERE = 0, 1, 2        # Cut.kind
@@ -102,17 +103,17 @@ def _relative(maps: np.ndarray, which: np.ndarray, inner: np.ndarray) -> np.ndar
     the volumes above them); nan where the map is singular (a singular transform above:
     then the instance is empty too, and the export leaves it out), which holds nothing."""
     rel = np.full(inner.shape, np.nan)
-    ok = np.isfinite(maps).all(axis=(1, 2))
-    ok[ok] = np.linalg.det(maps[ok, :3, :3]) != 0.0
+    ok = invertible(maps[:, :3])
     pairs = np.flatnonzero(ok[which])
     try:
         rel[pairs] = np.linalg.solve(maps[which[pairs]], inner[pairs])
-    except np.linalg.LinAlgError:      # an exact zero pivot that the 3x3 det missed
+    except np.linalg.LinAlgError:      # an exact zero pivot where the cofactors are not 0
         for j in pairs:
             try:
                 rel[j] = np.linalg.solve(maps[which[j]], inner[j])
             except np.linalg.LinAlgError:
-                pass
+                with np.errstate(all="ignore"):
+                    rel[j] = affine_inverses(maps[which[j]]) @ inner[j]
     return rel
 
 

@@ -13,6 +13,7 @@ from ..trace.transforms import CODES as TRANSFORM_CODES
 from ..trace.transforms import matrix as transform_matrix
 from ..trace.vm import RAND, SALT, STORE
 from .defer import deferrable
+from .linear import inverses, invertible
 from .model import CALC, MATERIAL, PAINT, PRIMITIVE, SELECT, TRANSFORM, Graph
 from .peephole import fuse_operands
 from .terminating import terminating_rules
@@ -262,7 +263,7 @@ def _fixed_nodes(graph: Graph):
         fixed[i] = 1
         maps[i, :9] = lin.ravel()
         maps[i, 9:12] = m[:3, 3]
-        maps[i, 12:21] = np.linalg.inv(lin).ravel()
+        maps[i, 12:21] = inverses(lin).ravel()
     return fixed, maps
 
 
@@ -277,11 +278,7 @@ def fixed_matrix(graph: Graph, i: int) -> np.ndarray | None:
     if any(a is None for a in args):
         return None
     m = transform_matrix(node.name, args)
-    with np.errstate(over="ignore", invalid="ignore"):     # an overflow is not finite: None
-        det = np.linalg.det(m[:3, :3])
-    if not (np.isfinite(m).all() and det != 0 and np.isfinite(det)):
-        return None
-    return m
+    return m if invertible(m[:3]) else None
 
 
 def _compose_fixed_chains(kind, fixed, maps, starts, children):
@@ -299,10 +296,13 @@ def _compose_fixed_chains(kind, fixed, maps, starts, children):
                 continue
             a = _affine4(maps[i])
             b = _affine4(maps[c])
-            m = a @ b
+            with np.errstate(all="ignore"):
+                m = a @ b
+            if not invertible(m[:3]):   # singular by underflow: each keeps its own map
+                continue
             maps[i, :9] = m[:3, :3].ravel()
             maps[i, 9:12] = m[:3, 3]
-            maps[i, 12:21] = np.linalg.inv(m[:3, :3]).ravel()
+            maps[i, 12:21] = inverses(m).ravel()
             children[starts[i]] = children[starts[c]]
             changed = True
 

@@ -10,6 +10,7 @@ import numpy as np
 from ..language.errors import Diagnostic, PcsgError
 from .cut import Cut
 from .derive import Deriver, too_deep
+from .linear import affine_inverses, invertible, singular
 from .model import CALC, MATERIAL, OPERATORS, PAINT, PRIMITIVE, SELECT, TRANSFORM, Graph
 from .stats import MAX_LEVELS
 
@@ -32,29 +33,16 @@ def leaf_inverse(matrix: np.ndarray) -> np.ndarray | None:
     """The inverse of a leaf's world matrix, or None when the leaf is empty: a singular
     or non-finite matrix (a runtime error in its calculations or transforms) draws nothing.
     The contract of trace/reference.py, which the graph tracer and the export keep."""
-    if not np.all(np.isfinite(matrix)):
+    if not invertible(matrix[:3]):
         return None
-    det = np.linalg.det(matrix[:3, :3])
-    if det == 0.0 or not np.isfinite(det):
-        return None
-    inv = np.linalg.inv(matrix)
+    inv = affine_inverses(matrix)
     return inv if np.all(np.isfinite(inv)) else None
 
 
 def nonempty(world: np.ndarray) -> np.ndarray:
     """leaf_inverse(m) is not None for each world map of (k, 3, 4) or (k, 4, 4), at once."""
-    k = len(world)
-    m = np.zeros((k, 4, 4))
-    m[:, :3] = world[:, :3]
-    m[:, 3, 3] = 1.0
-    ok = np.isfinite(m).all(axis=(1, 2))
-    with np.errstate(all="ignore"):
-        det = np.linalg.det(m[ok, :3, :3])
-        fine = (det != 0.0) & np.isfinite(det)
-        ok[np.flatnonzero(ok)[~fine]] = False
-        inv = np.linalg.inv(m[ok])
-    ok[np.flatnonzero(ok)[~np.isfinite(inv).all(axis=(1, 2))]] = False
-    return ok
+    world = world[:, :3]
+    return invertible(world) & np.isfinite(affine_inverses(world)).all(axis=(1, 2))
 
 
 def flatten(graph: Graph, max_primitives: int = 1_000_000, cut: Cut | None = None
@@ -148,8 +136,11 @@ def _derived(graph: Graph, cut: Cut | None) -> Iterator[tuple[Instance, tuple | 
         if n.kind == CALC:
             state = d.calc(i, state, h)
         elif n.kind == TRANSFORM:
-            with np.errstate(invalid="ignore", over="ignore"):   # non-finite: empty leaf
-                m = m @ d.matrix(i, state, h)
+            step = d.matrix(i, state, h)
+            # empty (a nan leaf) by the map itself, as the tracer's walks test it: a flat
+            # map's product with those below is singular only up to rounding
+            with np.errstate(invalid="ignore", over="ignore"):
+                m = np.full((4, 4), np.nan) if singular(step) else m @ step
         elif n.kind == PAINT:
             paint = tuple(d.args(i, state, h))
             if not np.isfinite(paint).all():   # an empty leaf, as the tracer makes it
