@@ -7,7 +7,8 @@ import sys
 
 from . import __version__
 from .distributed.sweep import sweep_set
-from .limits import BOUNDS_BUDGET, DEEPEST_DEFAULT, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES
+from .limits import (BOUNDS_BUDGET, DEEPEST_DEFAULT, INTERVAL_ROWS, MAX_DEPTH, MAX_FRAMES,
+                     MAX_INSTANCES)
 
 
 def set_value(text: str) -> tuple[str, float]:
@@ -107,7 +108,8 @@ def parser() -> argparse.ArgumentParser:
                        help="frames over time t and a camera path, to PNGs and an animation")
     a.add_argument("file", metavar="FILE")
     a.add_argument("--frames", type=int, default=24, metavar="N",
-                   help="frames; frame i sets t = i/(N-1) (default 24)")
+                   help=f"frames; frame i sets t = i/(N-1) (default 24, at most "
+                        f"{MAX_FRAMES:,})")
     a.add_argument("--path", type=_points, metavar="'X,Y,Z X,Y,Z ...'",
                    help="the eye's path: a Bezier control polygon from t = 0 to 1")
     a.add_argument("--at-path", type=_points, metavar="'X,Y,Z X,Y,Z ...'",

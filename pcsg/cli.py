@@ -22,7 +22,8 @@ from .interrupt import (Terminated, redeliver_in_finalizers, release_compiler_lo
                         tell, terminate_as_interrupt)
 from .language import prefetch  # noqa: E402
 from .language.errors import PcsgError, labelled  # noqa: E402
-from .limits import bounces_problem, shadow_samples_problem, size_problem  # noqa: E402
+from .limits import (GIF_PIXELS, MAX_FRAMES, bounces_problem, shadow_samples_problem,  # noqa: E402
+                     size_problem)
 from .timings import Timings, note_startup  # noqa: E402
 from .statusout import is_stdout, status_stream  # noqa: E402
 
@@ -429,11 +430,12 @@ def _distinct(files: list[str], paths: list[Path]) -> list[Path]:
 def cmd_animate(args) -> int:
     from .render.animate import Animation, BadAnimation, animate
     opts = _options(args)
-    if args.frames < 1:
-        raise UsageError(f"--frames {args.frames}: give 1 or more")
-    if not 0 < args.fps < 1000:
+    if not 1 <= args.frames <= MAX_FRAMES:
+        raise UsageError(f"--frames {args.frames:,}: give 1 to {MAX_FRAMES:,}")
+    if not 0.01 <= args.fps < 1000:
         # an APNG's frame delay is a fraction of whole numbers: inf gave a delay of 0
-        raise UsageError(f"--fps {args.fps:g}: give a number above 0 and below 1000")
+        raise UsageError(f"--fps {args.fps:g}: give a number from 0.01 to below 1000 "
+                         f"(a GIF's frame lasts at most 655 s)")
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs {args.jobs}: give 1 or more")
     if args.path is not None and args.eye is not None:
@@ -442,6 +444,14 @@ def cmd_animate(args) -> int:
         raise UsageError("--at and --at-path both place the point looked at; give one")
     if args.gif and args.alpha:
         raise UsageError("--gif cannot keep --alpha's transparency; leave one out")
+    if args.gif and args.frames * opts.size[0] * opts.size[1] > GIF_PIXELS:
+        # the animated PNG is written a frame at a time; the GIF's palette and frames are
+        # made from all of them at once
+        w, h = opts.size
+        raise UsageError(f"--gif: {args.frames:,} frames of {w}x{h} are more than "
+                         f"{GIF_PIXELS:,} pixels, which a GIF is made from in memory; leave "
+                         f"out --gif (the animated PNG is written a frame at a time), or "
+                         f"give fewer --frames or a smaller --size")
     source = Path(args.file)
     out = Path(args.output) if args.output else Path(f"{source.stem}_frames")
     anim = Animation(source, out, args.frames, opts, args.path, args.at_path, args.fps,

@@ -152,6 +152,35 @@ def test_changed_options_or_source_render_again(capsys, tmp_path, ball):
     assert [p.name for p in frames(out)] == ["frame_0000.png", "frame_0001.png"]
 
 
+@pytest.mark.parametrize("mode", ["RGB", "RGBA"])
+def test_the_animated_png_copies_each_frame_as_it_is(tmp_path, mode):
+    """Written a frame at a time from the frames' own image data (Pillow's writer held
+    every frame decoded); read back by Pillow, every frame and its delay are the same."""
+    from pcsg.render.movie import FrameMismatch, write_apng
+    rng = np.random.default_rng(7)
+    paths, pixels = [], []
+    for i in range(40):
+        a = rng.integers(0, 256, size=(9, 13, len(mode)), dtype=np.uint8)
+        paths.append(tmp_path / f"f{i}.png")
+        Image.fromarray(a).save(paths[-1])
+        pixels.append(a)
+    out = tmp_path / "movie.png"
+    write_apng(paths, out, 24.0)
+    with Image.open(out) as apng:
+        apng.verify()           # every chunk's CRC
+    with Image.open(out) as apng:
+        assert apng.n_frames == 40 and apng.info.get("loop") == 0
+        for i in range(40):
+            apng.seek(i)
+            assert apng.info["duration"] == pytest.approx(1000 / 24)
+            assert np.array_equal(np.asarray(apng.convert(mode)), pixels[i])
+    Image.fromarray(pixels[0][:5]).save(paths[3])
+    with pytest.raises(FrameMismatch, match="f3.png has another size or pixel format"):
+        write_apng(paths, out, 24.0)
+    with Image.open(out) as apng:       # the earlier file stays whole
+        assert apng.n_frames == 40
+
+
 def test_animated_png_and_gif_hold_every_frame(capsys, tmp_path, ball):
     out = tmp_path / "a"
     code, stdout, stderr = animate(capsys, ball, out, "--frames", "4", "--path=" + PATH,
@@ -231,7 +260,13 @@ def test_the_default_sun_stays_put_while_the_camera_moves(capsys, tmp_path):
     (["--at", "1,2,3", "--at-path", "1,1,1 2,2,2"], "--at and --at-path both"),
     (["--frames", "0"], "--frames 0"),
     (["--gif", "--alpha"], "--gif cannot keep --alpha"),
-    (["--fps", "inf"], "--fps inf: give a number above 0 and below 1000"),
+    (["--fps", "inf"], "--fps inf: give a number from 0.01 to below 1000"),
+    # a GIF's delay is 16 bits of hundredths: an internal error (OverflowError)
+    (["--fps", "0.001", "--gif"], "--fps 0.001: give a number from 0.01"),
+    # planned for 27 s in silence
+    (["--frames", "100000"], "--frames 100,000: give 1 to 10,000"),
+    # a GIF is made from every frame at once (the animated PNG a frame at a time)
+    (["--frames", "2000", "--gif", "--size", "640x480"], "--gif: 2,000 frames of 640x480"),
     (["--path", "0,0,0.6 0,0,0.6", "--at", "0,0,0.6"], "frame 0 (t = 0): the camera's eye"),
 ])
 def test_usage_errors(capsys, tmp_path, ball, extra, message):
