@@ -8,7 +8,7 @@ from .graph.checks import run_checks
 from .graph.model import Graph
 from .language import prefetch
 from .language.errors import Diagnostic, PcsgError
-from .language.files import read_source_text
+from .language.files import check_text_size, read_source_text
 from .language.source import Source
 from .recursion import SYNTAX_DEPTH, on_deep_stack, recursion_limit
 
@@ -20,6 +20,7 @@ def compile_text(text: str, file: str = "<string>", overrides: dict[str, float] 
 
 
 def _compile(text: str, file: str, overrides: dict[str, float] | None) -> Graph:
+    check_text_size(text, file)
     try:
         with recursion_limit(SYNTAX_DEPTH):
             parsed = prefetch.take(file, text)

@@ -2,6 +2,7 @@
 import random
 import time
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -105,3 +106,16 @@ def test_large_file_is_refused_up_front(tmp_path, monkeypatch):
         assert e.diagnostics[0].message.startswith(
             f"file is {big.stat().st_size:,} bytes; pcsg reads grammars of up to 8,388,608 "
             f"bytes (8 MiB")
+
+
+def test_text_given_to_loads_is_held_to_the_files_limit():
+    """loads() of 11 MB parsed for minutes where a file of it was refused at once; the
+    limit is in UTF-8 bytes, as a file's (3 bytes a '∪')."""
+    from pcsg.tracer import loads
+    with pytest.raises(PcsgError) as e:
+        loads("sphere ∪ " * 1_000_000 + "cube")
+    assert str(e.value).startswith("<string>: error: text is 11,000,004 bytes; pcsg reads "
+                                   "grammars of up to 8,388,608 bytes")
+    just = "sphere // " + "∪" * ((8 * 1024 * 1024 - 10) // 3) + "\n"
+    assert len(just.encode()) <= 8 * 1024 * 1024
+    assert loads(just).graph.nodes[0].name == "sphere"

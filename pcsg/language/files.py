@@ -28,16 +28,30 @@ def read_source_text(path: str | Path) -> str:
             if len(data) > MAX_FILE_BYTES:
                 size = None
         if size is None or size > MAX_FILE_BYTES:
-            # in bytes: a file just over 8 MiB was "8.0 MiB", over a limit of "8 MiB"
-            what = f"more than {MAX_FILE_BYTES:,}" if size is None else f"{size:,}"
-            raise PcsgError([Diagnostic("error", f"file is {what} bytes; pcsg reads grammars "
-                                        f"of up to {MAX_FILE_BYTES:,} bytes ({MAX_FILE_BYTES >> 20}"
-                                        f" MiB; an expanded derivation that large: use fewer "
-                                        f"steps)", None, Source(name, ""), code="io")])
+            raise too_large(name, size)
     except OSError as e:
         raise PcsgError([Diagnostic("error", f"cannot read: {e.strerror or e}", None,
                                     Source(name, ""), code="io")]) from None
     return decode(data, name)
+
+
+def too_large(name: str, size: int | None) -> PcsgError:
+    """The error for a grammar of `size` bytes over the limit (None: more than it)."""
+    # in bytes: a file just over 8 MiB was "8.0 MiB", over a limit of "8 MiB"
+    what = f"more than {MAX_FILE_BYTES:,}" if size is None else f"{size:,}"
+    return PcsgError([Diagnostic("error", f"{'file' if name != '<string>' else 'text'} is "
+                                 f"{what} bytes; pcsg reads grammars of up to "
+                                 f"{MAX_FILE_BYTES:,} bytes ({MAX_FILE_BYTES >> 20} MiB; an "
+                                 f"expanded derivation that large: use fewer steps)", None,
+                                 Source(name, ""), code="io")])
+
+
+def check_text_size(text: str, name: str) -> None:
+    """A grammar given as text (the API's loads) is held to the files' limit: 50 MB of
+    text parsed for minutes where a file of it is refused at once."""
+    if len(text) > MAX_FILE_BYTES // 4 and len(text.encode("utf-8", "surrogatepass")) > \
+            MAX_FILE_BYTES:
+        raise too_large(name, len(text.encode("utf-8", "surrogatepass")))
 
 
 def decode(data: bytes, name: str) -> str:
