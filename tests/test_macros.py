@@ -107,3 +107,20 @@ def test_expand_writes_no_lines_where_defines_stood():
                          "1: S -> sphere | move(1, 0, 0) { c = c - 1", "} S", "2: S -> cube"]
     again = expand_file(compile_text("\n".join(lines) + "\n", "e.pcsg"), 1).splitlines()
     assert again[4] == "sphere ∪ move(1, 0, 0) (sphere ∪ move(1, 0, 0) {c = 0} S)"
+
+
+def test_a_note_inside_a_macro_says_where_in_the_file_it_stands():
+    """An error's own line has its macro chain; a note located at a macro's use said no
+    more than the use ("'tri1' used here" on the line `X` is written on)."""
+    text = "#define PANEL move(0,0,1)\n#define X (sphere ∩ PANEL tri1)\nX\n"
+    with pytest.raises(PcsgError) as e:
+        compile_text(text, "t.pcsg")
+    lines = e.value.diagnostics[0].format().splitlines()
+    assert "t.pcsg:3:1: note: 'tri1' used here (in macro 'X' defined at t.pcsg:2:9: line 2, " \
+        "column 27 of the file)" in lines
+    # a note that names its macro already is left as it is
+    with pytest.raises(PcsgError) as e:
+        compile_text("#define X move(1,0,0\nX sphere\n", "t.pcsg")
+    note = e.value.diagnostics[0].format().splitlines()[-1]
+    assert note == "t.pcsg:2:1: note: the '(' that macro 'X' (defined at t.pcsg:1:9) opens " \
+        "is still open here"

@@ -44,7 +44,7 @@ class Diagnostic:
 
     def _all_notes(self):
         """Explicit notes, then the macro chain of the primary span."""
-        out = list(self.notes)
+        out = [(span, text + self._macro_of(span, text)) for span, text in self.notes]
         if self.span is not None and self.original is None:
             uses = self.source.macro_uses(self.span[0])
             inner = self.source.location(self.source.original_offset(self.span[0]))
@@ -55,6 +55,18 @@ class Diagnostic:
                     what += f" (line {inner.line}, column {inner.column} of the file)"
                 out.append((None, what))
         return out
+
+    def _macro_of(self, span, text: str) -> str:
+        """Where in the file a note's span stands when a macro wrote it (unless the note
+        names the macro itself): the note is located at the macro's use (an error about a
+        `tri1` in macro X said "'tri1' used here" at the line `X` is written on, and no
+        more)."""
+        uses = self.source.macro_uses(span[0]) if span is not None else ()
+        if not uses or f"macro '{uses[0][0]}'" in text:
+            return ""
+        inner = self.source.location(self.source.original_offset(span[0]))
+        return (f" (in macro '{uses[0][0]}' defined at {self.source.location(uses[0][2])}: "
+                f"line {inner.line}, column {inner.column} of the file)")
 
     def __str__(self):
         return self.format(show_source=False)
