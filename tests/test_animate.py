@@ -290,26 +290,41 @@ def test_the_growing_tree_grows(capsys):
     assert counts == sorted(set(counts)) and counts[0] < 100 < 50_000 < counts[-1]
 
 
+# frame 0 (t = 0) is one tetrahedron a few pixels wide; frame 1 a Sierpinski tetrahedron
+# of order 6 with 64 samples and 32 occlusion rays a pixel: about 20 s on its one core
+SLOW_LAST_FRAME = """{t = 0; n = floor(6 * t)} S
+S if(n > 0, 2, 1)
+1: S → uscale(max(t, 0.001)) tetrahedron
+2: S → {n = n - 1} (move(0.5,0.5,0.5) uscale(0.5) S ∪ move(-0.5,-0.5,0.5) uscale(0.5) S ∪
+                    move(0.5,-0.5,-0.5) uscale(0.5) S ∪ move(-0.5,0.5,-0.5) uscale(0.5) S)
+"""
+
+
 def test_sigterm_of_the_command_alone_stops_its_workers_too(tmp_path):
     """`kill PID` reaches the command, not its workers: it passes the signal on, keeps
     the finished frames, and exits with 143 (killed outright, multiprocessing's tracker
-    told of leaked semaphores and the workers' frames were left to finish)."""
+    told of leaked semaphores and the workers' frames were left to finish). The frame
+    being rendered when the signal comes is stopped, not finished: without the signal
+    passed on, the command waited about 20 s for frame 1 and wrote it."""
+    source = tmp_path / "slow.pcsg"
+    source.write_text(SLOW_LAST_FRAME, encoding="utf-8")
     out = tmp_path / "a"
-    cmd = [sys.executable, "-m", "pcsg", "animate", str(GRAMMARS / "growing_tree.pcsg"),
-           "--frames", "16", "--size", "48x36", "--jobs", "2", "-o", str(out)]
+    cmd = [sys.executable, "-m", "pcsg", "animate", str(source), "--frames", "2", "--jobs",
+           "2", "--size", "320x240", "--samples", "64", "--ao", "32", "--eye", "3,-4,2",
+           "--at", "0,0,0", "-o", str(out)]
     p = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                          text=True)
-    first = p.stdout.readline()                 # a frame is finished: the workers are busy
+    first = p.stdout.readline()                 # frame 0 is finished, frame 1 is rendering
     p.terminate()
     rest, err = p.communicate(timeout=300)
-    assert "frame_" in first and p.returncode == 143, err
-    assert "the same command resumes" in err and "pcsg: terminated (SIGTERM)" in err
+    assert "frame_0000.png" in first and p.returncode == 143, err
+    assert "interrupted with 1 of 2 frames done; the same command resumes" in err
+    assert "pcsg: terminated (SIGTERM)" in err
     assert "Traceback" not in err and "leaked" not in err, err
-    done = frames(out)
-    assert 1 <= len(done) < 16 and not list(out.glob(".*.part"))
-    for png in done:
-        with Image.open(png) as im:
-            im.verify()
+    assert [png.name for png in frames(out)] == ["frame_0000.png"]
+    assert not list(out.glob(".*.part"))
+    with Image.open(out / "frame_0000.png") as im:
+        im.verify()
 
 
 def test_ctrl_c_keeps_finished_frames_and_the_rerun_resumes(tmp_path):
