@@ -12,7 +12,7 @@ from pcsg.graph import boxcache
 from pcsg.graph.bounds import fault_warnings
 from pcsg.graph.flatten import flatten, leaf_inverse
 from pcsg.graph.leaves import leaf_chunks
-from pcsg.graph.linear import affine_inverses, determinants, singular
+from pcsg.graph.linear import determinants, flat, invertible, singular
 from pcsg.graph.model import TRANSFORM
 from pcsg.trace.boxwalk import walk_boxes
 
@@ -114,13 +114,16 @@ def test_what_the_tracer_takes_as_singular_every_derivation_leaves_out(text):
 def test_the_cofactors_agree_with_numpy_away_from_singular():
     rng = np.random.default_rng(5)
     m = rng.normal(size=(200, 3, 4))
-    lu = np.linalg.det(m[:, :, :3])
-    assert np.allclose(determinants(m), lu, rtol=1e-12, atol=1e-14)
-    full = np.concatenate([m, np.tile([0.0, 0, 0, 1], (200, 1, 1))], axis=1)
-    assert np.allclose(affine_inverses(m), np.linalg.inv(full), rtol=1e-9, atol=1e-9)
-    assert not any(singular(x) for x in m)
-    assert singular(np.diag([1.0, 0.0, 1.0])) and singular(np.diag([1e-120] * 3))
-    assert singular(np.array([[1.0, 2, 3], [4, 5, 6], [7, 8, np.inf]]))
+    assert np.allclose(determinants(m), np.linalg.det(m[:, :, :3]), rtol=1e-12, atol=1e-14)
+    assert invertible(m).all() and not any(singular(x) or flat(x) for x in m)
+    lu_nonzero = np.array([[1.0, 2, 3, 4], [5, 6, 7, 8], [9, 10, 11, 12]])
+    assert np.linalg.det(lu_nonzero[:, :3]) != 0 and flat(lu_nonzero)
+    assert not invertible(lu_nonzero)
+    # extreme but invertible: LU inverts them (1/det of the cofactors is not finite)
+    tiny = np.diag([1e-160, 1e-160, 1.0])
+    assert invertible(tiny) and not flat(tiny) and np.isfinite(np.linalg.inv(tiny)).all()
+    assert singular(np.diag([1.0, 0.0, 1.0])) and flat(np.diag([1.0, 0.0, 1.0]))
+    assert not invertible(np.array([[1.0, 2, 3], [4, 5, 6], [7, 8, np.inf]]))
 
 
 def test_the_instance_walk_counts_singular_maps_as_the_reference_has_them():

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .checks import reachable
-from .linear import affine_inverses, invertible
+from .linear import invertible
 from .model import SELECT
 
 NO_VOLUME, BOX, SPHERE = 0, 1, 2        # Cut.kind
@@ -107,13 +107,12 @@ def _relative(maps: np.ndarray, which: np.ndarray, inner: np.ndarray) -> np.ndar
     pairs = np.flatnonzero(ok[which])
     try:
         rel[pairs] = np.linalg.solve(maps[which[pairs]], inner[pairs])
-    except np.linalg.LinAlgError:      # an exact zero pivot where the cofactors are not 0
+    except np.linalg.LinAlgError:      # an exact zero pivot that the 3x3 det missed
         for j in pairs:
             try:
                 rel[j] = np.linalg.solve(maps[which[j]], inner[j])
             except np.linalg.LinAlgError:
-                with np.errstate(all="ignore"):
-                    rel[j] = affine_inverses(maps[which[j]]) @ inner[j]
+                pass
     return rel
 
 

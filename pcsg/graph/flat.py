@@ -13,7 +13,7 @@ from ..trace.transforms import CODES as TRANSFORM_CODES
 from ..trace.transforms import matrix as transform_matrix
 from ..trace.vm import RAND, SALT, STORE
 from .defer import deferrable
-from .linear import inverses, invertible
+from .linear import invertible
 from .model import CALC, MATERIAL, PAINT, PRIMITIVE, SELECT, TRANSFORM, Graph
 from .peephole import fuse_operands
 from .terminating import terminating_rules
@@ -263,7 +263,7 @@ def _fixed_nodes(graph: Graph):
         fixed[i] = 1
         maps[i, :9] = lin.ravel()
         maps[i, 9:12] = m[:3, 3]
-        maps[i, 12:21] = inverses(lin).ravel()
+        maps[i, 12:21] = np.linalg.inv(lin).ravel()
     return fixed, maps
 
 
@@ -296,13 +296,10 @@ def _compose_fixed_chains(kind, fixed, maps, starts, children):
                 continue
             a = _affine4(maps[i])
             b = _affine4(maps[c])
-            with np.errstate(all="ignore"):
-                m = a @ b
-            if not invertible(m[:3]):   # singular by underflow: each keeps its own map
-                continue
+            m = a @ b
             maps[i, :9] = m[:3, :3].ravel()
             maps[i, 9:12] = m[:3, 3]
-            maps[i, 12:21] = inverses(m).ravel()
+            maps[i, 12:21] = np.linalg.inv(m[:3, :3]).ravel()
             children[starts[i]] = children[starts[c]]
             changed = True
 

@@ -10,7 +10,7 @@ import numpy as np
 from ..language.errors import Diagnostic, PcsgError
 from .cut import Cut
 from .derive import Deriver, too_deep
-from .linear import affine_inverses, invertible, singular
+from .linear import flat, invertible
 from .model import CALC, MATERIAL, OPERATORS, PAINT, PRIMITIVE, SELECT, TRANSFORM, Graph
 from .stats import MAX_LEVELS
 
@@ -35,14 +35,21 @@ def leaf_inverse(matrix: np.ndarray) -> np.ndarray | None:
     The contract of trace/reference.py, which the graph tracer and the export keep."""
     if not invertible(matrix[:3]):
         return None
-    inv = affine_inverses(matrix)
+    inv = np.linalg.inv(matrix)
     return inv if np.all(np.isfinite(inv)) else None
 
 
 def nonempty(world: np.ndarray) -> np.ndarray:
     """leaf_inverse(m) is not None for each world map of (k, 3, 4) or (k, 4, 4), at once."""
-    world = world[:, :3]
-    return invertible(world) & np.isfinite(affine_inverses(world)).all(axis=(1, 2))
+    k = len(world)
+    m = np.zeros((k, 4, 4))
+    m[:, :3] = world[:, :3]
+    m[:, 3, 3] = 1.0
+    ok = invertible(m[:, :3])
+    with np.errstate(all="ignore"):
+        inv = np.linalg.inv(m[ok])
+    ok[np.flatnonzero(ok)[~np.isfinite(inv).all(axis=(1, 2))]] = False
+    return ok
 
 
 def flatten(graph: Graph, max_primitives: int = 1_000_000, cut: Cut | None = None
@@ -140,7 +147,7 @@ def _derived(graph: Graph, cut: Cut | None) -> Iterator[tuple[Instance, tuple | 
             # empty (a nan leaf) by the map itself, as the tracer's walks test it: a flat
             # map's product with those below is singular only up to rounding
             with np.errstate(invalid="ignore", over="ignore"):
-                m = np.full((4, 4), np.nan) if singular(step) else m @ step
+                m = np.full((4, 4), np.nan) if flat(step) else m @ step
         elif n.kind == PAINT:
             paint = tuple(d.args(i, state, h))
             if not np.isfinite(paint).all():   # an empty leaf, as the tracer makes it

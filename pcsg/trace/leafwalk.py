@@ -21,7 +21,7 @@ import numpy as np
 from ..graph.model import CALC, MATERIAL, PAINT, PRIMITIVE, SELECT, TRANSFORM, UNION
 from . import vm
 from .jit import copy_into, inline, kernel
-from .nodes import eval_args, node_affine, pick_rule, run_calc, singular_map
+from .nodes import determinant, eval_args, node_affine, pick_rule, run_calc
 
 NODE, SLOT, LEVEL, MAT, CSG = range(5)   # fr's columns; CSG: the length of its chain
 SP, STATUS, NEXT_ID = range(3)           # state's fields
@@ -99,10 +99,11 @@ def leaves(flat, max_levels, cut, fr, hs, world, paint, chain, params, stack, ar
             run_calc(flat, node, params, slot, f, h, stack)
             fr[f, SLOT] = f
         elif kind == TRANSFORM:
-            # non-finite arguments or a singular map: an empty instance, as the tracer's
-            # walks test the map itself (a flat map's product is singular only up to rounding)
+            # non-finite arguments, or a map singular itself (graph/linear.py flat): an
+            # empty instance, as in the tracer (a flat map's product with the maps below is
+            # singular only up to rounding)
             if (node_affine(flat, node, params, slot, h, stack, args, m34)
-                    and not singular_map(m34)):
+                    and determinant(m34) != 0.0):
                 _compose(world[f], m34)
             else:
                 world[f, :] = np.nan

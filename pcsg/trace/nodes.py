@@ -259,14 +259,21 @@ def culprit(flat, node, params, slot, h, stack, args, m34, bad):
 
 
 @inline
+def determinant(m34):
+    """Of the 3x4 map's linear part, by cofactors as transform_map computes it (and
+    graph/linear.py)."""
+    a, b, c = m34[0, 0], m34[0, 1], m34[0, 2]
+    d, e, g = m34[1, 0], m34[1, 1], m34[1, 2]
+    p, q, r = m34[2, 0], m34[2, 1], m34[2, 2]
+    return a * (e * r - g * q) + b * (g * p - d * r) + c * (d * q - e * p)
+
+
+@inline
 def singular_map(m34):
     """Whether the 3x4 map's linear part is singular or its determinant not finite: the
     tracer empties such an instance (transform_map's test, on its determinant as it
     computes it)."""
-    a, b, c = m34[0, 0], m34[0, 1], m34[0, 2]
-    d, e, g = m34[1, 0], m34[1, 1], m34[1, 2]
-    p, q, r = m34[2, 0], m34[2, 1], m34[2, 2]
-    det = a * (e * r - g * q) + b * (g * p - d * r) + c * (d * q - e * p)
+    det = determinant(m34)
     return not (det != 0.0 and math.isfinite(det))
 
 
