@@ -21,6 +21,7 @@ from .arguments import parser  # noqa: E402
 from .interrupt import (Terminated, redeliver_in_finalizers, release_compiler_lock,  # noqa: E402
                         tell, terminate_as_interrupt)
 from .language import prefetch  # noqa: E402
+from .language.files import pcsg_files  # noqa: E402
 from .language.errors import PcsgError, labelled  # noqa: E402
 from .limits import (GIF_PIXELS, MAX_FRAMES, bounces_problem, shadow_samples_problem,  # noqa: E402
                      size_problem)
@@ -46,8 +47,7 @@ def expand_globs(patterns: list[str]) -> list[str]:
         else:
             matches = [pat]
         for m in matches:
-            found = sorted(glob.glob(os.path.join(glob.escape(m), "*.pcsg"))) \
-                if os.path.isdir(m) else []
+            found = pcsg_files(m) if os.path.isdir(m) else []
             # one without any fails alone, as a file that cannot be read does
             out += found or [m]
     return out
@@ -186,7 +186,9 @@ def cmd_stats(args) -> int:
 def _stats_text(r: dict) -> str:
     kinds = ", ".join(f"{v} {k}" for k, v in r["node_kinds"].items() if v)
     modules = ", ".join(f"{m} ({n} rule{'s' if n != 1 else ''})" for m, n in r["modules"].items())
-    if r.get("not_counted"):
+    if r.get("count_digits"):
+        count = f"not written: {r['not_counted']}"
+    elif r.get("not_counted"):
         count = (f"not counted: {r['not_counted']}; a render refines it to pixel size or "
                  f"--max-depth")
     elif r.get("endless"):

@@ -28,7 +28,8 @@ def open_atomic(path: Path, mode: str = "wb"):
             yield f
         return
     target = Path(os.path.realpath(path))
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent)
+    fd, tmp = tempfile.mkstemp(prefix=_temporary_prefix(target), suffix=".part",
+                               dir=target.parent)
     try:
         # mkstemp makes the file private; give it the permissions of the file it replaces
         # (a read-only image stayed read-only), or those a plain open() would
@@ -49,6 +50,21 @@ def open_atomic(path: Path, mode: str = "wb"):
         except OSError:
             pass
         raise
+
+
+def _temporary_prefix(target: Path) -> str:
+    """`.NAME.` for the temporary file beside `target`, unless that would make its name
+    longer than the file system takes (a legal name of 241 to 255 bytes failed with "File
+    name too long" on the temporary file): then `.pcsg.`."""
+    try:
+        most = os.pathconf(target.parent, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        most = 255
+    prefix = f".{target.name}."
+    # mkstemp adds 8 characters, and the suffix .part
+    if len(os.fsencode(prefix)) + 8 + len(".part") > most:
+        return ".pcsg."
+    return prefix
 
 
 def write_atomic(path: Path, data: bytes) -> None:

@@ -482,7 +482,15 @@ def test_a_directory_is_its_pcsg_files_and_an_empty_output_name_is_refused(capsy
     assert out.index("a.pcsg: ok") < out.index("b.pcsg: ok") and "notes" not in out
     (tmp_path / "empty").mkdir()
     assert main(["check", str(tmp_path / "empty")]) == 1
-    assert "empty: error: is a directory, not a .pcsg file" in capsys.readouterr().err
+    assert "empty: error: is a directory with no .pcsg file in it" in capsys.readouterr().err
+    # a subdirectory named *.pcsg is not one of its files: the batch failed on it
+    (tmp_path / "held").mkdir()
+    (tmp_path / "held" / "sub.pcsg").mkdir()
+    (tmp_path / "held" / "c.pcsg").write_text("sphere\n", encoding="utf-8")
+    assert main(["check", str(tmp_path / "held")]) == 0
+    assert "c.pcsg: ok" in capsys.readouterr().out
+    assert main(["expand", str(tmp_path / "held")]) == 1       # one file asked for
+    assert "held: error: is a directory, not a .pcsg file" in capsys.readouterr().err
     # -o '' rendered into the working directory
     assert main(["render", str(tmp_path / "a.pcsg"), "-o", ""]) == 2
     assert "-o '': name a file or a directory" in capsys.readouterr().err
@@ -691,6 +699,20 @@ def test_a_local_sweep_reports_each_image_once(capsys, tmp_path):
     for name in ("sierpinski_c=1.png", "sierpinski_c=2.png"):
         assert len([line for line in lines if name in line]) == 1, lines
     assert "rendered 2 of 2 images" in captured.out
+
+
+def test_a_sweep_names_itself_and_the_image_that_failed(capsys, tmp_path):
+    """--strict's failure of one image said "pcsg render: sel.pcsg: ..." in a sweep."""
+    src = tmp_path / "sel.pcsg"
+    src.write_text("{s = 1} (S ∪ move(0,0,-1) plane)\nS s\n1: S → sphere\n2: S → cube\n",
+                   encoding="utf-8")
+    out = tmp_path / "sweep"
+    assert main(["sweep", str(src), "--set", "s=1..3", "--strict", "--size", "24x18",
+                 "--shadow-samples", "1", "-o", str(out), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert f"pcsg sweep: {src} (sel_s=3.png): --strict: runtime errors in the grammar, " \
+        "nothing written:" in err and "pcsg render" not in err
+    assert sorted(p.name for p in out.glob("*.png")) == ["sel_s=1.png", "sel_s=2.png"]
 
 
 def test_stats_json_of_several_files_is_a_list_whatever_fails(capsys, tmp_path, sierpinski):

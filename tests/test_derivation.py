@@ -166,6 +166,20 @@ def test_stats_of_a_derivation_it_cannot_count_says_why(capsys, tmp_path, text, 
     assert r["endless"] == why.startswith("the derivation never ends")   # deep is not endless
 
 
+def test_a_count_too_long_to_write_is_given_by_its_size(capsys):
+    """Python writes integers of up to 4,300 digits: Sierpinski at c=9999 (6,020 digits)
+    was an internal error in stats and stats --json."""
+    from pcsg.cli import main
+    assert main(["stats", str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=9999", "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert r["primitives"] is None and r["count_digits"] == 6020 and "endless" not in r
+    assert r["not_counted"].startswith("about 9.95e6019 primitives, a number of 6,020 digits")
+    assert main(["stats", str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=9999"]) == 0
+    assert "primitives   not written: about 9.95e6019" in capsys.readouterr().out
+    assert main(["stats", str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=6000", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["primitives_by_kind"]["tetrahedron"] == 4 ** 6000
+
+
 def test_the_written_word_keeps_only_what_it_reaches():
     # the modules the word had expanded stayed in the file, "never used": check --werror
     # refused the file expand wrote
@@ -179,6 +193,20 @@ def test_the_written_word_keeps_only_what_it_reaches():
     assert [w.message for w in compile_text(one, "w.pcsg").warnings] == []
     assert all(s in one for s in ("1: S", "2: S", "S if(", "1: T", "leaf =", "stem ="))
     assert "spare" not in one and "U →" not in one
+
+
+@pytest.mark.parametrize("text, steps, written, primitives", [
+    # a row (the README's chain of trees) 300 steps deep, and 1,000 nested maps at once:
+    # RecursionError from 250 steps, an internal error
+    ("{n = 400} ROW\nROW if(n > 0, 2, 1)\n1: ROW → sphere\n"
+     "2: ROW → sphere ∪ {n = n - 1} move(2, 0, 0) ROW\n", 300, 300, 401),
+    ("S\n1: S → " + "move(1,0,0) (" * 1000 + "sphere" + ")" * 1000 + "\n", 1, 1, 1)])
+def test_a_deep_word_is_written(text, steps, written, primitives):
+    graph = compile_text(text, "t.pcsg")
+    word = expand_file(graph, steps)
+    assert count_primitives(compile_text(word, "w.pcsg")) == primitives == \
+        count_primitives(graph)
+    assert expand_axiom(graph, steps).count("sphere") == written
 
 
 def test_a_word_that_leaves_graftal_modules_says_its_picture_differs():
@@ -199,3 +227,19 @@ def test_a_statement_left_out_takes_its_comment_along():
             "1: U → cone /* U is a spare,\n   kept for later */\n")
     word = expand_file(compile_text(text, "t.pcsg"), 1)
     assert "kept for later" not in word and compile_text(word, "w.pcsg").warnings == []
+
+
+def test_a_file_named_with_a_line_break_is_named_in_one_comment(tmp_path):
+    """The header comments of expand and graph wrote the name as it is: a newline in it
+    ended the comment, and check refused what expand wrote."""
+    from pcsg.graph.dot import to_dot
+    src = tmp_path / "nl\nname.pcsg"
+    src.write_text((GRAMMARS / "sierpinski.pcsg").read_text(encoding="utf-8"), encoding="utf-8")
+    graph = compile_file(src)
+    word = expand_file(graph, 1)
+    escaped = str(src).replace("\n", "\\n")
+    assert word.splitlines()[0] == f"// {escaped} after 1 derivation step"
+    assert count_primitives(compile_text(word, "w.pcsg")) == 4 ** 6 + 1   # it raised
+    dot = to_dot(graph).splitlines()
+    assert dot[0].endswith("nl\\nname.pcsg: cyclic CSG graph (pcsg graph)")
+    assert dot[1].startswith("digraph")

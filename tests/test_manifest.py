@@ -28,3 +28,16 @@ def test_a_record_after_a_second_saves_at_once(tmp_path, monkeypatch):
     (tmp_path / "a.png").write_bytes(b"a")
     m.record(tmp_path / "a.png", "k")
     assert "a.png" in Manifest(tmp_path).entries
+
+
+def test_a_long_legal_name_is_written_atomically(tmp_path):
+    """The temporary file beside it took the name with 15 characters more: a name of 241
+    to 255 bytes failed with "File name too long", naming the temporary file."""
+    from pcsg.output import write_atomic
+    for length in (240, 250, 255):
+        target = tmp_path / ("b" * (length - 4) + ".png")
+        write_atomic(target, b"picture")
+        assert target.read_bytes() == b"picture"
+        write_atomic(target, b"again")          # over the earlier one
+        assert target.read_bytes() == b"again"
+    assert sorted(len(p.name) for p in tmp_path.iterdir()) == [240, 250, 255]

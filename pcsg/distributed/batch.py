@@ -42,10 +42,12 @@ def read_sources(jobs: list[Job]) -> tuple[dict[str, str], list[str]]:
 
 class Batch:
     def __init__(self, tiles: int = 1, manifest: bool = False, skip: bool = False,
-                 quiet: bool = False):
+                 quiet: bool = False, command: str = "render"):
         """manifest: record each output made, so that a restart can skip it (cluster
-        batches and sweeps); skip: skip those recorded and intact (unless --force)."""
+        batches and sweeps); skip: skip those recorded and intact (unless --force).
+        command: the one whose messages these are (a sweep's said "pcsg render")."""
         self.tiles, self.manifest, self.skip, self.quiet = tiles, manifest, skip, quiet
+        self.command = command
         self.manifests: dict[Path, Manifest] = {}
         self.per_worker: Counter = Counter()
         self.failed: list[str] = []
@@ -94,8 +96,8 @@ class Batch:
                     # a whole image made here has its summary line; this would say it twice
                     self._progress(n, total, what, outcome, worker)
                 if exc is not None:
-                    outcome = Outcome(error=f"pcsg render: {what}: failed on the cluster: "
-                                            f"{type(exc).__name__}: {exc}")
+                    outcome = Outcome(error=f"pcsg {self.command}: {what}: failed on the "
+                                            f"cluster: {type(exc).__name__}: {exc}")
                 try:
                     if unit.rows is None:
                         self._whole(job, key, outcome)
@@ -105,8 +107,8 @@ class Batch:
                     a = assemblers.get(id(job))
                     if a is not None and a.image is not None:
                         a.discard()
-                    self._fail(job, f"pcsg render: {job.label}: {e.strerror or e}"
-                                    + (f": {e.filename}" if e.filename else ""))
+                    self._fail(job, self._said(job, f"{e.strerror or e}"
+                                               + (f": {e.filename}" if e.filename else "")))
         finally:
             for a in assemblers.values():
                 if a.image is not None:
@@ -121,6 +123,15 @@ class Batch:
         print(f"[{n}/{total}] {what} on {worker or 'a lost worker'}{took}",
               file=sys.stderr)
 
+    def _said(self, job: Job, text: str) -> str:
+        """A message about one job: the command, the file, and the image where a sweep
+        makes several of one file."""
+        image = f" ({job.name})" if job.name and job.name != job.label else ""
+        return f"pcsg {self.command}: {job.label}{image}: {text}"
+
+    def _error(self, job: Job, outcome: Outcome) -> str:
+        return outcome.error if outcome.said_where else self._said(job, outcome.error)
+
     def _fail(self, job: Job, message: str | None):
         """Reported once per job, however many of its bands fail."""
         if id(job) in self.failed_jobs:
@@ -132,7 +143,7 @@ class Batch:
 
     def _whole(self, job: Job, key: str, outcome: Outcome):
         if outcome.error is not None:
-            return self._fail(job, outcome.error)
+            return self._fail(job, self._error(job, outcome))
         write_atomic(job.out, outcome.png)
         if job.opts.depth is not None:
             write_atomic(job.opts.depth, outcome.depth)
@@ -147,7 +158,7 @@ class Batch:
         if outcome.error is not None:
             if a is not None and a.image is not None:
                 a.discard()
-            return self._fail(job, outcome.error)
+            return self._fail(job, self._error(job, outcome))
         if a is None or a.image is None:
             return                          # an earlier band failed: nothing is written
         if not a.add(unit.rows, outcome.pixels, outcome.seconds, outcome.rays, outcome.events,
@@ -157,7 +168,7 @@ class Batch:
         notes += nothing_met(job.label, a.met)
         if errors:
             a.discard()
-            return self._fail(job, f"pcsg render: {job.label}: {strict_failure(errors)}")
+            return self._fail(job, self._said(job, str(strict_failure(errors))))
         a.write()
         self._finished(job, key, notes, a.seconds, a.rays, f", {tiles} tiles")
 
@@ -203,7 +214,8 @@ def run_jobs(jobs: list[Job], args, resume: bool, what: str = "files") -> int:
     try:
         if cluster:
             require_dask()
-        batch = Batch(args.tiles, resume, resume and not args.force, args.quiet)
+        batch = Batch(args.tiles, resume, resume and not args.force, args.quiet,
+                      getattr(args, "command", "render"))
         units = batch.plan(jobs)
         runner = None
         if units:

@@ -42,6 +42,7 @@ class Outcome:
     met: bool = False                   # a tile: whether a ray of it met the object
     notes: list[str] = field(default_factory=list)
     error: str | None = None            # what to tell the user; nothing was rendered
+    said_where: bool = True             # whether error names its file (else the batch does)
 
 
 _scenes: OrderedDict = OrderedDict()
@@ -86,7 +87,7 @@ def render_unit(unit: Unit) -> Outcome:
     except PcsgError as e:
         return Outcome(error="\n".join(d.format() for d in e.diagnostics))
     except RenderFailed as e:
-        return Outcome(error=f"pcsg render: {unit.label}: {e}")
+        return Outcome(error=str(e), said_where=False)
 
 
 def report_unit(unit: Unit, events: np.ndarray | None) -> tuple[list[str], list[str]]:

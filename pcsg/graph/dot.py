@@ -3,6 +3,7 @@ Fig. 3b and 5b: S-nodes as diamonds with their rules on the edges, C-nodes with
 their assignments, T-nodes with their transformation, cycles as dashed edges."""
 from __future__ import annotations
 
+from ..language.source import one_line
 from ..language.unparse import unparse_arith
 from .checks import reachable
 from .model import (CALC, DIFFERENCE, MATERIAL, OPERATOR_SYMBOLS, PAINT, PRIMITIVE, SELECT,
@@ -66,7 +67,7 @@ def back_edges(graph: Graph) -> set[tuple[int, int]]:
 def to_dot(graph: Graph) -> str:
     live = reachable(graph)
     back = back_edges(graph)
-    lines = [f"// {graph.source.file}: cyclic CSG graph (pcsg graph)",
+    lines = [f"// {one_line(graph.source.file)}: cyclic CSG graph (pcsg graph)",
              "digraph pcsg {", '  graph [rankdir=TB, fontname="Helvetica"];',
              '  node [fontname="Helvetica", fontsize=11];', '  edge [fontname="Helvetica", fontsize=9];',
              '  axiom [shape=plaintext, label="axiom"];', f"  axiom -> n{graph.root};"]

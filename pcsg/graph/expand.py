@@ -6,6 +6,8 @@ from __future__ import annotations
 from .derive import Deriver, State, format_value
 from .model import CALC, DIFFERENCE, INTERSECTION, MATERIAL, OPERATOR_SYMBOLS, PAINT, PRIMITIVE, \
     SELECT, TRANSFORM, UNION, Graph
+from ..language.source import one_line
+from ..recursion import SYNTAX_DEPTH, on_deep_stack, recursion_limit
 from .stats import MAX_LEVELS
 
 # Loosest to tightest, as notation §3: ∪, ∩, \, then prefix operators and operands.
@@ -102,7 +104,15 @@ class ExpansionTooLarge(Exception):
 
 def expand_axiom(graph: Graph, steps: int, max_chars: int = 50_000_000) -> str:
     """The axiom after `steps` parallel derivation steps, as one CSG expression."""
-    return _expand(graph, steps, max_chars)[0]
+    return _deep(_expand, graph, steps, max_chars)[0]
+
+
+def _deep(fn, *args):
+    """fn(*args) with room for the printer's recursion, a few calls a node: a row of 400
+    modules expanded 250 steps deep, or 1,000 nested transformations, raised
+    RecursionError (the word, and the file's parse again)."""
+    with recursion_limit(SYNTAX_DEPTH + 20 * MAX_LEVELS):
+        return on_deep_stack(fn, *args)
 
 
 def _expand(graph: Graph, steps: int, max_chars: int) -> tuple[str, _Printer]:
@@ -128,6 +138,10 @@ def expand_file(graph: Graph, steps: int, max_chars: int = 50_000_000,
     Macros are shown expanded, since the axiom is printed from the expanded text. Appends
     to `notes` what the user must know of it: where modules are left that draw `rand()`,
     the file derives other primitives below them (redrawn)."""
+    return _deep(_expand_file, graph, steps, max_chars, notes)
+
+
+def _expand_file(graph: Graph, steps: int, max_chars: int, notes: list[str] | None) -> str:
     axiom, p = _expand(graph, steps, max_chars)
     if notes is not None and p.modules_left and redraws(graph):
         notes.append(REDRAWN)
@@ -145,7 +159,8 @@ def expand_file(graph: Graph, steps: int, max_chars: int = 50_000_000,
             axiom = f"{{{head}}} ({axiom})"
     text = graph.source.expanded
     start, end = graph.axiom_span
-    header = f"// {graph.source.file} after {steps} derivation step{'s' if steps != 1 else ''}\n"
+    header = (f"// {one_line(graph.source.file)} after {steps} derivation "
+              f"step{'s' if steps != 1 else ''}\n")
     shown = _without_defines(text, graph.source.defines)
     before, after = _unreached_cut(text, shown, graph.source.file, p.left, (start, end))
     return (header + before + axiom + after.rstrip("\n") + "\n").replace(_GONE, "")

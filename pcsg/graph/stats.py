@@ -2,6 +2,7 @@
 primitives of the complete derivation, counted without expanding it."""
 from __future__ import annotations
 
+import math
 from collections import Counter
 
 from ..language.errors import Diagnostic, PcsgError
@@ -137,6 +138,19 @@ class _Counter:
                           node.span, self.g.source, code=code)
 
 
+# Python writes integers of up to 4,300 digits (sys.get_int_max_str_digits), as text and
+# as JSON: Sierpinski's count at c=9999 has 6,020 digits, and stats failed to print it
+PRINTABLE = 10 ** 4000
+
+
+def _too_many(n: int) -> str:
+    """A count too long to write, by its size: its leading digits and its digits."""
+    digits = math.floor(math.log10(n)) + 1
+    lead = n // 10 ** (digits - 3)
+    return (f"about {lead / 100:.2f}e{digits - 1} primitives, a number of {digits:,} digits "
+            f"(counted, but longer than pcsg writes one)")
+
+
 def graph_stats(graph: Graph, count: bool = True) -> dict:
     kinds = Counter(KIND_NAMES[n.kind] for n in graph.nodes)
     out = {
@@ -156,8 +170,13 @@ def graph_stats(graph: Graph, count: bool = True) -> dict:
     if count:
         try:
             by_kind = count_by_primitive(graph)
-            out["primitives"] = sum(by_kind.values())
-            out["primitives_by_kind"] = by_kind
+            total = sum(by_kind.values())
+            if total >= PRINTABLE:
+                out["not_counted"] = _too_many(total)
+                out["count_digits"] = math.floor(math.log10(total)) + 1
+            else:
+                out["primitives"] = total
+                out["primitives_by_kind"] = by_kind
         except PcsgError as e:
             # a derivation that never ends (a graftal's by design) is a valid system: the
             # tracer refines it to pixel size (notation §9); stats says why it has no count

@@ -2,6 +2,8 @@
 the parser so that reading a file does not import lark."""
 from __future__ import annotations
 
+import glob
+import os
 from pathlib import Path
 
 from .errors import Diagnostic, PcsgError
@@ -10,14 +12,22 @@ from .source import Source
 MAX_FILE_BYTES = 8 * 1024 * 1024     # lark parses ~100k tokens/s; a PCSG system is short
 
 
+def pcsg_files(directory: str | Path) -> list[str]:
+    """The .pcsg files in a directory, sorted (not a subdirectory named so)."""
+    found = glob.glob(os.path.join(glob.escape(str(directory)), "*.pcsg"))
+    return sorted(f for f in found if os.path.isfile(f))
+
+
 def read_source_text(path: str | Path) -> str:
     """Read a .pcsg file as UTF-8 text; PcsgError (not OSError) for anything unreadable."""
     name = str(path)
     try:
         p = Path(path)
         if p.is_dir():
-            raise PcsgError([Diagnostic("error", "is a directory, not a .pcsg file", None,
-                                        Source(name, ""), code="io")])
+            # a batch takes a directory for its .pcsg files: one without any comes here
+            what = ("is a directory, not a .pcsg file" if pcsg_files(p) else
+                    "is a directory with no .pcsg file in it")
+            raise PcsgError([Diagnostic("error", what, None, Source(name, ""), code="io")])
         size = p.stat().st_size
         if size <= MAX_FILE_BYTES:
             # at most one byte past the limit, whatever the size said: a device or a pipe

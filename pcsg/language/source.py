@@ -5,6 +5,14 @@ import bisect
 from dataclasses import dataclass, field
 
 
+def one_line(name: str) -> str:
+    """A file's name for a line comment of written text: its line breaks (and other
+    control characters) escaped, which ended the comment, so `check` refused what expand
+    wrote for a file named with a newline, and `graph` wrote a dot file Graphviz could
+    not read."""
+    return "".join(c if c.isprintable() or c == " " else repr(c)[1:-1] for c in name)
+
+
 @dataclass(frozen=True)
 class Location:
     file: str
