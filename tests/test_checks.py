@@ -143,7 +143,8 @@ class TestTermination:
         graph = compile_text(text, "g.pcsg")
         [w] = derivation_faults(graph)[1]
         assert w.code == "non-contracting" and "'S' is a graftal" in w.message
-        assert "can neither bound this one nor refine it" in w.message
+        assert "no primitive stands on its cycles either, so `render` draws nothing" in \
+            w.message
         assert [p.message for p in bound(graph)[2]] == [w.message]
         # not a graftal, but a state that recurs without end through such maps: named, with
         # a contracting graftal beside it (the first version raised an IndexError for the
@@ -169,6 +170,30 @@ class TestTermination:
         boxes, method = bound(graph)[:2]
         assert method == "memoised"
         np.testing.assert_allclose(boxes[graph.root], [0, 0, 0, 0, 0, 2], atol=1e-8)
+
+    @pytest.mark.parametrize("axiom", ["S", "S ∪ move(3, 0, 0) cube"])
+    def test_a_graftal_without_primitives_whose_maps_do_not_contract_is_empty(self, axiom):
+        """It has no attractor: nothing to draw, and nothing to bound. Walked instance by
+        instance, every ray entered --max-instances instances of it (68 s at 160x120)
+        to draw nothing; now its box is empty, and the rest is bounded as usual."""
+        from pcsg.graph.cut import cut_of
+        from pcsg.trace.reference import Reference
+        from pcsg.tracer import Traced
+        graph = compile_text(f"{axiom}\nS 1\n1: S → S ∪ move(1, 0, 0) S\n", "v.pcsg")
+        [w] = derivation_faults(graph)[1]
+        assert "so `render` draws nothing of it" in w.message
+        traced = Traced(graph, max_depth=3)
+        assert traced.bounds_method == "memoised"
+        assert w.message in [p.message for p in traced.warnings]
+        s = graph.modules["S"]
+        assert traced.boxes[s, 0] > traced.boxes[s, 3]          # empty
+        origins = np.array([[x, 0.0, -5.0] for x in (-0.5, 0.0, 0.5, 1.5, 2.5, 3.0, 3.5)])
+        directions = np.tile([0.0, 0.0, 1.0], (len(origins), 1))
+        hits = traced.trace(origins, directions)
+        ref = Reference(traced.graph, cut=cut_of(traced)).trace(origins, directions)
+        cube = [axiom != "S" and x >= 2.5 for x in origins[:, 0]]
+        assert hits.hit.tolist() == ref["hit"].tolist() == cube
+        assert not traced.describe_events(hits.events)      # no walk cut short
 
     def test_a_cycle_that_skips_the_block_suggests_grouping(self):
         w = [x for x in warnings_of(FIG3A_AS_PRINTED) if x.code == "endless"]

@@ -57,7 +57,21 @@ class DoesNotContract(TooManyStates):
         self.nodes = nodes
 
 
-def not_contracting(graph: Graph, found: DoesNotContract) -> list[Diagnostic]:
+def voids_of(graph: Graph, endless: list[int]) -> frozenset:
+    """The S-nodes `endless` (found DoesNotContract) as a set, where none of them derives
+    a primitive: an IFS without a primitive has an attractor only where its maps contract,
+    so there is nothing of these to draw. Empty where one of them derives a primitive (a
+    row of spheres without end is drawn as far as --max-depth goes)."""
+    from .checks import reachable
+    for i in endless:
+        below = reachable(graph, i)
+        if any(below[j] and n.kind == PRIMITIVE for j, n in enumerate(graph.nodes)):
+            return frozenset()
+    return frozenset(endless)
+
+
+def not_contracting(graph: Graph, found: DoesNotContract, void: bool = False
+                    ) -> list[Diagnostic]:
     """The warning for states bound() found DoesNotContract: without bounds the tracer
     can neither cull them nor refine them to pixel size (every ray that meets them
     entered --max-instances instances and drew nothing)."""
@@ -75,7 +89,10 @@ def not_contracting(graph: Graph, found: DoesNotContract) -> list[Diagnostic]:
     return [Diagnostic("warning", f"'{s.name}' {what}, through maps that take no box found "
                        f"into itself (maps that do not shrink it, or shrink it only over many "
                        f"cycles): an IFS has a bounded attractor only where its maps contract, "
-                       f"and `render` can neither bound this one nor refine it to pixel size",
+                       + ("and no primitive stands on its cycles either, so `render` draws "
+                          "nothing of it" if void else
+                          "and `render` can neither bound this one nor refine it to pixel "
+                          "size"),
                        s.span, graph.source, code="non-contracting")]
 
 
@@ -179,6 +196,9 @@ class _Walker:
         # states of a deep system recurring at many levels were too many to memoise)
         self.finish_too = False
         self.finishing = terminating_rules(graph)
+        # S-nodes whose maps do not contract and which derive no primitive (_voids):
+        # bounded as empty, so nothing of them is walked or drawn
+        self.voids: frozenset = frozenset()
         self.reset()
 
     def reset(self):
@@ -195,6 +215,8 @@ class _Walker:
 
     def box(self, i: int, state, h: int, level: int) -> np.ndarray:
         n = self.g.nodes[i]
+        if i in self.voids:
+            return self.nothing
         if n.kind == PRIMITIVE:
             b = self.leaf(n.name, self.g.constant_args(i))
             self.record(i, b)
@@ -301,7 +323,8 @@ class _Walker:
         return sorted(found)
 
 
-def _memoised(graph: Graph, faults: set | None = None, max_depth: int | None = None
+def _memoised(graph: Graph, faults: set | None = None, max_depth: int | None = None,
+              voids: frozenset = frozenset()
               ) -> tuple[tuple[np.ndarray, dict, StateTable | None], int]:
     """_memoised_walk's boxes, and the depth bound they hold: `max_depth`, or with None
     the derivation's own depth where it ends within DEEPEST_DEFAULT levels (else
@@ -309,19 +332,20 @@ def _memoised(graph: Graph, faults: set | None = None, max_depth: int | None = N
     terminating rules' geometry in every S-node's bound (pcsg.loads(..., max_depth=1) of
     40 halvings of a cube, a line in full, drew nothing where its two cut cubes stand:
     their boxes were the line's)."""
-    found, deepest, ends = _memoised_walk(graph, faults, False)
+    found, deepest, ends = _memoised_walk(graph, faults, False, voids=voids)
     if max_depth is None:
         ends = ends and deepest <= DEEPEST_DEFAULT
         max_depth = max(MAX_DEPTH, deepest + 1) if ends else MAX_DEPTH
     if deepest >= max_depth:
-        (boxes, _, states), _, _ = _memoised_walk(graph, faults, True)
+        (boxes, _, states), _, _ = _memoised_walk(graph, faults, True, voids=voids)
         # no hulls: the bounding spheres of graftals (graph/spheres.py) would be walked
         # from them without the terminating rules, and boxes bound their graftals too
         found = boxes, {}, states
     return found, max_depth
 
 
-def _memoised_walk(graph: Graph, faults: set | None, finish_too: bool, walker=None):
+def _memoised_walk(graph: Graph, faults: set | None, finish_too: bool, walker=None,
+                   voids: frozenset = frozenset()):
     """Exact boxes by the memoised walk, iterated to a fixed point over re-entered
     states; TooManyStates when memoising cannot help. A re-entered state that stays
     empty (a graftal: no primitive below its cycle) is bounded as an IFS attractor.
@@ -335,6 +359,7 @@ def _memoised_walk(graph: Graph, faults: set | None, finish_too: bool, walker=No
     than the node boxes or rand() decides)."""
     w = (walker or _Walker)(graph)
     w.finish_too = finish_too
+    w.voids = voids
     if faults is not None:
         w.faults = faults
 
@@ -563,7 +588,21 @@ def bound(graph: Graph, max_depth: int | None = MAX_DEPTH, budget: int = BOUNDS_
                                    counted=False)
         return boxes, "memoised", problems, states, hulls, max_depth, graph, max_depth
     except DoesNotContract as found:
-        problems = not_contracting(graph, found)
+        voids = voids_of(graph, found.nodes)
+        problems = not_contracting(graph, found, bool(voids))
+        if voids:
+            # nothing to bound and nothing to draw: walked instance by instance, every ray
+            # entered --max-instances instances (a minute at 160x120) and drew nothing
+            try:
+                with recursion_limit(20 * MAX_LEVELS):
+                    (boxes, hulls, states), max_depth = _memoised(graph, faults, max_depth,
+                                                                  voids)
+                problems += fault_warnings(graph, graph, [(k, 0, f) for k, f in sorted(faults)],
+                                           counted=False)
+                return (boxes, "memoised", problems, states, hulls, max_depth, graph,
+                        max_depth)
+            except (TooManyStates, PcsgError):
+                pass
     except TooManyStates:
         pass
     except PcsgError as e:

@@ -81,13 +81,14 @@ def _unbounded_graftal(graph: Graph) -> list[Diagnostic]:
     """The render's warning for a graftal whose maps do not contract (bounds.bound), from
     the same walk: a few rounds of its states' boxes, 50 ms where it does not contract."""
     from ..recursion import recursion_limit
-    from .bounds import DoesNotContract, TooManyStates, _memoised_walk, not_contracting
+    from .bounds import (DoesNotContract, TooManyStates, _memoised_walk, not_contracting,
+                         voids_of)
     from .stats import MAX_LEVELS
     try:
         with recursion_limit(20 * MAX_LEVELS):
             _memoised_walk(graph, None, False)
     except DoesNotContract as found:
-        return not_contracting(graph, found)
+        return not_contracting(graph, found, bool(voids_of(graph, found.nodes)))
     except (TooManyStates, PcsgError):
         pass                # too many states to tell, or the render's to report
     return []

@@ -166,8 +166,8 @@ class Reference:
             if isinstance(n, Leaf):
                 built[idx] = (n.code, n.matrix, n.paint, n.material)
             else:
-                built[idx] = (n.name, [built[c] for c in n.children])
-        return built[self.root]
+                built[idx] = (n.name, [built[c] for c in n.children if c is not None])
+        return None if self.root is None else built[self.root]
 
     # ---- tracing ----------------------------------------------------------------
 
@@ -234,9 +234,12 @@ class Reference:
                     iv = leaf_hits[idx][k]
                     spans[idx] = [] if iv is None else [iv]
                     continue
-                kids = [spans[c] for c in node.children]
+                # an operand that derived no instance (a cut node without a volume) is
+                # empty: its slot was never filled
+                kids = [[] if c is None else spans[c] for c in node.children]
                 for c in node.children:
-                    spans[c] = None
+                    if c is not None:
+                        spans[c] = None
                 if node.kind == UNION:
                     spans[idx] = union(kids)
                 elif node.kind == INTERSECTION:
@@ -246,7 +249,7 @@ class Reference:
                     spans[idx] = acc
                 else:
                     spans[idx] = difference(kids[0], kids[1:])
-            for t0, e0, t1, e1 in spans[self.root]:
+            for t0, e0, t1, e1 in ([] if self.root is None else spans[self.root]):
                 if exits and t0 <= tmin < t1 < tmax:     # inside at tmin: the exit
                     t0, e0 = t1, e1
                 if t0 > tmin:
