@@ -507,8 +507,11 @@ def cmd_export(args) -> int:
         progress.close()
     # the bounding walk's (where a map empties instances: the export leaves them out too)
     _report(None, [w for w in traced.warnings if w not in graph.warnings])
-    print(f"{out}: {_many(count, 'primitive')}, {out.stat().st_size / 1e6:.1f} MB, "
-          f"{time.perf_counter() - start:.1f} s; render with: povray +I{out} +W{w} +H{h}")
+    # a pipe's reader takes the scene on its standard input: POV-Ray 3.7 reads no `+I-`
+    scene, size = (("/dev/stdin", "") if _device(out) else
+                   (out, f", {out.stat().st_size / 1e6:.1f} MB"))
+    print(f"{out}: {_many(count, 'primitive')}{size}, {time.perf_counter() - start:.1f} s; "
+          f"render with: povray +I{scene} +W{w} +H{h}")
     if empty:
         also = (f"; {dropped:,} more went with the ∩ or \\ that lost an operand"
                 if dropped else "")
@@ -606,9 +609,11 @@ def _free(out: Path) -> int | None:
     if _device(out):
         return None
     try:
-        return shutil.disk_usage(out if out.exists() else out.parent).free
+        usage = shutil.disk_usage(out if out.exists() else out.parent)
     except OSError:
         return None
+    # /proc and /sys say 0 of 0 bytes: "its disk has 0.0 MB free" was not why it failed
+    return usage.free if usage.total else None
 
 
 def _bytes(n: float) -> str:
@@ -636,6 +641,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     if args.command not in FILE_COMMANDS:
         return _run(args)
+    if args.command == "export" and args.pov == "-":    # it wrote a file named "-"
+        args.pov = "/dev/stdout"
     image = args.pov if args.command == "export" else args.output
     saved = sys.stdout
     sys.stdout = status_stream(args.command in ("render", "export") and bool(image)

@@ -28,8 +28,11 @@ def open_atomic(path: Path, mode: str = "wb"):
             yield f
         return
     target = Path(os.path.realpath(path))
-    fd, tmp = tempfile.mkstemp(prefix=_temporary_prefix(target), suffix=".part",
-                               dir=target.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=_temporary_prefix(target), suffix=".part",
+                                   dir=target.parent)
+    except OSError as e:        # named by what was asked for, not the temporary file
+        raise type(e)(e.errno, e.strerror, str(path)) from None
     try:
         # mkstemp makes the file private; give it the permissions of the file it replaces
         # (a read-only image stayed read-only), or those a plain open() would

@@ -10,6 +10,7 @@ hierarchy sees every object), so only ∩ and \\ subtrees are held until they cl
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -53,6 +54,31 @@ def _vec(v) -> str:
 
 # POV-Ray's row-vector matrix: p' = p M, so the columns of our 3x4 become rows (m.T)
 _MATRIX = "matrix <" + ", ".join(["%.9g"] * 12) + ">"
+# A primitive that a \ subtracts grows by this much of its size, about its centre in its
+# own frame, for each \ it is subtracted by: POV-Ray keeps a solid's face where a
+# cutter's face lies exactly on it, and pcsg's interval lists do not (a hole through a
+# cube was capped over, and `cube \ cube` drew the cube). Nested: a cutter's own cutter
+# grows twice as much, past the faces it shares with it.
+GROWTH = 1e-4
+_CENTRE = {"cylinder": 0.5, "cone": 0.5}    # on z; the other solids' is their origin
+_OBJECT = re.compile(r"object \{ P_(\w+) ")
+
+
+def _grown(line: str, cuts: int) -> str:
+    """A primitive's line (or a clipped volume's block) grown for `cuts` subtractions."""
+    s = f"{(1 + GROWTH) ** cuts:.12g}"
+
+    def grow(m) -> str:
+        name = m.group(1)
+        if name == "plane":             # the half-space z <= 0 moves out
+            how = f"translate {GROWTH * cuts:.12g}*z"
+        elif name in _CENTRE:
+            c = _CENTRE[name]
+            how = f"translate {-c}*z scale {s} translate {c}*z"
+        else:
+            how = f"scale {s}"
+        return f"object {{ P_{name} {how} "
+    return _OBJECT.sub(grow, line)
 
 
 @dataclass
@@ -122,6 +148,10 @@ class _Textures:
         if material >= 0:
             fin = self.graph.scene.materials[self.graph.material_names[material]]
             color = fin["color"]
+        if self.lighting.max_bounces == 0:
+            # pcsg traces no bounce and keeps the whole of its own colour; POV-Ray's
+            # surface kept 1 - reflect - transmit of it and was dark where it reflects
+            fin = {**fin, "reflect": 0.0, "transmit": 0.0}
         reflection = f"reflection {_num(fin['reflect'])}"
         if fin["transmit"] > 0:
             # what pcsg reflects: reflect + transmit F, F by Fresnel's equations at the
@@ -388,7 +418,8 @@ class _BodyWriter:
             # the operand of the innermost block; those above learn of it when it closes
             # with something in it (a ∩ inside a ∩ that came out empty empties its operand)
             self.open[-1].present.add(needed[-1][3])
-        self._emit(line, 1)
+        cuts = sum(kind == DIFFERENCE and k > 0 for _, kind, _, k in needed)
+        self._emit(_grown(line, cuts) if cuts else line, 1)
 
     def add_all(self, lines: list[str]):
         """Lines with no ∩ or \\ above them."""
