@@ -196,7 +196,7 @@ class _Walker:
         # states of a deep system recurring at many levels were too many to memoise)
         self.finish_too = False
         self.finishing = terminating_rules(graph)
-        # S-nodes whose maps do not contract and which derive no primitive (_voids):
+        # S-nodes whose maps do not contract and which derive no primitive (voids_of):
         # bounded as empty, so nothing of them is walked or drawn
         self.voids: frozenset = frozenset()
         self.reset()
