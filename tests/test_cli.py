@@ -881,3 +881,11 @@ def test_a_render_with_standard_output_closed_writes_its_image(tmp_path):
                        f"{tmp_path / 'g.png'} --size 8x6 -q >&-", shell=True,
                        capture_output=True, text=True, timeout=300)
     assert (r.returncode, r.stderr) == (0, "") and (tmp_path / "g.png").exists()
+
+
+@pytest.mark.parametrize("value", ["inf", "nan", "0", "-1"])
+def test_an_ao_distance_must_be_positive_and_finite(capsys, sierpinski, tmp_path, value):
+    # inf was refused as not "a positive distance"
+    assert main(["render", str(sierpinski), "-o", str(tmp_path / "s.png"), "--size", "16x12",
+                 "--ao", "2", f"--ao-distance={value}"]) == 2
+    assert "give a positive finite distance" in capsys.readouterr().err

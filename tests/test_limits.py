@@ -214,3 +214,22 @@ def test_a_budget_too_small_to_bound_anything_is_said():
     assert [w.code for w in obj.warnings] == ["unbounded"]
     assert "--bounds-budget 100 node visits" in obj.warnings[0].message
     assert not pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=6).warnings
+
+
+def test_rays_a_limit_stopped_are_not_said_to_have_missed_an_empty_object(capsys, tmp_path):
+    """An ∩ of copies 0.02 apart, 12 levels deep, stopped at --max-instances 16 on every
+    ray: "no ray met the object: it is empty or out of the camera's view" said of an
+    object that is neither."""
+    src = tmp_path / "nest.pcsg"
+    src.write_text("#camera eye=(0,-8,2) at=(0,0,0) fov=40\n{c = 12} S\nS if(c > 0, 2, 1)\n"
+                   "1: S → sphere\n2: S → {c = c-1} (move(0.01,0,0) S ∩ move(-0.01,0,0) S)\n",
+                   encoding="utf-8")
+    args = ["render", str(src), "-o", str(tmp_path / "n.png"), "--size", "24x18",
+            "--shadow-samples", "1", "-q"]
+    assert main(args + ["--max-instances", "16"]) == 0
+    err = capsys.readouterr().err
+    assert "rays stopped after entering --max-instances 16 instances" in err
+    assert "no ray met the object before a walk limit stopped it (above)" in err
+    assert "empty or out of the camera's view" not in err
+    assert main(args) == 0                      # without the limit it is drawn
+    assert "no ray met" not in capsys.readouterr().err

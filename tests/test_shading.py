@@ -1,6 +1,8 @@
 """The numba shading kernel (trace/shading.py) against the numpy model it follows
 (render/shade.py): same colours, first hits and ray counts, with area lights,
 reflection, refraction and ambient occlusion."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -118,3 +120,25 @@ def test_glass_lets_its_transmit_through_each_surface_to_the_shadow(kernel):
     dark, bare = lit(0), lit(0, "uscale(0.001) move(1000, 0, 0)")
     for t in (0.5, 0.9):
         np.testing.assert_allclose((lit(t) - dark) / (bare - dark), t * t, rtol=1e-9)
+
+
+def test_a_light_far_away_still_casts_shadows(tmp_path):
+    """A shadow ray spans the whole way to its light and begins 1e-9 of it from the
+    surface: a light at 1e10 drew no shadows (the surfaces' own included), and one past
+    1e154 lit nothing (its squared distance overflowed). The same direction at any
+    distance is the same sun."""
+    from PIL import Image
+    from pcsg.cli import main
+    sierpinski = Path(__file__).resolve().parent.parent / "grammars" / "sierpinski.pcsg"
+    images = {}
+    for name, extra in (("near", ["--light=-3e3,-8e3,1e4"]), ("far", ["--light=-3e10,-8e10,1e11"]),
+                        ("farthest", ["--light=-3e200,-8e200,1e201"]),
+                        ("unshadowed", ["--light=-3e3,-8e3,1e4", "--no-shadows"])):
+        out = tmp_path / f"{name}.png"
+        assert main(["render", str(sierpinski), "--size", "96x72", "--shadow-samples", "1",
+                     "-q", "-o", str(out), *extra]) == 0
+        images[name] = np.asarray(Image.open(out).convert("RGB"), float)
+    near = images["near"]
+    assert np.abs(near - images["unshadowed"]).max(axis=2).mean() > 2      # it has shadows
+    for name in ("far", "farthest"):
+        assert np.abs(near - images[name]).max(axis=2).mean() < 0.1, name

@@ -165,7 +165,7 @@ class Batch:
                      outcome.met):
             return
         notes, errors = self.runner.call(report_unit, unit, a.events)
-        notes += nothing_met(job.label, a.met)
+        notes += nothing_met(job.label, a.met, a.events)
         if errors:
             a.discard()
             return self._fail(job, self._said(job, str(strict_failure(errors))))

@@ -83,7 +83,7 @@ def render_unit(unit: Unit) -> Outcome:
         depth = None if opts.depth is None else depth_bytes(frame)
         return Outcome(frame.seconds, frame.rays, png=png_bytes(frame, opts.alpha),
                        depth=depth, notes=scene.notes + notes
-                       + nothing_met(unit.label, frame.coverage.any()))
+                       + nothing_met(unit.label, frame.coverage.any(), events))
     except PcsgError as e:
         return Outcome(error="\n".join(d.format() for d in e.diagnostics))
     except RenderFailed as e:

@@ -33,7 +33,8 @@ class Frame:
     object_rgb: np.ndarray | None   # (h, w, 3) linear, the object's samples only: for
                                     # --alpha, None when the render was not asked for it
     coverage: np.ndarray        # (h, w) fraction of samples that hit the object
-    depth: np.ndarray           # (h, w) float32 first-hit distance of the pixel centre
+    depth: np.ndarray           # (h, w) float32 first-hit distance of the pixel's first
+                                #   sample: its centre, but with --samples N jittered
     seconds: float = 0.0
     rays: int = 0
     notes: list[str] = field(default_factory=list)

@@ -86,7 +86,7 @@ def check_options(o: Options) -> str | None:
     if o.ao is not None and not 0 <= o.ao <= MAX_AO_SAMPLES:
         return f"--ao {o.ao}: use 0 (off) to {MAX_AO_SAMPLES} rays"
     if o.ao_distance is not None and not 0 < o.ao_distance < math.inf:
-        return f"--ao-distance {o.ao_distance}: give a positive distance"
+        return f"--ao-distance {o.ao_distance}: give a positive finite distance"
     if problem := walk_limits_problem(o.max_depth, o.stack_depth, o.interval_rows,
                                       o.max_instances, o.bounds_budget):
         return problem
@@ -184,11 +184,18 @@ def render_scene(scene: Scene, label: str, opts: Options, deadline: float | None
     return frame, getattr(target, "events", None)
 
 
-def nothing_met(label, met: bool) -> list[str]:
+def nothing_met(label, met: bool, events=None) -> list[str]:
     """The note for a picture of sky and nothing else, which rendered without a word: a
-    system whose every instance is empty, or a camera turned away."""
-    return [] if met else [f"{label}: warning: no ray met the object: it is empty or out of "
-                           f"the camera's view (`pcsg stats` counts its primitives)"]
+    system whose every instance is empty, or a camera turned away; or rays stopped by a
+    walk limit (`events`: the render's), which the notes above it name (it said "empty
+    or out of the camera's view" of an object that was neither)."""
+    if met:
+        return []
+    if events is not None and events[[EV_VISITS, EV_STACK, EV_INTERVALS]].any():
+        return [f"{label}: warning: no ray met the object before a walk limit stopped it "
+                f"(above): what lies past the limit is not drawn"]
+    return [f"{label}: warning: no ray met the object: it is empty or out of the camera's "
+            f"view (`pcsg stats` counts its primitives)"]
 
 
 def strict_failure(errors: list[str]) -> RenderFailed:
@@ -236,7 +243,7 @@ def render_file(path: Path, out: Path, opts: Options,
     notes, errors = scene.report(events, opts.strict)
     if errors:
         raise strict_failure(errors)
-    notes += nothing_met(path, frame.coverage.any())
+    notes += nothing_met(path, frame.coverage.any(), events)
     with clock.phase("PNG", "encode, write" + (", depth" if opts.depth is not None else "")):
         write_png(out, frame, opts.alpha)
         if opts.depth is not None:

@@ -74,6 +74,7 @@ def make_lighting(traced, camera, shadows=True, shadow_samples=8, max_bounces=3,
         lights = [Light(np.array(light_at, float), SUN_COLOR.copy())]
     elif not lights:
         lights = [default_light(camera)]
+    lights = [_within_reach(lt, traced, camera) for lt in lights]
     mats = np.array([[*scene.materials[name]["color"],
                       *(scene.materials[name][k] for k in FINISH_KEYS)]
                      for name in traced.material_names] or np.zeros((0, 9)), float).reshape(-1, 9)
@@ -86,6 +87,31 @@ def make_lighting(traced, camera, shadows=True, shadow_samples=8, max_bounces=3,
         ao_distance = AO_DISTANCE * float(np.linalg.norm(box[3:] - box[:3]))
     return Lighting(lights, horizon, zenith, mats, shadows, max(1, shadow_samples), max_bounces,
                     ao, float(ao_distance))
+
+
+# A light farther than REACH times the scene's size (the camera's distance to the point it
+# looks at, or the object's box diagonal, the larger) stands that far, in its direction,
+# its radius scaled with it: a shadow ray spans the whole way to the light and begins
+# 1e-9 of it from the surface, so a light at 1e10 drew no shadows, and past 1e154 the
+# squared distance overflowed and it lit nothing. Its direction moves by at most
+# 1/REACH of a radian over the scene.
+REACH = 1e4
+
+
+def _within_reach(lt: Light, traced, camera) -> Light:
+    to = lt.position - camera.at
+    big = float(np.abs(to).max())
+    size = float(np.linalg.norm(camera.eye - camera.at))
+    if not big > REACH * size:
+        return lt
+    box = finite_bounds(traced)
+    reach = REACH * max(size, float(np.linalg.norm(box[3:] - box[:3])), 1e-12)
+    unit = to / big                                 # no overflow on the way
+    dist = big * float(np.linalg.norm(unit))        # inf past 1.8e308 only
+    if dist <= reach:
+        return lt
+    unit /= np.linalg.norm(unit)
+    return Light(camera.at + unit * reach, lt.color, lt.radius * reach / dist)
 
 
 def default_light(camera) -> Light:
