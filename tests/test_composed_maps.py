@@ -95,11 +95,13 @@ def test_a_bad_map_in_a_run_is_reported_where_it_is(bad, kind):
     """The run move rotz scale starts at column 8 of line 3 and composes at run time (x
     differs from instance to instance); the scale, bad where x = 0, is at column 31. The
     bounds would leave the bad instances' boxes empty and no ray would meet them: with
-    too many states to memoise and no budget to walk them, nothing is bounded."""
-    text = ("{ n = 13; x = 0 } S\nS if(n > 0, 2, 1)\n"
+    too many states to memoise and a selection that reads `pixels`, which the walk of
+    every instance cannot bound, nothing is bounded (a budget too small to walk them
+    now bounds them to a shallower depth)."""
+    text = ("{ n = 13; x = 0 } S\nS if(n > 0 && pixels > 0, 2, 1)\n"
             f"1: S → move(0, 0, 1) rotz(30) scale(1, {bad}, 1) sphere\n"
             "2: S → {n = n - 1} (S ∪ {x = x + rand()} S)\n")
-    traced = pcsg.Traced(compile_text(text, "t.pcsg"), bounds_budget=10)
+    traced = pcsg.Traced(compile_text(text, "t.pcsg"))
     assert traced.bounds_method == "unbounded" and heads(traced.flat)
     o, d = camera_rays(np.array([-1.0, -1, 0, 1, 1, 2]), 8, np.array([0.2, -1.0, 0.5]))
     for packets in (True, False):

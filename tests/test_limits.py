@@ -207,13 +207,18 @@ def test_the_api_refuses_the_limits_the_command_line_refuses(option):
     assert pcsg.loads("sphere", bounds_budget=1e9).bounds_method == "memoised"
 
 
-def test_a_budget_too_small_to_bound_anything_is_said():
-    # the terrain at --bounds-budget 100: no box at all, minutes of render, and no word
-    obj = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=6, bounds_budget=100)
-    assert obj.bounds_method == "unbounded"
-    assert [w.code for w in obj.warnings] == ["unbounded"]
-    assert "--bounds-budget 100 node visits" in obj.warnings[0].message
+@pytest.mark.parametrize("budget, depth", [(1, 0), (100, 2), (700, 3)])
+def test_a_budget_too_small_for_the_first_walk_bounds_a_shallower_depth(budget, depth):
+    # the terrain at --bounds-budget 100: no box at all, minutes of render, and no word;
+    # then a word, and still minutes (every ray walked every instance it met). A smaller
+    # budget is a coarser picture: depth 0 is walked whatever the budget
+    obj = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=6, bounds_budget=budget)
+    assert obj.bounds_method == "every instance" and obj.max_depth == depth
+    (w,) = obj.warnings
+    assert f"refinement stops there, as with --max-depth {depth}" in w.message
     assert not pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=6).warnings
+    hits = obj.trace(np.array([[0.5, 0.5, 5.0]]), np.array([[0.0, 0.0, -1.0]]))
+    assert hits.hit[0]              # the terrain, as its terminating rules make it there
 
 
 def test_rays_a_limit_stopped_are_not_said_to_have_missed_an_empty_object(capsys, tmp_path):

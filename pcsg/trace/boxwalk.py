@@ -405,6 +405,7 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
 
 
 FIRST_DEPTH = 4        # the first walk, which measures how fast the instances grow
+SHALLOWEST = 1_000_000  # the budget of a walk to depth 0 at least
 
 
 def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances: bool = False,
@@ -418,8 +419,10 @@ def walk_boxes(graph, max_depth: int = 64, budget: int | None = None, instances:
     stop at the deepest depth whose instances fit, like --max-depth there: the tracer
     must then finish instances at that depth too, or it would reach instances that no
     box holds. The depth is found by walking to depth FIRST_DEPTH and one deeper, and then
-    as deep as the growth of the visits from walk to walk predicts will fit. If not even
-    the first walk fits, every node is left unbounded, which is always safe (and slow).
+    as deep as the growth of the visits from walk to walk predicts will fit; where the
+    first walk does not fit, to the deepest depth below it that does (depth 0 with a
+    budget of SHALLOWEST at least). If not even that fits, every node is left unbounded,
+    which is always safe (and slow).
     A graftal is bounded at max_depth or not at all (no shallower depth bounds its deeper
     instances), so when the growth predicts that max_depth will not fit it is left
     unbounded without the walk that would find out: for a graftal that neither ends nor
@@ -477,11 +480,19 @@ def _walk_depths(flat, empty, max_depth: int, budget: int, instances: bool, poll
     best = last = None
     expected = None
     while True:
-        boxes, visits, counts, table = _walk_to(flat, empty, depth, max_depth, budget,
-                                                instances, poll, expected)
+        # depth 0 walks no S-node's rules, whatever the budget: --bounds-budget 1 gave
+        # no box at all, and the terrain rendered for minutes
+        boxes, visits, counts, table = _walk_to(
+            flat, empty, depth, max_depth, budget if depth else max(budget, SHALLOWEST),
+            instances, poll, expected)
         if visits < 0:
             table = None            # over budget: best's table is built again below
             spent += budget
+            if best is None and last is None and not graftal and depth > 0:
+                # not even the first walk fits: a shallower one may, and refining to it
+                # beats no box at all (--bounds-budget 300 ran the terrain for minutes)
+                depth -= 1
+                continue
             break
         changed = int(counts[CHANGED])
         found = faults_of(counts)
