@@ -277,9 +277,12 @@ def test_a_system_that_ends_within_the_budget_is_not_cut(monkeypatch):
     whole, complete, _, depth = walk_boxes(g, budget=400_000)
     assert complete and depth == 64
     assert np.array_equal(stepped, whole)
-    # too small a budget for even the first walk: unbounded, as before
-    space, complete, _, depth = walk_boxes(g, budget=10)
-    assert not complete and depth == 64 and np.all(np.isinf(space))
+    # too small a budget for even the first walk: the deepest depth below it that fits,
+    # depth 0 whatever the budget (it was no box at all: every ray walked every instance)
+    shallow, complete, _, depth = walk_boxes(g, budget=10)
+    assert complete and depth == 0 and np.isfinite(shallow[g.modules["MNT"]]).all()
+    cut, complete, _, depth = walk_boxes(g, budget=400)
+    assert complete and 0 < depth < 5 and np.isfinite(cut[g.modules["MNT"]]).all()
 
 
 def test_a_graftal_that_cannot_fit_is_left_unbounded_without_walking_to_the_bound(monkeypatch):
