@@ -1,5 +1,6 @@
 """Tiles, sweeps and resuming without a cluster: what pcsg.distributed does in one process."""
 import json
+import re
 
 import numpy as np
 import pytest
@@ -129,3 +130,15 @@ def test_an_output_that_cannot_be_written_fails_alone(capsys, tmp_path):
         captured.out
     assert (out / "sierpinski_c=3.png").is_file()
     assert [p.name for p in out.glob(".*")] == [MANIFEST]     # no scratch file left
+
+
+def test_a_band_that_fails_ends_its_image(capsys, tmp_path):
+    """--tiles 4 --timeout: the bands after the one that ran out of time were rendered
+    all the same, and said so after "nothing written"."""
+    out = tmp_path / "t.png"
+    assert main(["render", str(GRAMMARS / "sympodial_tree.pcsg"), "-o", str(out), "--size",
+                 "160x120", "--tiles", "4", "--timeout", "0.000001"]) == 1
+    err = capsys.readouterr().err
+    said = err.index("stopped by --timeout")
+    assert "nothing written" in err[said:] and not out.exists()
+    assert not re.search(r"\[\d/4\]", err[said:]), err

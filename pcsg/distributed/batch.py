@@ -85,8 +85,12 @@ class Batch:
         self.runner = runner
         assemblers: dict[int, Assembler] = {}
         total = len(units)
+        # the bands of an image that failed are not rendered where the runner asks for
+        # them one by one (here): with --tiles 4 --timeout, bands 3 and 4 were, and said
+        # so after "nothing written"
+        wanted = (u for u in units if id(self.by_unit[id(u)][0]) not in self.failed_jobs)
         try:
-            for n, (unit, outcome, worker, exc) in enumerate(runner.run(render_unit, units), 1):
+            for n, (unit, outcome, worker, exc) in enumerate(runner.run(render_unit, wanted), 1):
                 job, key, tiles = self.by_unit[id(unit)]
                 if worker is not None:
                     self.per_worker[worker] += 1
