@@ -472,6 +472,14 @@ def test_an_up_of_zero_is_no_direction(capsys, tmp_path):
     assert main(["render", str(path), "--eye", "1,1,1", "--at", "1,1,1", "-o",
                  str(tmp_path / "c.png")]) == 2
     assert "--eye and --at are the same point 1,1,1" in capsys.readouterr().err
+    # and so are an up along the view the command line gives whole, and a nan (exit 1, as
+    # if the file had failed)
+    for options, said in ((["--eye", "0,0,5", "--at", "0,0,0", "--up", "0,0,1"],
+                           "--up 0,0,1 is parallel to the view from --eye to --at"),
+                          (["--eye", "nan,0,0"], "--eye nan,0,0: give finite coordinates"),
+                          (["--at", "1,inf,0"], "--at 1,inf,0: give finite coordinates")):
+        assert main(["render", str(path), *options, "-o", str(tmp_path / "c.png")]) == 2
+        assert said in capsys.readouterr().err
 
 
 def test_a_directory_is_its_pcsg_files_and_an_empty_output_name_is_refused(capsys, tmp_path):

@@ -15,7 +15,7 @@ from ..graph.model import Graph
 from ..graph import boxcache
 from ..trace.nodes import (EV_INTERVALS, EV_NONFINITE, EV_SELECTION, EV_SINGULAR, EV_STACK,
                            EV_VISITS, no_events)
-from ..scene import MAX_AO_SAMPLES
+from ..scene import MAX_AO_SAMPLES, camera_degenerate
 from ..limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, bounces_problem,
                       shadow_samples_problem, size_problem, walk_limits_problem)
 from ..memory import freeing_blocks
@@ -93,11 +93,18 @@ def check_options(o: Options) -> str | None:
     if o.light is not None and not all(math.isfinite(v) for v in o.light):
         point = ",".join(f"{v:g}" for v in o.light)
         return f"--light {point}: give a point with finite coordinates"
+    for name, v in (("--eye", o.eye), ("--at", o.at), ("--up", o.up)):
+        if v is not None and not all(math.isfinite(x) for x in v):
+            # the render failed on it with exit 1, where --eye = --at was a usage error
+            return f"{name} {','.join(f'{x:g}' for x in v)}: give finite coordinates"
     if o.eye is not None and o.at is not None and tuple(o.eye) == tuple(o.at):
         point = ",".join(f"{v:g}" for v in o.eye)
         return f"--eye and --at are the same point {point}: the camera looks nowhere"
     if o.up is not None and not any(o.up):
         return "--up 0,0,0 is no direction: give one such as 0,0,1"
+    if None not in (o.eye, o.at, o.up) and camera_degenerate(o.eye, o.at, o.up) == "parallel":
+        return (f"--up {','.join(f'{x:g}' for x in o.up)} is parallel to the view from --eye "
+                f"to --at: give another up")
     if o.fov is not None and not 0 < o.fov < 180:
         return f"--fov {o.fov}: the vertical field of view is between 0 and 180 degrees"
     return None
