@@ -172,14 +172,19 @@ class TestTermination:
         np.testing.assert_allclose(boxes[graph.root], [0, 0, 0, 0, 0, 2], atol=1e-8)
 
     @pytest.mark.parametrize("axiom", ["S", "S ∪ move(3, 0, 0) cube"])
-    def test_a_graftal_without_primitives_whose_maps_do_not_contract_is_empty(self, axiom):
+    @pytest.mark.parametrize("rule", ["S ∪ move(1, 0, 0) S", "S", "S ∪ uscale(0.5) S"])
+    def test_a_graftal_without_primitives_whose_maps_do_not_contract_is_empty(self, axiom,
+                                                                               rule):
         """It has no attractor: nothing to draw, and nothing to bound. Walked instance by
-        instance, every ray entered --max-instances instances of it (68 s at 160x120)
-        to draw nothing; now its box is empty, and the rest is bounded as usual."""
+        instance, every ray entered --max-instances instances of the first (68 s at
+        160x120) to draw nothing; the others keep any ball, and the ball was drawn at
+        the depth limit as if it held an attractor (`S → S ∪ rotz(90) S` is bounded by
+        the point both maps keep, and draws nothing). Now its box is empty, and the rest
+        is bounded as usual."""
         from pcsg.graph.cut import cut_of
         from pcsg.trace.reference import Reference
         from pcsg.tracer import Traced
-        graph = compile_text(f"{axiom}\nS 1\n1: S → S ∪ move(1, 0, 0) S\n", "v.pcsg")
+        graph = compile_text(f"{axiom}\nS 1\n1: S → {rule}\n", "v.pcsg")
         [w] = derivation_faults(graph)[1]
         assert "so `render` draws nothing of it" in w.message
         traced = Traced(graph, max_depth=3)
@@ -194,6 +199,13 @@ class TestTermination:
         cube = [axiom != "S" and x >= 2.5 for x in origins[:, 0]]
         assert hits.hit.tolist() == ref["hit"].tolist() == cube
         assert not traced.describe_events(hits.events)      # no walk cut short
+
+    def test_a_graftal_whose_maps_keep_a_ball_keeps_its_primitives(self):
+        # with a primitive on its cycle it is drawn as far as the depth limit goes
+        from pcsg.tracer import Traced
+        traced = Traced(compile_text("S\nS 1\n1: S → S ∪ sphere\n", "p.pcsg"), max_depth=3)
+        hits = traced.trace(np.array([[0.0, 0.0, -5.0]]), np.array([[0.0, 0.0, 1.0]]))
+        assert hits.hit[0] and traced.bounds_method == "memoised"
 
     def test_a_cycle_that_skips_the_block_suggests_grouping(self):
         w = [x for x in warnings_of(FIG3A_AS_PRINTED) if x.code == "endless"]

@@ -436,6 +436,7 @@ def _attractor_boxes(w: _Walker, round_) -> tuple[np.ndarray, dict]:
     if held is not None:
         found = _tighten(w, round_, held, None)
         if found is not None:
+            _contracting(w.g, held, found[1])
             return found
     est: dict = {}
     for _ in range(MAX_ROUNDS):
@@ -450,6 +451,22 @@ def _attractor_boxes(w: _Walker, round_) -> tuple[np.ndarray, dict]:
         # named by the states still outside their estimates: those that grow without end
         raise DoesNotContract(sorted({k[0] for k in outside}))
     return _tighten(w, round_, {k: _corners(b) for k, b in new.items()}, w.boxes.copy(), est)
+
+
+def _contracting(graph: Graph, held: dict, after: dict) -> None:
+    """Raises DoesNotContract for the states without a primitive that the first round
+    from the balls that hold them did not shrink at all (`S → S`, `S → S ∪ uscale(0.5) S`):
+    their maps keep any ball, so no attractor is singled out, and the ball was drawn at
+    the depth limit as if it were one. A state with a primitive keeps its bounds (the
+    ball holds what it draws)."""
+    from .checks import reachable
+    kept = {k[0] for k, hull in after.items()
+            if k in held and _same(as_box(hull), as_box(held[k]), 1e-9)}
+    void = [i for i in sorted(kept)
+            if not any(below and n.kind == PRIMITIVE
+                       for below, n in zip(reachable(graph, i), graph.nodes))]
+    if void:
+        raise DoesNotContract(void)
 
 
 def _invariant_balls(graph: Graph, first: dict) -> dict | None:
