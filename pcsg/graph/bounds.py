@@ -62,12 +62,15 @@ def voids_of(graph: Graph, endless: list[int]) -> frozenset:
     a primitive: an IFS without a primitive has an attractor only where its maps contract,
     so there is nothing of these to draw. Empty where one of them derives a primitive (a
     row of spheres without end is drawn as far as --max-depth goes)."""
-    from .checks import reachable
-    for i in endless:
-        below = reachable(graph, i)
-        if any(below[j] and n.kind == PRIMITIVE for j, n in enumerate(graph.nodes)):
-            return frozenset()
+    if any(_derives_primitive(graph, i) for i in endless):
+        return frozenset()
     return frozenset(endless)
+
+
+def _derives_primitive(graph: Graph, i: int) -> bool:
+    from .checks import reachable
+    return any(below and n.kind == PRIMITIVE for below, n in zip(reachable(graph, i),
+                                                                    graph.nodes))
 
 
 def not_contracting(graph: Graph, found: DoesNotContract, void: bool = False
@@ -459,12 +462,9 @@ def _contracting(graph: Graph, held: dict, after: dict) -> None:
     their maps keep any ball, so no attractor is singled out, and the ball was drawn at
     the depth limit as if it were one. A state with a primitive keeps its bounds (the
     ball holds what it draws)."""
-    from .checks import reachable
     kept = {k[0] for k, hull in after.items()
             if k in held and _same(as_box(hull), as_box(held[k]), 1e-9)}
-    void = [i for i in sorted(kept)
-            if not any(below and n.kind == PRIMITIVE
-                       for below, n in zip(reachable(graph, i), graph.nodes))]
+    void = [i for i in sorted(kept) if not _derives_primitive(graph, i)]
     if void:
         raise DoesNotContract(void)
 

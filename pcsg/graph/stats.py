@@ -143,9 +143,8 @@ class _Counter:
 PRINTABLE = 10 ** 4000
 
 
-def _too_many(n: int) -> str:
+def _too_many(n: int, digits: int) -> str:
     """A count too long to write, by its size: its leading digits and its digits."""
-    digits = math.floor(math.log10(n)) + 1
     lead = n // 10 ** (digits - 3)
     return (f"about {lead / 100:.2f}e{digits - 1} primitives, a number of {digits:,} digits "
             f"(counted, but longer than pcsg writes one)")
@@ -172,8 +171,8 @@ def graph_stats(graph: Graph, count: bool = True) -> dict:
             by_kind = count_by_primitive(graph)
             total = sum(by_kind.values())
             if total >= PRINTABLE:
-                out["not_counted"] = _too_many(total)
-                out["count_digits"] = math.floor(math.log10(total)) + 1
+                out["count_digits"] = digits = math.floor(math.log10(total)) + 1
+                out["not_counted"] = _too_many(total, digits)
             else:
                 out["primitives"] = total
                 out["primitives_by_kind"] = by_kind

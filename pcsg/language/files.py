@@ -59,9 +59,10 @@ def too_large(name: str, size: int | None) -> PcsgError:
 def check_text_size(text: str, name: str) -> None:
     """A grammar given as text (the API's loads) is held to the files' limit: 50 MB of
     text parsed for minutes where a file of it is refused at once."""
-    if len(text) > MAX_FILE_BYTES // 4 and len(text.encode("utf-8", "surrogatepass")) > \
-            MAX_FILE_BYTES:
-        raise too_large(name, len(text.encode("utf-8", "surrogatepass")))
+    if len(text) > MAX_FILE_BYTES // 4:      # 4 bytes a character at most: else it fits
+        size = len(text.encode("utf-8", "surrogatepass"))
+        if size > MAX_FILE_BYTES:
+            raise too_large(name, size)
 
 
 def decode(data: bytes, name: str) -> str:

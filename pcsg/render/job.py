@@ -91,23 +91,25 @@ def check_options(o: Options) -> str | None:
                                       o.max_instances, o.bounds_budget):
         return problem
     if o.light is not None and not all(math.isfinite(v) for v in o.light):
-        point = ",".join(f"{v:g}" for v in o.light)
-        return f"--light {point}: give a point with finite coordinates"
+        return f"--light {_given(o.light)}: give a point with finite coordinates"
     for name, v in (("--eye", o.eye), ("--at", o.at), ("--up", o.up)):
         if v is not None and not all(math.isfinite(x) for x in v):
             # the render failed on it with exit 1, where --eye = --at was a usage error
-            return f"{name} {','.join(f'{x:g}' for x in v)}: give finite coordinates"
+            return f"{name} {_given(v)}: give finite coordinates"
     if o.eye is not None and o.at is not None and tuple(o.eye) == tuple(o.at):
-        point = ",".join(f"{v:g}" for v in o.eye)
-        return f"--eye and --at are the same point {point}: the camera looks nowhere"
+        return f"--eye and --at are the same point {_given(o.eye)}: the camera looks nowhere"
     if o.up is not None and not any(o.up):
         return "--up 0,0,0 is no direction: give one such as 0,0,1"
     if None not in (o.eye, o.at, o.up) and camera_degenerate(o.eye, o.at, o.up) == "parallel":
-        return (f"--up {','.join(f'{x:g}' for x in o.up)} is parallel to the view from --eye "
-                f"to --at: give another up")
+        return f"--up {_given(o.up)} is parallel to the view from --eye to --at: give another up"
     if o.fov is not None and not 0 < o.fov < 180:
         return f"--fov {o.fov}: the vertical field of view is between 0 and 180 degrees"
     return None
+
+
+def _given(v) -> str:
+    """A vector as the command line writes it: 1,nan,2."""
+    return ",".join(f"{x:g}" for x in v)
 
 
 def check_deadline(deadline: float | None, timeout: float | None, during: str = ""):

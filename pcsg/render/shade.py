@@ -107,11 +107,11 @@ def _within_reach(lt: Light, traced, camera) -> Light:
     box = finite_bounds(traced)
     reach = REACH * max(size, float(np.linalg.norm(box[3:] - box[:3])), 1e-12)
     unit = to / big                                 # no overflow on the way
-    dist = big * float(np.linalg.norm(unit))        # inf past 1.8e308 only
+    length = float(np.linalg.norm(unit))
+    dist = big * length                             # inf past 1.8e308 only
     if dist <= reach:
         return lt
-    unit /= np.linalg.norm(unit)
-    return Light(camera.at + unit * reach, lt.color, lt.radius * reach / dist)
+    return Light(camera.at + unit / length * reach, lt.color, lt.radius * reach / dist)
 
 
 def default_light(camera) -> Light:
