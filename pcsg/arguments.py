@@ -7,18 +7,9 @@ import sys
 
 from . import __version__
 from .distributed.sweep import sweep_set
+from .overrides import set_value
 from .limits import (BOUNDS_BUDGET, DEEPEST_DEFAULT, INTERVAL_ROWS, MAX_DEPTH, MAX_FRAMES,
                      MAX_INSTANCES)
-
-
-def set_value(text: str) -> tuple[str, float]:
-    name, eq, value = text.partition("=")
-    if not eq or not name.strip():
-        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got '{text}'")
-    try:
-        return name.strip(), float(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{value}' is not a number (in --set {text})") from None
 
 
 # a token such as -3,2,1 or -.5: a value, never an option. argparse reads only -3 or -0.5

@@ -23,6 +23,7 @@ from .interrupt import (Terminated, redeliver_in_finalizers, release_compiler_lo
 from .language import prefetch  # noqa: E402
 from .language.files import pcsg_files  # noqa: E402
 from .language.errors import PcsgError, labelled  # noqa: E402
+from .overrides import given_twice  # noqa: E402
 from .limits import (GIF_PIXELS, MAX_FRAMES, bounces_problem, shadow_samples_problem,  # noqa: E402
                      size_problem)
 from .timings import Timings, note_startup  # noqa: E402
@@ -346,9 +347,6 @@ def cmd_sweep(args) -> int:
         raise UsageError("give one parameter to sweep, e.g. --set c=1..12 "
                          f"({len(ranges)} ranges given)")
     name, values = ranges[0]
-    names = [n for n, _ in args.overrides]
-    if twice := sorted({n for n in names if names.count(n) > 1}):
-        raise UsageError(f"--set {twice[0]} is given twice")
     fixed = {n: v[0] for n, v in args.overrides if not isinstance(v, Swept)}
     _distributed(args)          # its checks; a sweep always goes through pcsg.distributed
     out_dir = Path(args.output)
@@ -661,6 +659,8 @@ def _run(args) -> int:
             if getattr(args, attr, None) == "":
                 # it was the working directory, or the default name, or an error of another
                 raise UsageError(f"{flag} '': name a file or a directory")
+        if twice := given_twice(getattr(args, "overrides", [])):
+            raise UsageError(f"--set {twice} is given twice")
         return COMMANDS[args.command](args)
     except PcsgError as e:
         _report(e, [])

@@ -136,6 +136,31 @@ def test_set_errors(capsys, sierpinski):
     assert "'abc' is not a number" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("value", ["1_0", "inf", "nan", "0x10", "1e", "--1", ""])
+def test_set_takes_the_numbers_a_file_writes(capsys, sierpinski, value):
+    """Python's float() read 1_0 as ten and took inf and nan, which no file can write."""
+    with pytest.raises(SystemExit) as e:
+        main(["stats", str(sierpinski), f"--set=c={value}"])
+    assert e.value.code == 2
+    assert f"'{value}' is not a number (in --set c={value})" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("value, count", [("+3", 4 ** 3), ("3.", 4 ** 3), (".3e1", 4 ** 3),
+                                          ("30E-1", 4 ** 3), ("-0", 1)])
+def test_set_takes_every_form_of_a_number(capsys, sierpinski, value, count):
+    code, out, err = run(capsys, "stats", str(sierpinski), "--json", f"--set=c={value}")
+    assert code == 0 and json.loads(out)["primitives"] == count
+
+
+@pytest.mark.parametrize("command", ["stats", "check", "expand", "render"])
+def test_a_parameter_set_twice_is_a_usage_error(capsys, sierpinski, tmp_path, command):
+    """render and stats took the last value where sweep refused; now each refuses."""
+    code, out, err = run(capsys, command, str(sierpinski), "--set", "c=1", "--set", "c=2",
+                         *(["-o", str(tmp_path / "x.png")] if command == "render" else []))
+    assert code == 2 and "--set c is given twice" in err
+    assert not (tmp_path / "x.png").exists()
+
+
 def test_graph_dot(capsys, sierpinski):
     code, out, err = run(capsys, "graph", str(sierpinski))
     assert code == 0 and out.startswith("// ") and "digraph pcsg {" in out

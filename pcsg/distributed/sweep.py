@@ -4,6 +4,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..overrides import set_number
+
 
 MAX_IMAGES = 10_000
 
@@ -19,11 +21,7 @@ def sweep_set(text: str) -> tuple[str, list[float]]:
     if not eq or not name:
         raise argparse.ArgumentTypeError(f"expected NAME=A..B or NAME=VALUE, got '{text}'")
     if ".." not in value:
-        try:
-            return name, [float(value)]
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"'{value}' is not a number (in --set {text})") \
-                from None
+        return name, [set_number(value, text)]
     try:
         parts = [int(p) for p in value.split("..")]
     except ValueError:

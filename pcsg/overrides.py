@@ -1,0 +1,33 @@
+"""`--set NAME=VALUE`: a parameter's value as the notation writes a number, with a sign."""
+from __future__ import annotations
+
+import argparse
+import re
+
+# the grammar's NUMBER (pcsg.lark). Python's float() also took 1_0 (ten), inf, nan and
+# "infinity", none of which a file can write
+NUMBER = re.compile(r"[+-]?([0-9]+\.[0-9]*|\.[0-9]+|[0-9]+)([eE][+-]?[0-9]+)?")
+
+
+def set_number(value: str, text: str) -> float:
+    """VALUE of `--set TEXT`, or the error that says what a number is."""
+    if not NUMBER.fullmatch(value.strip()):
+        raise argparse.ArgumentTypeError(
+            f"'{value}' is not a number (in --set {text}): write it as a file would, "
+            f"e.g. 12, -0.5, .5, 1e-3")
+    return float(value)
+
+
+def set_value(text: str) -> tuple[str, float]:
+    name, eq, value = text.partition("=")
+    if not eq or not name.strip():
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got '{text}'")
+    return name.strip(), set_number(value, text)
+
+
+def given_twice(overrides) -> str | None:
+    """The first name that `--set` gives more than once: which should win is not ours to
+    guess (render and stats took the last, sweep refused it)."""
+    names = [name for name, _ in overrides]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    return twice[0] if twice else None
