@@ -119,11 +119,21 @@ def _write(text: str, output: str | None, source: str):
 def _not_an_input(output: str | Path, option: str, inputs):
     """An output named like one of the command's inputs (a slip of the shell's history:
     `export s.pcsg --pov s.pcsg`) would replace it; refused before anything is written."""
-    target = Path(output).resolve()
     for given in inputs:
-        if Path(given).resolve() == target:
+        if _same_file(output, given):
             raise UsageError(f"{option} {output}: that is {given}, which this command reads; "
                              f"name another file")
+
+
+def _same_file(a: str | Path, b: str | Path) -> bool:
+    """By name, or by the file itself: a hard link of the input is the input (writing it
+    replaced the link with the output and left the file it shared under its other name)."""
+    if Path(a).resolve() == Path(b).resolve():
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:             # one of them is not there (yet): not the same
+        return False
 
 
 def _make_directory(path: Path, output: str):
@@ -298,7 +308,7 @@ def cmd_render(args) -> int:
     outputs = _outputs(files, args.output)
     for out in outputs:
         _not_an_input(out, "-o", files)
-    if opts.depth is not None and opts.depth.resolve() == outputs[0].resolve():
+    if opts.depth is not None and _same_file(opts.depth, outputs[0]):
         raise UsageError(f"--depth {opts.depth}: that is the image -o writes; name another "
                          f"file")
     if distributed and args.timings:

@@ -798,6 +798,19 @@ def test_an_output_over_an_input_or_the_image_is_refused(capsys, sierpinski, tmp
     assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob("*.npy"))
 
 
+@pytest.mark.parametrize("command, option", [("expand", "-o"), ("graph", "-o"),
+                                             ("export", "--pov")])
+def test_an_output_onto_a_hard_link_of_the_input_is_refused(capsys, sierpinski, tmp_path,
+                                                             command, option):
+    """`expand s.pcsg -o link.pcsg`, link.pcsg a hard link of s.pcsg, was written: the
+    link was replaced and the file it shared kept under its other name."""
+    link = tmp_path / "link.pcsg"
+    os.link(sierpinski, link)
+    code, _, err = run(capsys, command, str(sierpinski), option, str(link))
+    assert code == 2 and f"{option} {link}: that is {sierpinski}, which this command reads" in err
+    assert os.path.samefile(link, sierpinski)
+
+
 def test_an_unknown_option_before_the_command_is_the_top_level_s(capsys, sierpinski):
     with pytest.raises(SystemExit):
         main(["--bogus", "check", str(sierpinski)])
