@@ -53,6 +53,10 @@ def _valid_png(path: Path) -> bool:
 class Manifest:
     def __init__(self, directory: Path):
         self.path = Path(directory) / MANIFEST
+        # what keeps it from being written (a directory of its name), said before rendering
+        self.problem = (f"{self.path} is not a file: the list of images made goes there; "
+                        f"move it away" if self.path.exists() and not self.path.is_file()
+                        else None)
         try:
             entries = json.loads(self.path.read_text(encoding="utf-8"))
         except (OSError, ValueError):

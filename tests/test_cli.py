@@ -748,6 +748,17 @@ def test_a_sweep_names_itself_and_the_image_that_failed(capsys, tmp_path):
     assert sorted(p.name for p in out.glob("*.png")) == ["sel_s=1.png", "sel_s=2.png"]
 
 
+def test_a_sweep_whose_list_of_images_cannot_be_written_renders_nothing(capsys, tmp_path):
+    """A directory where the sweep's manifest goes failed the sweep after every image."""
+    out = tmp_path / "sweep"
+    (out / ".pcsg-done.json").mkdir(parents=True)
+    assert main(["sweep", str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=1..2", "--size",
+                 "24x18", "-o", str(out), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert f"{out / '.pcsg-done.json'} is not a file" in err
+    assert not list(out.glob("*.png"))
+
+
 def test_stats_json_of_several_files_is_a_list_whatever_fails(capsys, tmp_path, sierpinski):
     bad = tmp_path / "bad.pcsg"
     bad.write_text("sphere ∪\n", encoding="utf-8")

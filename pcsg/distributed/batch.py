@@ -69,6 +69,10 @@ class Batch:
             if job.label in unreadable:
                 self._fail(job, None)
                 continue
+            if self.manifest and (problem := self._manifest(job.out).problem):
+                # found now, not after every image is rendered
+                self._fail(job, self._said(job, problem))
+                continue
             key = output_key(sources[job.label], job.opts)
             if self.skip and self._manifest(job.out).complete(job.out, key):
                 self.skipped += 1
