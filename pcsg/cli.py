@@ -482,6 +482,12 @@ def cmd_animate(args) -> int:
     return EXIT_ERRORS if failed else EXIT_OK
 
 
+# what the names of files that are no POV-Ray scene end in
+NOT_A_SCENE = {**dict.fromkeys((".png", ".gif", ".jpg", ".jpeg", ".bmp", ".tga", ".ppm",
+                                ".exr", ".hdr", ".tif", ".tiff"), "an image"),
+               ".pcsg": "a grammar", ".npy": "an array"}
+
+
 def cmd_export(args) -> int:
     from .povray import export_pov
     from .render.camera import make_camera
@@ -490,6 +496,11 @@ def cmd_export(args) -> int:
     out = Path(args.pov)
     _output_directory(args.pov, "--pov")
     _not_an_input(args.pov, "--pov", [args.file])
+    if out.suffix.lower() in NOT_A_SCENE and not _device(out):
+        # POV-Ray's text went into out.png (or over another grammar) without a word
+        raise UsageError(f"--pov {args.pov}: the scene is POV-Ray text, not "
+                         f"{NOT_A_SCENE[out.suffix.lower()]}; name the file "
+                         f"{out.with_suffix('.pov').name}")
     for problem in (bounces_problem(args.bounces), size_problem(args.size),
                     shadow_samples_problem(args.shadow_samples)):
         if problem:

@@ -796,6 +796,11 @@ def test_expand_says_pixels_were_taken_as_infinite_and_stats_lists_no_pixels(cap
     (["export", "{f}", "--pov", "{f}"], "--pov {f}: that is {f}, which this command reads"),
     (["graph", "{f}", "-o", "{f}"], "-o {f}: that is {f}, which this command reads"),
     (["expand", "{f}", "-o", "{f}"], "-o {f}: that is {f}, which this command reads"),
+    # POV-Ray's text went into an image's name, or over another grammar, with exit 0
+    (["export", "{f}", "--pov", "{d}/x.PNG"],
+     "--pov {d}/x.PNG: the scene is POV-Ray text, not an image; name the file x.pov"),
+    (["export", "{f}", "--pov", "{d}/x.pcsg"],
+     "--pov {d}/x.pcsg: the scene is POV-Ray text, not a grammar; name the file x.pov"),
 ])
 def test_an_output_over_an_input_or_the_image_is_refused(capsys, sierpinski, tmp_path, argv,
                                                          said):
@@ -806,7 +811,7 @@ def test_an_output_over_an_input_or_the_image_is_refused(capsys, sierpinski, tmp
     code, _, err = run(capsys, *[a.format(**fill) for a in argv])
     assert code == 2 and said.format(**fill) in err
     assert sierpinski.read_bytes() == grammar
-    assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob("*.npy"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == [sierpinski.name]
 
 
 @pytest.mark.parametrize("command, option", [("expand", "-o"), ("graph", "-o"),
