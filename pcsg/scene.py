@@ -39,10 +39,13 @@ RANGES.update({("material", "reflect"): _FRACTION, ("material", "transmit"): _FR
                ("material", "ior"): (lambda v: 0 < v < math.inf, "a positive finite number")})
 
 
+FARTHEST = 1e150     # from eye to at: the tracer squares distances and coordinates
+
+
 def camera_degenerate(eye, at, up) -> str | None:
     """'same' where eye is at, 'zero' where up is, 'parallel' where up lies along the
-    view from eye to at, else None: the one test of #camera here and of every camera
-    the renderer places (render/camera.py)."""
+    view from eye to at, 'far' where eye is FARTHEST or more from at, else None: the one
+    test of #camera here and of every camera the renderer places (render/camera.py)."""
     ux, uy, uz = (float(u) for u in up)
     if not (ux or uy or uz):
         return "zero"
@@ -50,6 +53,8 @@ def camera_degenerate(eye, at, up) -> str | None:
     if not any(view):
         return "same"
     vx, vy, vz = view
+    if not math.hypot(vx, vy, vz) < FARTHEST:
+        return "far"
     cross = (vy * uz - vz * uy, vz * ux - vx * uz, vx * uy - vy * ux)
     if math.hypot(*cross) <= 1e-12 * math.hypot(*view) * math.hypot(ux, uy, uz):
         return "parallel"
@@ -68,6 +73,8 @@ def _camera_problem(camera: dict) -> str | None:
     if what == "parallel":
         return ("#camera: up is parallel to the view from eye to at (up defaults to "
                 "(0, 0, 1)): give another up")
+    if what == "far":
+        return f"#camera: eye is too far from at (at most {FARTHEST:g} apart)"
     return None
 
 

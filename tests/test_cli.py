@@ -501,6 +501,8 @@ def test_an_up_of_zero_is_no_direction(capsys, tmp_path):
     # if the file had failed)
     for options, said in ((["--eye", "0,0,5", "--at", "0,0,0", "--up", "0,0,1"],
                            "--up 0,0,1 is parallel to the view from --eye to --at"),
+                          (["--eye", "1e154,0,0", "--at", "0,0,0", "--up", "0,0,1"],
+                           "--eye 1e+154,0,0 is too far from --at 0,0,0 (at most 1e+150)"),
                           (["--eye", "nan,0,0"], "--eye nan,0,0: give finite coordinates"),
                           (["--at", "1,inf,0"], "--at 1,inf,0: give finite coordinates")):
         assert main(["render", str(path), *options, "-o", str(tmp_path / "c.png")]) == 2

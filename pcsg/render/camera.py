@@ -9,13 +9,12 @@ import numpy as np
 
 from ..trace.dispatch import cached_jit
 from ..graph.model import CALC, MATERIAL, PAINT, UNION
-from ..scene import DEFAULT_UP, camera_degenerate
+from ..scene import DEFAULT_UP, FARTHEST, camera_degenerate
 
 DEFAULT_DIRECTION = np.array([1.0, -1.6, 0.9])      # from the front right, a little above
 DEFAULT_FOV = 40.0          # the #camera line of notation §8 shows fov=40, as it shows up=(0,0,1)
 
 
-FARTHEST = 1e150     # from eye to at: the tracer squares distances and coordinates
 
 
 def _unit(v: np.ndarray) -> tuple[np.ndarray, float]:
@@ -53,10 +52,11 @@ class Camera:
         if what == "parallel":
             raise CameraError(f"the camera's up {_point(self.up)} is parallel to its "
                               f"viewing direction: give another up")
-        fwd, length = _unit(np.asarray(self.at, dtype=np.float64) -
-                            np.asarray(self.eye, dtype=np.float64))
-        if not length < FARTHEST:
-            raise CameraError("the camera's eye is too far from at")
+        if what == "far":
+            raise CameraError(f"the camera's eye is too far from at (at most {FARTHEST:g} "
+                              f"apart)")
+        fwd = _unit(np.asarray(self.at, dtype=np.float64) -
+                    np.asarray(self.eye, dtype=np.float64))[0]
         right = _unit(np.cross(fwd, _unit(np.asarray(self.up, dtype=np.float64))[0]))[0]
         return fwd, right, np.cross(right, fwd)
 

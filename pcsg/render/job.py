@@ -15,7 +15,7 @@ from ..graph.model import Graph
 from ..graph import boxcache
 from ..trace.nodes import (EV_INTERVALS, EV_NONFINITE, EV_SELECTION, EV_SINGULAR, EV_STACK,
                            EV_VISITS, no_events)
-from ..scene import MAX_AO_SAMPLES, camera_degenerate
+from ..scene import FARTHEST, MAX_AO_SAMPLES, camera_degenerate
 from ..limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, bounces_problem,
                       shadow_samples_problem, size_problem, walk_limits_problem)
 from ..memory import freeing_blocks
@@ -100,8 +100,11 @@ def check_options(o: Options) -> str | None:
         return f"--eye and --at are the same point {_given(o.eye)}: the camera looks nowhere"
     if o.up is not None and not any(o.up):
         return "--up 0,0,0 is no direction: give one such as 0,0,1"
-    if None not in (o.eye, o.at, o.up) and camera_degenerate(o.eye, o.at, o.up) == "parallel":
+    what = camera_degenerate(o.eye, o.at, o.up) if None not in (o.eye, o.at, o.up) else None
+    if what == "parallel":
         return f"--up {_given(o.up)} is parallel to the view from --eye to --at: give another up"
+    if what == "far":
+        return f"--eye {_given(o.eye)} is too far from --at {_given(o.at)} (at most {FARTHEST:g})"
     if o.fov is not None and not 0 < o.fov < 180:
         return f"--fov {o.fov}: the vertical field of view is between 0 and 180 degrees"
     return None
