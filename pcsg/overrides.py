@@ -2,7 +2,9 @@
 from __future__ import annotations
 
 import argparse
+import math
 import re
+import sys
 
 # the grammar's NUMBER (pcsg.lark). Python's float() also took 1_0 (ten), inf, nan and
 # "infinity", none of which a file can write
@@ -15,7 +17,11 @@ def set_number(value: str, text: str) -> float:
         raise argparse.ArgumentTypeError(
             f"'{value}' is not a number (in --set {text}): write it as a file would, "
             f"e.g. 12, -0.5, .5, 1e-3")
-    return float(value)
+    if not math.isfinite(number := float(value)):
+        # 1e400: inf, which --set c=inf was refused as
+        raise argparse.ArgumentTypeError(f"'{value}' is too large (in --set {text}): a "
+                                         f"parameter holds at most {sys.float_info.max:.2g}")
+    return number
 
 
 def set_value(text: str) -> tuple[str, float]:

@@ -145,6 +145,13 @@ def test_set_takes_the_numbers_a_file_writes(capsys, sierpinski, value):
     assert f"'{value}' is not a number (in --set c={value})" in capsys.readouterr().err
 
 
+def test_set_refuses_a_number_past_the_largest_double(capsys, sierpinski):
+    with pytest.raises(SystemExit) as e:
+        main(["stats", str(sierpinski), "--set=c=-1e400"])
+    assert e.value.code == 2
+    assert "'-1e400' is too large (in --set c=-1e400)" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("value, count", [("+3", 4 ** 3), ("3.", 4 ** 3), (".3e1", 4 ** 3),
                                           ("30E-1", 4 ** 3), ("-0", 1)])
 def test_set_takes_every_form_of_a_number(capsys, sierpinski, value, count):
