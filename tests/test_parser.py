@@ -121,6 +121,14 @@ class TestLines:
         e = axiom("{a = 1; b = 2, c = 3\n d = 4\n\n} sphere")
         assert [a.name for a in e.assigns] == ["a", "b", "c", "d"]
 
+    def test_a_block_joins_the_lines_between_a_name_and_its_equals(self):
+        # §2 joins lines while a '{' is open, §7 separates assignments by newlines: where
+        # no assignment can end (after the name it assigns) the lines join
+        e = axiom("{a\n=\n1; b\n\n= a, c\n= 2\nd\n= 3} sphere")
+        assert [a.name for a in e.assigns] == ["a", "b", "c", "d"]
+        assert first_error("{a\n b = 1} sphere").startswith(
+            "1:3: unexpected end of line, expected '='")
+
     def test_block_spanning_lines_inside_parentheses(self):
         e = axiom("rotz(10)({cnt = 1\n} sphere ∪\n {cnt = 2} cube)")
         assert shape(e) == "rotz[U(C{cnt}[sphere],C{cnt}[cube])]"

@@ -159,7 +159,7 @@ def parse(text: str, file: str = "<string>") -> tuple[ast.Program, Source]:
     if errors:
         raise PcsgError(errors)
     parser, joiner = _lark()
-    joiner.owned = owned_names(source.expanded)
+    joiner.owned, joiner.text = owned_names(source.expanded), source.expanded
     try:
         program = parser.parse(source.expanded)
     except UnexpectedInput as e:
@@ -243,7 +243,7 @@ def _syntax_errors(first: UnexpectedInput, source: Source, parser, joiner) -> li
         resume = None if at is None else _resume_at(text, at, _open_at(e, joiner))
         if resume is None or len(text) - resume > RECOVER_CHARS:
             break
-        rest = _blanked(text, resume)
+        rest = joiner.text = _blanked(text, resume)
         try:
             parser.parse(rest)
             break
