@@ -235,6 +235,11 @@ def test_the_slip_hints_hold_back_where_the_slip_is_another(text, first):
      "the union of two operands is written '∪' or '|'"),
     ("S\n1: S → sphere && move(1, 0, 0) cube\n", "2:15: '&&' is the logical and"),
     ("S\n1: S → sphere or cube\n", "2:15: 'or' is the logical or"),
+    # and the CSG operators where a calculation's logical one may stand
+    ("{c = 1; d = 1} S\nS if(c > 0 & d > 0, 1, 1)\n1: S → sphere\n", "2:12: '&' is the "
+     "intersection of two operands; the logical and of calculations is written '&&' or 'and'"),
+    ("{c = 1 ∪ 0} sphere\n", "1:8: '∪' is the union of two operands; the logical or of "
+     "calculations is written '||' or 'or'"),
     # a flip given a parameter: the bracket read as the operand it flips
     ("{c = 1} flipxy(c) sphere\n", "1:9: 'flipxy' takes no arguments: a '(...)' after it "
      "is the operand it applies to"),

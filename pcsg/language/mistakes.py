@@ -181,6 +181,20 @@ def logical_for_csg(text: str, tok_value: str, pos: int, expected):
             f"two operands is written {spelt}", span)
 
 
+CSG_FOR_LOGICAL = {"INTER": ("intersection", "and", "'&&' or 'and'"),
+                   "UNION": ("union", "or", "'||' or 'or'")}
+
+
+def csg_for_logical(tok_type: str, tok_value: str, pos: int, expected):
+    """`if(c > 0 & d > 0, 1, 2)`: a CSG operator inside a calculation, where a logical
+    one may stand (`logical_for_csg`'s mirror)."""
+    if tok_type not in CSG_FOR_LOGICAL or "AND" not in expected or "UNION" in expected:
+        return None
+    csg, logic, spelt = CSG_FOR_LOGICAL[tok_type]
+    return (f"'{tok_value}' is the {csg} of two operands; the logical {logic} of "
+            f"calculations is written {spelt} (notation §6)", (pos, pos + len(tok_value)))
+
+
 CSG_SLIPS = {"-": "the difference of two operands is written '\\' or '∖'",
              "+": "a union is written '∪' or '|'"}
 

@@ -12,10 +12,9 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 from . import ast
 from .errors import Diagnostic, PcsgError
 from .files import line_ends, read_source_text
-from .mistakes import (HASH_COMMENT, assignment_for_comparison, logical_for_csg, lookalike,
-                       missing_operator,
-                       rule_as_selection, rule_without_number, unknown_call,
-                       unknown_directive)
+from .mistakes import (HASH_COMMENT, assignment_for_comparison, csg_for_logical,
+                       logical_for_csg, lookalike, missing_operator, rule_as_selection,
+                       rule_without_number, unknown_call, unknown_directive)
 from .names import FREE, RESERVED
 from .postlex import LineJoiner, owned_names
 from .preprocess import code_of, preprocess
@@ -390,6 +389,7 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner,
                   or (not joiner.open_brackets and logical_for_csg(text, tok.value,
                                                                    tok.start_pos, expected))
                   or missing_operator(text, tok.type, tok.value, tok.start_pos, expected)
+                  or csg_for_logical(tok.type, tok.value, tok.start_pos, expected)
                   or rule_as_selection(text, tok.start_pos)):
         msg, span = said
     elif tok.type == "EQUAL" and joiner.open_brackets and \
