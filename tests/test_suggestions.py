@@ -71,6 +71,19 @@ def test_no_axiom_comes_after_the_error_that_took_it():
         "no axiom: a file needs one CSG expression to start from, e.g. '{c = 6} S'"]
 
 
+def test_no_axiom_says_which_line_was_read_as_a_declaration(tmp_path, capsys):
+    """`S 1` meant as the axiom declared S with the selection 1, and the error only said
+    that there was no axiom."""
+    (d,) = diagnostics_of("S 1\n1: S → sphere\nT if(1, 1, 2)\n1: T → S\n2: T → cube\n")
+    assert d.message.startswith("no axiom") and d.notes == [
+        ((0, 3), "'S 1' is read as the declaration of module 'S' (a name and its selection); "
+                 "as the axiom, write a CSG expression alone, e.g. 'S'")]   # not T: 2 rules
+    path = tmp_path / "t.pcsg"
+    path.write_text("S 1\n1: S → sphere\n", encoding="utf-8")
+    assert main(["check", str(path)]) == 1
+    assert f"{path}:1:1: note: 'S 1' is read as the declaration" in capsys.readouterr().err
+
+
 def test_an_endless_cycle_on_a_constant_says_it_is_never_changed():
     # c is folded to 3, so the selection reads no parameter once compiled; the warning
     # called the slip (a decrement left out) a graftal

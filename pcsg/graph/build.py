@@ -102,7 +102,7 @@ class _Builder:
         decls, slipped = self._axiom_slips(decls, rules, axioms)
         self.rules = self._check_rules(rules, decls)
         if not slipped:
-            self._check_axiom(axioms)
+            self._check_axiom(axioms, decls)
         self.params = self._collect_params(stmts)
         self.pixels = self.params[PIXELS] if self._pixels_builtin else -1
         self._apply_overrides(axioms)
@@ -220,11 +220,17 @@ class _Builder:
                                            d.name_span))
         return kept, slipped
 
-    def _check_axiom(self, axioms):
+    def _check_axiom(self, axioms, decls):
         if not axioms:
+            # `S 1` meant as the axiom is a declaration of S with the selection 1: said
+            # where the module has one rule, which needs no declaration
+            notes = [(d.span, f"'{self.source.expanded[d.span[0]:d.span[1]]}' is read as the "
+                              f"declaration of module '{d.name}' (a name and its selection); "
+                              f"as the axiom, write a CSG expression alone, e.g. '{d.name}'")
+                     for d in decls if len(self.rules.get(d.name, (None, ()))[1]) == 1]
             self.errors.append(Diagnostic(
                 "error", "no axiom: a file needs one CSG expression to start from, "
-                         "e.g. '{c = 6} S'", None, self.source, code="axiom"))
+                         "e.g. '{c = 6} S'", None, self.source, notes=notes, code="axiom"))
         for extra in axioms[1:]:
             first = self.source.locate(axioms[0].span[0])
             self.error(extra.span, f"a second axiom; a file has exactly one (the first is at "

@@ -30,10 +30,9 @@ class Diagnostic:
         src = self.source
         if src is None:
             return f"pcsg: {self.severity}: {self.message}"
-        if self.span is None and self.original is None:
-            return f"{src.file}: {self.severity}: {self.message}"
-        lines = [f"{self.location}: {self.severity}: {self.message}"]
-        if show_source:
+        whole = self.span is None and self.original is None     # of the file, no place
+        lines = [f"{src.file if whole else self.location}: {self.severity}: {self.message}"]
+        if show_source and not whole:
             lines += _excerpt(src, self.span, self.original)
         for span, text in self._all_notes():
             if span is None:
