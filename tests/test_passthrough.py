@@ -93,3 +93,23 @@ def test_walked_without_them_it_traces_as_written(monkeypatch, direction):
     assert traced.bounds_method == "every instance"
     o, d = camera_rays(finite_bounds(traced), 40, np.array(direction))
     assert_agrees(traced, o, d, min_hits=40, reference_graph=graph)
+
+
+# a paint between two fixed maps: stepped over, the walk composed rotx with move and
+# uscale as one map and never visited move or uscale, which the tracer enters below the
+# paint: their boxes stayed empty and the rays of that operand missed it (found by
+# hypothesis in tests/test_balls.py)
+BETWEEN_MAPS = ("{n = 1} S\nS if(n > 0, 2, 1)\n1: S → sphere\n2: S → {n = n - 1} "
+                "(rotx(1) paint(0, 0, n / 4) move(0, 0, 0) uscale(0.5) S ∪ "
+                "move(0.2, 0.1, 0) uscale(0.5) S)\n")
+
+
+def test_a_paint_between_two_maps_is_walked(monkeypatch):
+    graph = compile_text(BETWEEN_MAPS, "t.pcsg")
+    walked, skipped = assert_same_walk(graph)
+    assert not skipped
+    monkeypatch.setattr(bounds, "MAX_STATES", 0)
+    traced = pcsg.Traced(graph)
+    assert traced.bounds_method == "every instance"
+    o, d = camera_rays(traced.bounds, 16, np.array([1.0, -1.3, 0.8]), seed=7)
+    assert_agrees(traced, o, d, min_hits=20, reference_graph=graph)

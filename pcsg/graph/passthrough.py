@@ -20,7 +20,7 @@ import dataclasses
 import numpy as np
 
 from .defer import colours_only
-from .model import CALC, MATERIAL, OPERATORS, PAINT, Graph
+from .model import CALC, MATERIAL, OPERATORS, PAINT, TRANSFORM, Graph
 
 
 def without_passable(graph: Graph) -> tuple[Graph, dict[int, int]]:
@@ -31,6 +31,13 @@ def without_passable(graph: Graph) -> tuple[Graph, dict[int, int]]:
     parents = _parents(graph)
     skip = {i: nodes[i].children[0] for i in parents
             if _passable(graph, i) and parents.get(nodes[i].children[0]) == 1}
+    # not between two T-nodes: the walk would compose two fixed maps that the tracer
+    # keeps apart (graph/flat.py, _compose_fixed_chains) and never visit the lower one,
+    # whose box stayed empty where the tracer enters it (`rotx(1) paint(...) move(...)
+    # uscale(0.5) S` missed every ray of that operand)
+    below_map = {c for i in parents if nodes[i].kind == TRANSFORM for c in nodes[i].children}
+    for i in [i for i in skip if i in below_map and nodes[_past(skip, i)].kind == TRANSFORM]:
+        del skip[i]
     if not skip:
         return graph, {}
     target = {i: _past(skip, i) for i in skip}
