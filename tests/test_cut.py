@@ -55,11 +55,21 @@ HALVINGS = ("{c = 40} S\nS if(c > 0, 2, 1)\n1: S → cube\n"
 HALVINGS_AND_A_GRAFTAL = ("{c = 40} (S ∪ move(0, 0, 3) F)\n" + HALVINGS.split("\n", 1)[1]
                           + "F 1\n1: F → (uscale(0.5) F ∪ move(1,0,0) uscale(0.5) F ∪ "
                             "move(0,1,0) uscale(0.5) sphere)\n")
+# graftals whose instances differ in what their selections read: a rand() or a counter
+# picks the rule (bounded with every rule taken, bounds._any_rule)
+_MAPS = ("move(0.5,0.5,0.5) uscale(0.5) S ∪ move(-0.5,-0.5,0.5) uscale(0.5) S",
+         "move(0.5,-0.5,-0.5) uscale(0.5) S ∪ move(-0.5,0.5,-0.5) uscale(0.5) S")
+RANDOM_GRAFTAL = (f"paint(0.7,0.4,0.2) S\nS if(rand() < 0.5, 1, 2)\n1: S → {_MAPS[0]} ∪ "
+                  f"uscale(0.3) sphere\n2: S → {_MAPS[1]} ∪ {_MAPS[0].split(' ∪ ')[0]}\n")
+PARITY_GRAFTAL = (f"{{k = 0}} S\nS if(k % 2 == 0, 1, 2)\n1: S → {{k = k + 1}} ({_MAPS[0]})\n"
+                  f"2: S → {{k = k + 1}} ({_MAPS[1]} ∪ move(0,0,0.5) uscale(0.5) S)\n")
 CASES = [("fern", 1), ("fern", 2), ("fern", 3), ("fern in a ball", 3),
          ("fern with a flat pinna", 3), ("cifs_temple", 2), ("sympodial_tree", 4),
-         ("sierpinski", 3), ("halvings", 1), ("halvings and a graftal", 1)]
+         ("sierpinski", 3), ("halvings", 1), ("halvings and a graftal", 1),
+         ("random graftal", 4), ("parity graftal", 3)]
 TEXTS = {"fern in a ball": _fern_in_a_ball, "fern with a flat pinna": _fern_with_a_flat_pinna,
-         "halvings": lambda: HALVINGS, "halvings and a graftal": lambda: HALVINGS_AND_A_GRAFTAL}
+         "halvings": lambda: HALVINGS, "halvings and a graftal": lambda: HALVINGS_AND_A_GRAFTAL,
+         "random graftal": lambda: RANDOM_GRAFTAL, "parity graftal": lambda: PARITY_GRAFTAL}
 
 
 @pytest.mark.parametrize("name,depth", CASES)

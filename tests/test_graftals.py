@@ -104,7 +104,8 @@ def _watch_invariant_balls(monkeypatch) -> list:
     found = []
     real = bounds._invariant_balls
     monkeypatch.setattr(bounds, "_invariant_balls",
-                        lambda g, first: found.append(real(g, first)) or found[-1])
+                        lambda g, first, any_rule: found.append(real(g, first, any_rule))
+                        or found[-1])
     return found
 
 
@@ -116,7 +117,7 @@ def test_the_attractor_boxes_start_from_invariant_balls_or_grow_from_a_point(mon
     found = _watch_invariant_balls(monkeypatch)
     from_balls = bounds.bound(graph)[0]
     assert found and found[0] is not None
-    monkeypatch.setattr(bounds, "_invariant_balls", lambda g, first: None)
+    monkeypatch.setattr(bounds, "_invariant_balls", lambda g, first, any_rule: None)
     grown = bounds.bound(graph)[0]
     real = np.isfinite(grown).all(axis=1) & (grown[:, 0] <= grown[:, 3])
     assert np.abs(from_balls[real] - grown[real]).max() <= 1e-8 * np.abs(grown[real]).max()
@@ -133,6 +134,47 @@ def test_maps_that_grow_balls_on_the_way_round_a_cycle_grow_a_box_instead(monkey
     box = bounds.bound(graph)[0][graph.modules["S"]]
     assert found == [None]
     assert np.allclose(box, [0, 0, 0, 2, 0, 0], atol=1e-8)
+
+
+@pytest.mark.parametrize("selection, assign", [("rand() < 0.5", ""),
+                                               ("k % 2 == 0", "{k = k + 1} ")])
+def test_a_graftal_whose_selection_differs_by_instance_is_bounded_and_drawn(selection, assign):
+    """A rand() or a counter that picks the rule made every instance's state its own: the
+    memoised bounds gave up, the instance walk cannot bound what never ends, and the
+    graftal had no bounding volume: drawn as nothing, after every ray entered
+    --max-instances instances (100 s at 96x72). Bounded now with every rule taken: the
+    box that holds the attractor of all four maps, [-1, 1]^3."""
+    maps = [f"move({x},{y},{z}) uscale(0.5) S" for x, y, z in
+            [(0.5, 0.5, 0.5), (-0.5, -0.5, 0.5), (0.5, -0.5, -0.5), (-0.5, 0.5, -0.5)]]
+    text = (f"{{k = 0}} S\nS if({selection}, 1, 2)\n1: S → {assign}({' ∪ '.join(maps[:3])})\n"
+            f"2: S → {assign}({' ∪ '.join(maps[1:])})\n")
+    traced = pcsg.loads(text)
+    assert traced.bounds_method == bounds.ANY_RULE and not traced.warnings
+    np.testing.assert_allclose(traced.bounds, [-1, -1, -1, 1, 1, 1], atol=1e-6)
+    from .oracle import camera_rays
+    o, d = camera_rays(traced.bounds, 32, (1, -1.5, 0.5), spread=0.3)
+    hits = traced.trace(o, d, lod=0.01)
+    assert hits.hit.sum() > 30 and hits.events[EV_LOD].sum() > 0    # refined to its size
+
+
+def test_a_graftal_whose_maps_differ_by_instance_and_that_draws_nothing_says_so():
+    """Where what differs feeds a map (a rotation drawn by rand()), taking every rule
+    does not make the states few. Without a primitive on its cycles such a graftal has
+    nothing to draw: every ray entered --max-instances instances of it (38 s at 48x36)
+    to draw nothing, without a word why; now it is bounded as empty, and said so."""
+    graph = compile_text("S ∪ move(0, 0, -2) cube\n1: S → {a = 20 * rand()} (rotz(a) "
+                         "move(0.5,0,0) uscale(0.5) S ∪ move(-0.5,0,0) uscale(0.5) S)\n")
+    assert bounds._any_rule(graph, 8) is None
+    traced = pcsg.Traced(graph)
+    assert traced.bounds_method == bounds.MEMOISED
+    (w,) = [w for w in traced.warnings if w.code == "unbounded-graftal"]
+    assert w.message.startswith("'S' is a graftal (no rule of it ends) whose instances "
+                                "differ in their maps") and "draws nothing of it" in w.message
+    np.testing.assert_allclose(traced.bounds, [-1, -1, -3, 1, 1, -1])     # the cube alone
+    # with a sphere on its cycle it has something to draw: left to the instance walk
+    drawn = compile_text("S\n1: S → {a = 20 * rand()} (rotz(a) move(0.5,0,0) uscale(0.5) S "
+                         "∪ sphere)\n")
+    assert bounds._unboundable_voids(drawn, 8) is None
 
 
 def test_finer_pixels_refine_the_fern_deeper(fern):

@@ -41,6 +41,8 @@ NOTHING = np.zeros((0, 3))
 # any threshold between 1/16 and 16 million pixels, within a factor 1.5
 PIXEL_PROBES = (0.0, *(m * 2.0 ** k for k in range(-4, 25) for m in (1.0, 1.5)), np.inf)
 SEED = np.zeros((1, 3))         # a point: a graftal's growth starts there
+MEMOISED = "memoised"
+ANY_RULE = "any rule"           # memoised, with every rule of each selection (_any_rule)
 
 
 class TooManyStates(Exception):
@@ -178,10 +180,12 @@ class _Walker:
     """One round of the memoised walk; re-entering a state that is still being computed
     (an endless system) takes the previous round's estimate of it."""
 
-    def __init__(self, graph: Graph):
+    def __init__(self, graph: Graph, any_rule: bool = False):
+        """any_rule: every rule of each selection, whatever it picks (ANY_RULE)."""
         self.g = graph
         self.d = Deriver(graph)
-        self.key = StateKey(graph, geometry=True)
+        self.any_rule = any_rule
+        self.key = StateKey(graph, geometry=True, selections=not any_rule)
         self.probe = PROBE_RANDOM if self.key.random else PROBE_STATES
         self.pixel_selects = [n.kind == SELECT and graph.pixels >= 0 and
                               PIXELS in graph.exprs.reads(n.exprs[0]) for n in graph.nodes]
@@ -309,7 +313,10 @@ class _Walker:
 
     def rules(self, i: int, state, h: int) -> list[int]:
         """The rule the selection picks; for one that reads `pixels`, every rule it picks
-        at PIXEL_PROBES (the tracer may see the instance at any size)."""
+        at PIXEL_PROBES (the tracer may see the instance at any size); every rule for a
+        walk that takes any rule."""
+        if self.any_rule:
+            return list(range(len(self.g.nodes[i].children)))
         if not self.pixel_selects[i]:
             return [self.d.select(i, state, h)]
         found, error = set(), None
@@ -327,7 +334,7 @@ class _Walker:
 
 
 def _memoised(graph: Graph, faults: set | None = None, max_depth: int | None = None,
-              voids: frozenset = frozenset()
+              voids: frozenset = frozenset(), any_rule: bool = False
               ) -> tuple[tuple[np.ndarray, dict, StateTable | None], int]:
     """_memoised_walk's boxes, and the depth bound they hold: `max_depth`, or with None
     the derivation's own depth where it ends within DEEPEST_DEFAULT levels (else
@@ -335,12 +342,14 @@ def _memoised(graph: Graph, faults: set | None = None, max_depth: int | None = N
     terminating rules' geometry in every S-node's bound (pcsg.loads(..., max_depth=1) of
     40 halvings of a cube, a line in full, drew nothing where its two cut cubes stand:
     their boxes were the line's)."""
-    found, deepest, ends = _memoised_walk(graph, faults, False, voids=voids)
+    found, deepest, ends = _memoised_walk(graph, faults, False, voids=voids,
+                                          any_rule=any_rule)
     if max_depth is None:
         ends = ends and deepest <= DEEPEST_DEFAULT
         max_depth = max(MAX_DEPTH, deepest + 1) if ends else MAX_DEPTH
     if deepest >= max_depth:
-        (boxes, _, states), _, _ = _memoised_walk(graph, faults, True, voids=voids)
+        (boxes, _, states), _, _ = _memoised_walk(graph, faults, True, voids=voids,
+                                                  any_rule=any_rule)
         # no hulls: the bounding spheres of graftals (graph/spheres.py) would be walked
         # from them without the terminating rules, and boxes bound their graftals too
         found = boxes, {}, states
@@ -348,7 +357,7 @@ def _memoised(graph: Graph, faults: set | None = None, max_depth: int | None = N
 
 
 def _memoised_walk(graph: Graph, faults: set | None, finish_too: bool, walker=None,
-                   voids: frozenset = frozenset()):
+                   voids: frozenset = frozenset(), any_rule: bool = False):
     """Exact boxes by the memoised walk, iterated to a fixed point over re-entered
     states; TooManyStates when memoising cannot help. A re-entered state that stays
     empty (a graftal: no primitive below its cycle) is bounded as an IFS attractor.
@@ -360,7 +369,7 @@ def _memoised_walk(graph: Graph, faults: set | None, finish_too: bool, walker=No
     the deepest S-node level the walk reached, and whether the derivation ends (no state
     was re-entered: the boxes by state may still be None, where they would cull no more
     than the node boxes or rand() decides)."""
-    w = (walker or _Walker)(graph)
+    w = (walker or _Walker)(graph, any_rule)
     w.finish_too = finish_too
     w.voids = voids
     if faults is not None:
@@ -435,7 +444,7 @@ def _attractor_boxes(w: _Walker, round_) -> tuple[np.ndarray, dict]:
     w.seed = SEED
     w.estimate = {}
     first = {k: as_box(v) for k, v in round_().items()}
-    held = _invariant_balls(w.g, first)
+    held = _invariant_balls(w.g, first, w.any_rule)
     if held is not None:
         found = _tighten(w, round_, held, None)
         if found is not None:
@@ -469,13 +478,13 @@ def _contracting(graph: Graph, held: dict, after: dict) -> None:
         raise DoesNotContract(void)
 
 
-def _invariant_balls(graph: Graph, first: dict) -> dict | None:
+def _invariant_balls(graph: Graph, first: dict, any_rule: bool) -> dict | None:
     """Corner points of the box about a ball per re-entered state, the balls such that
     one round of the maps (graph/spheres.py's ball walk) takes them into themselves:
     they hold the attractors. About the centres of the first round's boxes, the radius
     doubled from their size; None if no radius up to 2^60 times that will do."""
     from .spheres import _BallWalker, reach
-    walker = _BallWalker(graph)
+    walker = _BallWalker(graph, any_rule)
     boxes = [b for b in first.values() if b[0] <= b[3]]
     if len(boxes) != len(first) or not np.all(np.isfinite(boxes)):
         return None
@@ -577,9 +586,62 @@ def _same(a, b, tol: float = 1e-13) -> bool:
                 and np.all(np.abs(a[both] - b[both]) <= tol * scale))
 
 
+def _any_rule(graph: Graph, max_depth: int | None):
+    """bound() of a graftal whose instances differ only in what its selections read (a
+    rand() or a counter decides the rule): memoised on the parameters its maps read,
+    with every rule of each selection taken. Every attractor its selections can pick
+    lies in the attractor of all its rules' maps together (Hutchinson), which this
+    bounds; walked instance by instance, such a graftal had no bounding volume and was
+    drawn as nothing, after every ray entered --max-instances instances. None where
+    that walk cannot bound it either (its maps read what differs, or together they do
+    not contract): the instance walk is tried then, as before."""
+    from .volumes import graftal_nodes
+    if not graftal_nodes(graph):
+        return None     # a system that ends is bounded as it derives, instance by instance
+    try:
+        with recursion_limit(20 * MAX_LEVELS):
+            (boxes, hulls, states), depth = _memoised(graph, set(), max_depth,
+                                                      any_rule=True)
+    except (TooManyStates, PcsgError):
+        return None
+    # no fault warnings: its instances include some the selections never pick; the
+    # tracer's own walk reports the faults of those they do
+    return boxes, ANY_RULE, [], states, hulls, depth, graph, depth
+
+
+def _unboundable_voids(graph: Graph, max_depth: int | None):
+    """bound() where not even _any_rule bounds a graftal (what differs from instance to
+    instance feeds its maps: `rotz(20 * rand())`): a graftal without a primitive on its
+    cycles then has nothing to draw (no bounding volume holds its instances, and a
+    graftal is drawn as its volumes), so it is bounded as empty, as one whose maps do not
+    contract (voids_of), and said so. Before, every ray entered --max-instances of its
+    instances to draw nothing (38 s at 48x36). None where there is no such graftal or the
+    rest cannot be memoised either."""
+    from .volumes import graftal_nodes
+    voids = frozenset(s for s in graftal_nodes(graph) if not _derives_primitive(graph, s))
+    if not voids:
+        return None
+    faults: set = set()
+    try:
+        with recursion_limit(20 * MAX_LEVELS):
+            (boxes, hulls, states), depth = _memoised(graph, faults, max_depth, voids)
+    except (TooManyStates, PcsgError):
+        return None
+    problems = [Diagnostic(
+        "warning", f"'{graph.nodes[i].name}' is a graftal (no rule of it ends) whose "
+        f"instances differ in their maps (values drawn by rand(), or counted): no bounding "
+        f"volume found holds them all, and no primitive stands on its cycles, so `render` "
+        f"draws nothing of it; give its maps the same arguments in every instance (a "
+        f"rand() may pick the rule)", graph.nodes[i].span, graph.source,
+        code="unbounded-graftal") for i in sorted(voids)]
+    problems += fault_warnings(graph, graph, [(k, 0, f) for k, f in sorted(faults)],
+                               counted=False)
+    return boxes, MEMOISED, problems, states, hulls, depth, graph, depth
+
+
 def hyper_boxes(graph: Graph, max_depth: int = 64):
     """(n, 6) boxes (xmin, ymin, zmin, xmax, ymax, zmax) per node; which method computed
-    them: 'memoised', 'every instance', or 'unbounded' when there were too many instances
+    them: 'memoised', 'any rule' (ANY_RULE), 'every instance', or 'unbounded' when there were too many instances
     to visit (then no box culls anything: slow, never wrong); and the runtime errors met
     on the way (an invalid selection: that instance is empty)."""
     return bound(graph, max_depth)[:4]
@@ -603,7 +665,7 @@ def bound(graph: Graph, max_depth: int | None = MAX_DEPTH, budget: int = BOUNDS_
             (boxes, hulls, states), max_depth = _memoised(graph, faults, max_depth)
         problems += fault_warnings(graph, graph, [(k, 0, f) for k, f in sorted(faults)],
                                    counted=False)
-        return boxes, "memoised", problems, states, hulls, max_depth, graph, max_depth
+        return boxes, MEMOISED, problems, states, hulls, max_depth, graph, max_depth
     except DoesNotContract as found:
         voids = voids_of(graph, found.nodes)
         problems = not_contracting(graph, found, bool(voids))
@@ -616,12 +678,14 @@ def bound(graph: Graph, max_depth: int | None = MAX_DEPTH, budget: int = BOUNDS_
                                                                   voids)
                 problems += fault_warnings(graph, graph, [(k, 0, f) for k, f in sorted(faults)],
                                            counted=False)
-                return (boxes, "memoised", problems, states, hulls, max_depth, graph,
+                return (boxes, MEMOISED, problems, states, hulls, max_depth, graph,
                         max_depth)
             except (TooManyStates, PcsgError):
                 pass
     except TooManyStates:
-        pass
+        if (found := _any_rule(graph, max_depth) or _unboundable_voids(graph, max_depth)) \
+                is not None:
+            return found
     except PcsgError as e:
         problems = [Diagnostic("warning", d.message + "; that instance is empty", d.span,
                                d.source, d.notes, d.code) for d in e.diagnostics]

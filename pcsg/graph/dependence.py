@@ -9,9 +9,11 @@ from .model import CALC, SELECT, TRANSFORM, Graph
 RAND = "<rand>"     # stands for the instance hash: a rand() decides a selection
 
 
-def structural_params(graph: Graph, geometry: bool = False) -> list[frozenset]:
+def structural_params(graph: Graph, geometry: bool = False, selections: bool = True
+                      ) -> list[frozenset]:
     """For each node, the parameters (and RAND) whose values on entry decide its
-    derivation: its selections, and with `geometry` also its transformations."""
+    derivation: its selections (unless not `selections`: a walk that takes every rule
+    of each selection), and with `geometry` also its transformations."""
     table = graph.exprs
     nodes = graph.nodes
     rel = [frozenset()] * len(nodes)
@@ -32,7 +34,7 @@ def structural_params(graph: Graph, geometry: bool = False) -> list[frozenset]:
             live = set()
             for c in n.children:
                 live |= rel[c]
-            if n.kind == SELECT:
+            if n.kind == SELECT and selections:
                 live |= reads(n.exprs[0])
             elif n.kind == TRANSFORM and geometry:
                 for e in n.exprs:
@@ -76,9 +78,9 @@ class StateKey:
     `random`: some node's key holds the instance hash or a parameter drawn from rand(),
     so that its instances' states are likely all different (the terrain's heights)."""
 
-    def __init__(self, graph: Graph, geometry: bool = False):
+    def __init__(self, graph: Graph, geometry: bool = False, selections: bool = True):
         import numpy as np
-        rel = structural_params(graph, geometry)
+        rel = structural_params(graph, geometry, selections)
         self.rand = [RAND in r for r in rel]
         self._graph, self._rel = graph, rel
         slots = [sorted(graph.params[p] for p in r if p != RAND) for r in rel]

@@ -139,8 +139,8 @@ class _BallWalker(_Walker):
 
     nothing = NO_BALLS
 
-    def __init__(self, graph: Graph):
-        super().__init__(graph)
+    def __init__(self, graph: Graph, any_rule: bool = False):
+        super().__init__(graph, any_rule)
         self.seed = NO_BALLS
 
     @staticmethod
@@ -238,11 +238,12 @@ def _nested(w: _BallWalker, balls: dict):
     return balls, False
 
 
-def node_spheres(graph: Graph, hulls: dict):
+def node_spheres(graph: Graph, hulls: dict, any_rule: bool = False):
     """(n, 4) spheres per node, each holding every instance of its S-node (radius -1 for
     other nodes and for S-nodes with no finite ball), and whether they nest (see
-    state_balls); None when the states have no finite balls."""
-    w = _BallWalker(graph)
+    state_balls); None when the states have no finite balls. any_rule: walked as the
+    hulls were (bounds.ANY_RULE)."""
+    w = _BallWalker(graph, any_rule)
     found = state_balls(w, hulls)
     if found is None:
         return None

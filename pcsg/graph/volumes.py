@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..limits import BOUNDS_BUDGET, MAX_DEPTH
-from .bounds import _Walker, bound
+from .bounds import ANY_RULE, MEMOISED, _Walker, bound
 from .model import Graph
 from .states import StateTable
 from .spheres import ball_points, node_spheres
@@ -79,16 +79,17 @@ def bounding_volumes(graph: Graph, max_depth: int | None = MAX_DEPTH,
     out = Volumes(boxes, None, method, problems, table, [], depth, graph, asked)
     graftals = [s for s in graftal_nodes(graph)
                 if boxes[s, 0] <= boxes[s, 3] and np.all(np.isfinite(boxes[s]))]
-    if method != "memoised" or not hulls or not graftals:
+    if method not in (MEMOISED, ANY_RULE) or not hulls or not graftals:
         return out
-    found = node_spheres(graph, hulls)
+    any_rule = method == ANY_RULE
+    found = node_spheres(graph, hulls, any_rule)
     spheres, nested = found if found is not None else (None, False)
     for s in graftals:
         ball = None if spheres is None or spheres[s, 3] < 0 else spheres[s].copy()
         out.choices.append(Choice(s, graph.nodes[s].name, boxes[s].copy(), ball, nested))
     won = {c.node: c.sphere for c in out.choices if c.volume == "sphere"}
     if won:
-        below = _boxes_from_spheres(graph, hulls, won)
+        below = _boxes_from_spheres(graph, hulls, won, any_rule)
         if below is None:       # the boxes could not be made to hold the spheres
             for c in out.choices:
                 c.sphere = None
@@ -100,12 +101,13 @@ def bounding_volumes(graph: Graph, max_depth: int | None = MAX_DEPTH,
     return out
 
 
-def _boxes_from_spheres(graph: Graph, hulls: dict, won: dict) -> np.ndarray | None:
+def _boxes_from_spheres(graph: Graph, hulls: dict, won: dict, any_rule: bool
+                        ) -> np.ndarray | None:
     """The hyper boxes again, each node won by a sphere giving its parents the sphere
     (as points whose hull holds it) instead of its own bound, so that every box above
     holds the sphere; the re-entered states' estimates are the box walk's last ones.
     A node's own box row becomes its sphere's box (its size for the level of detail)."""
-    w = _Walker(graph)
+    w = _Walker(graph, any_rule)
     w.estimate = dict(hulls)
     w.volumes = {s: ball_points(ball) for s, ball in won.items()}
     state, h = w.d.initial()
