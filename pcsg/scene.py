@@ -127,7 +127,8 @@ def build_scene(directives: list[ast.Directive], constants, report,
             nums = tuple(constants(p) for p in parts)
             if None in nums:        # said already: 'undefined name', not 'not finite' too
                 continue
-            if d.kind == "camera" and not all(math.isfinite(x) for x in nums):
+            if (d.kind, item.key) not in RANGES and not all(math.isfinite(x) for x in nums):
+                # a camera's, and a light's at=: one at 1e400 drew every pixel black
                 report(item.value.span, f"'{item.key}' takes finite numbers", "directive")
                 continue
             check, wanted = RANGES.get((d.kind, item.key), (None, ""))
