@@ -12,7 +12,7 @@ import numpy as np
 
 from ..scene import MATERIAL_DEFAULTS
 from ..trace.jit import threads
-from ..trace.shading import GOLDEN, M_TRANSMIT, MAX_CROSSINGS, MIN_WEIGHT
+from ..trace.shading import GOLDEN, LIGHT_STREAM, M_TRANSMIT, MAX_CROSSINGS, MIN_WEIGHT
 from ..trace.walk import HIT_SHEET, HIT_SHELL
 from ..trace.vm import hash_to_unit_array, splitmix64_array
 from ..tracer import Hits
@@ -174,8 +174,8 @@ def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: 
     origin = p + n * EPS * scale
     if light.ao_samples > 0:
         out *= _unoccluded(traced, light, origin, n, ids[h])[:, None]
-    for lt in light.lights:
-        vis, ldir = _visibility(traced, light, lt, origin, n)
+    for li, lt in enumerate(light.lights):
+        vis, ldir = _visibility(traced, light, lt, origin, n, ids[h], li)
         ndl = np.clip(np.einsum("ij,ij->i", n, ldir), 0, None)[:, None]
         refl = ldir - 2 * np.einsum("ij,ij->i", ldir, n)[:, None] * n
         spec = np.clip(np.einsum("ij,ij->i", refl, d), 0, None)[:, None] ** shin
@@ -216,10 +216,13 @@ def _shade_kernel(traced, light: Lighting, origins, directions, ids, check=None)
     return rgb, t, Hits(t=t, normal=None, paint=None, material=None, hit=hit)
 
 
-def _visibility(traced, light: Lighting, lt: Light, origin: np.ndarray, n: np.ndarray):
+def _visibility(traced, light: Lighting, lt: Light, origin: np.ndarray, n: np.ndarray,
+                ids: np.ndarray, li: int):
     """Fraction of the light seen from each point, and the unit direction to it. Points
     whose normal n turns away from the light get nothing from it, shadowed or not, so
-    they send no shadow rays (their fraction is 0)."""
+    they send no shadow rays (their fraction is 0). An area light's samples are shifted
+    by each point's pixel id (`ids`) in the stream of light li (the kernel's
+    trace/shading.disk, which says why)."""
     to = lt.position - origin
     dist = np.linalg.norm(to, axis=1, keepdims=True)
     ldir = to / dist
@@ -229,10 +232,12 @@ def _visibility(traced, light: Lighting, lt: Light, origin: np.ndarray, n: np.nd
     facing = n[:, 0] * ldir[:, 0] + n[:, 1] * ldir[:, 1] + n[:, 2] * ldir[:, 2] > 0.0
     seen = np.zeros(len(origin))
     o = origin[facing]
+    h = splitmix64_array(ids[facing].astype(np.uint64) ^ (LIGHT_STREAM + np.uint64(li)))
+    shift = np.stack([hash_to_unit_array(h), hash_to_unit_array(splitmix64_array(h))], 1)
     glass = bool(len(light.materials)) and bool((light.materials[:, M_TRANSMIT] > 0).any())
     for k in range(samples if len(o) else 0):
         # one sample: the light is a point at its centre
-        target = lt.position + (_disk(k, samples, lt.radius, ldir[facing])
+        target = lt.position + (_disk(k, samples, lt.radius, shift, ldir[facing])
                                 if samples > 1 else 0.0)
         target = np.broadcast_to(target, o.shape)
         hit = traced.trace(o, target - o, tmin=1e-9, tmax=1.0 - 1e-9, any_hit=True,
@@ -285,13 +290,17 @@ def _through_glass(traced, light: Lighting, o: np.ndarray, target: np.ndarray):
     return out
 
 
-def _disk(k: int, n: int, radius: float, normal: np.ndarray) -> np.ndarray:
-    """Sample k of n on a disk of `radius` facing `normal` (a golden-angle spiral, so the
-    same points every render: deterministic soft shadows)."""
-    r = radius * math.sqrt((k + 0.5) / n)
-    a = k * math.pi * (3 - math.sqrt(5))
+def _disk(k: int, n: int, radius: float, shift: np.ndarray, normal: np.ndarray
+          ) -> np.ndarray:
+    """Sample k of n on a disk of `radius` facing each normal, shifted by each row of
+    `shift` mod 1 (the kernel's trace/shading.disk, which says why): the same points
+    every render, deterministic soft shadows."""
+    uv = np.stack([(k + 0.5) / n + shift[:, 0], k * GOLDEN + shift[:, 1]], 1)
+    uv -= np.floor(uv)
+    r = radius * np.sqrt(uv[:, :1])
+    a = 2 * math.pi * uv[:, 1:]
     u, v = _basis(normal)
-    return r * (math.cos(a) * u + math.sin(a) * v)
+    return r * (np.cos(a) * u + np.sin(a) * v)
 
 
 def _basis(normal: np.ndarray):

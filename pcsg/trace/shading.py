@@ -52,6 +52,9 @@ M_TRANSMIT = 8              # the material table's transmit column (shade.FINISH
 # blocked (0.9 ** 16 of it would be left through glass of transmit 0.9)
 MAX_CROSSINGS = 16
 GOLDEN = 0.6180339887498949                    # the pattern's azimuths: k * GOLDEN mod 1
+# an area light's shift per pixel draws from a stream of its own (the hemisphere's is the
+# pixel id's splitmix64), one per light
+LIGHT_STREAM = np.uint64(0x2545F4914F6CDD1D)
 
 
 def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, default,
@@ -142,7 +145,7 @@ def shade_share(w, workers, stop, flat, origins, directions, lights, horizon, ze
             for li in range(lights.shape[0]):
                 traced += light_up(flat, lights, li, shadows, shadow_samples, hits, lod,
                                    max_depth, S, P, together, blocker, ev, occ, sh, glass,
-                                   materials, default, slot)
+                                   materials, default, slot, ids)
             top = bounce(pend, count, depths, top, depth, max_bounces, hits, sh, rgb)
         rays[c] = traced
 
@@ -251,9 +254,10 @@ def to_light(lights, li, sh, j):
 
 @inline
 def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S, P, together,
-             any_hit, ev, occ, sh, glass, materials, default, slot):
+             any_hit, ev, occ, sh, glass, materials, default, slot, ids):
     """Light li's diffuse and specular terms on every surface, times the fraction of
-    its samples that no shadow ray finds blocked (one packet per sample); with `glass`,
+    its samples that no shadow ray finds blocked (one packet per sample; an area light's
+    samples shifted by each pixel's id in `ids`: disk); with `glass`,
     a shadow ray that meets glass goes on through it (through_glass). Returns the rays
     traced."""
     rays = 0
@@ -283,7 +287,10 @@ def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S,
                 g2 = lights[li, L_POS + 2]
                 if samples > 1:
                     l0, l1, l2 = to_light(lights, li, sh, j)
-                    e0, e1, e2 = disk(s, samples, radius, l0, l1, l2)
+                    h = splitmix64(np.uint64(ids[int(sh[j, SH_PIX])])
+                                   ^ (LIGHT_STREAM + np.uint64(li)))
+                    e0, e1, e2 = disk(s, samples, radius, hash_to_unit(h),
+                                      hash_to_unit(splitmix64(h)), l0, l1, l2)
                     g0 += e0
                     g1 += e1
                     g2 += e2
@@ -461,10 +468,18 @@ def _push(pend, p, k, o0, o1, o2, d0, d1, d2, w0, w1, w2, cone, pix):
 
 
 @kernel
-def disk(k, n, radius, x, y, z):
-    """shade._disk: sample k of n on a disk of `radius` facing (x, y, z)."""
-    r = radius * math.sqrt((k + 0.5) / n)
-    a = k * math.pi * (3 - math.sqrt(5))
+def disk(k, n, radius, r1, r2, x, y, z):
+    """shade._disk: sample k of n on a disk of `radius` facing (x, y, z): stratified in
+    area, golden-ratio angles, shifted by (r1, r2) mod 1 as the hemisphere's pattern is.
+    One pattern for every pixel cast n hard shadows, one beside the other, in bands
+    across a penumbra (the table tower's at 8 samples); shifted per pixel, they are noise
+    that averages to the penumbra."""
+    u = (k + 0.5) / n + r1
+    u -= math.floor(u)
+    v = k * GOLDEN + r2
+    v -= math.floor(v)
+    r = radius * math.sqrt(u)
+    a = 2 * math.pi * v
     ux, uy, uz, vx, vy, vz = basis(x, y, z)
     ca, sa = math.cos(a), math.sin(a)
     return r * (ca * ux + sa * vx), r * (ca * uy + sa * vy), r * (ca * uz + sa * vz)
