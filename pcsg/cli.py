@@ -24,8 +24,8 @@ from .language import prefetch  # noqa: E402
 from .language.files import pcsg_files  # noqa: E402
 from .language.errors import PcsgError, labelled  # noqa: E402
 from .overrides import given_twice  # noqa: E402
-from .limits import (GIF_PIXELS, MAX_FRAMES, bounces_problem, shadow_samples_problem,  # noqa: E402
-                     size_problem)
+from .limits import (GIF_FPS, GIF_PIXELS, MAX_FRAMES, bounces_problem,  # noqa: E402
+                     shadow_samples_problem, size_problem)
 from .timings import Timings, note_startup  # noqa: E402
 from .statusout import is_stdout, status_stream  # noqa: E402
 
@@ -446,6 +446,12 @@ def cmd_animate(args) -> int:
         # an APNG's frame delay is a fraction of whole numbers: inf gave a delay of 0
         raise UsageError(f"--fps {args.fps:g}: give a number from 0.01 to below 1000 "
                          f"(a GIF's frame lasts at most 655 s)")
+    if args.gif and args.fps > GIF_FPS:
+        # a GIF's delays are whole hundredths of a second: 200 fps wrote 0, which players
+        # show as 0.1 s, and they slow any delay under 0.02 s so
+        raise UsageError(f"--fps {args.fps:g} with --gif: a GIF plays at most {GIF_FPS} "
+                         f"frames a second (a frame lasts whole hundredths of a second, two "
+                         f"at least); the animated PNG alone takes up to 1000")
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs {args.jobs}: give 1 or more")
     if args.path is not None and args.eye is not None:

@@ -19,6 +19,7 @@ BOUNDS_BUDGET = 400_000_000     # node visits of the bounding walk (--bounds-bud
 MAX_BOUNCES = 32                # --bounces at most: reflection and refraction depth
 MAX_STACK_DEPTH = 100_000       # --stack-depth at most: ~40 MB of frames per worker
 MAX_INTERVAL_ROWS = 1_000_000   # --interval-rows at most: 128 MB per worker
+GIF_FPS = 50                   # animate --gif: frame delays of whole hundredths, 2 at least
 MAX_FRAMES = 10_000             # animate --frames at most: 17 minutes at 10 fps (100,000
                                 # planned for 27 s in silence, at 500 MB)
 GIF_PIXELS = 500_000_000        # animate --gif: frames x width x height at most, all held in

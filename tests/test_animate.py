@@ -263,6 +263,8 @@ def test_the_default_sun_stays_put_while_the_camera_moves(capsys, tmp_path):
     (["--fps", "inf"], "--fps inf: give a number from 0.01 to below 1000"),
     # a GIF's delay is 16 bits of hundredths: an internal error (OverflowError)
     (["--fps", "0.001", "--gif"], "--fps 0.001: give a number from 0.01"),
+    # a delay of whole hundredths: 200 fps wrote 0, which players show as 0.1 s
+    (["--fps", "200", "--gif"], "--fps 200 with --gif: a GIF plays at most 50 frames a second"),
     # planned for 27 s in silence
     (["--frames", "100000"], "--frames 100,000: give 1 to 10,000"),
     # a GIF is made from every frame at once (the animated PNG a frame at a time)
