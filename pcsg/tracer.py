@@ -2,6 +2,7 @@
 for Python users, and what the renderer builds on."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -272,5 +273,8 @@ def _parameters(params: dict | None, overrides: dict) -> dict[str, float]:
             raise TypeError(f"parameter {name}={value!r}: give a number")
         if number != number and value == value:
             raise ValueError(f"parameter {name}={value!r}: too large for a float")
+        if not math.isfinite(number):
+            # as --set refuses them: no file can write a nan or an inf either
+            raise ValueError(f"parameter {name}={value!r}: give a finite number")
         out[name] = number
     return out

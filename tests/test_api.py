@@ -52,6 +52,9 @@ def test_what_cannot_be_a_float_is_said():
         pcsg.loads("{c = 1} uscale(c) sphere", c=10 ** 400)
     with pytest.raises(TypeError, match="give a number"):
         pcsg.loads("{c = 1} uscale(c) sphere", c=1 + 2j)
+    for value in (float("nan"), float("inf"), -np.inf):     # --set refuses them too
+        with pytest.raises(ValueError, match="give a finite number"):
+            pcsg.loads("{c = 1} uscale(c) sphere", c=value)
     with pytest.raises(ValueError, match="use a whole number, 1 to 10000"):
         pcsg.loads("sphere", max_depth=10.5)
 
