@@ -85,10 +85,12 @@ class Manifest:
         if self._unsaved:
             self.save()
 
-    def forget_others(self, keep: set[str]) -> list[str]:
+    def forget_others(self, keep: set[str], mine=lambda name: True) -> list[str]:
         """Drop the entries of files not in `keep` (an animation shorter than the last
-        run's); returns their names, so that the files can go too."""
-        stale = sorted(name for name in self.entries if name not in keep)
+        run's) of those that `mine(name)` says the caller made; returns their names, so
+        that the files can go too. The others are another command's (a sweep's or a
+        batch's into the same directory: an animation deleted them)."""
+        stale = sorted(name for name in self.entries if name not in keep and mine(name))
         for name in stale:
             del self.entries[name]
         if stale:

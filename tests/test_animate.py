@@ -134,6 +134,23 @@ def test_resume_renders_only_missing_or_broken_frames(capsys, tmp_path, ball):
     assert [p.read_bytes() for p in frames(out)] == [v[0] for _, v in sorted(after.items())]
 
 
+def test_an_animation_removes_only_its_own_earlier_frames(capsys, tmp_path, ball):
+    """The directory's list of outputs made (.pcsg-done.json) is shared with sweeps and
+    batches: an animation deleted every file in it that was not one of its frames (a
+    sweep's two images into the same directory, say). Its own surplus frames still go."""
+    out = tmp_path / "a"
+    assert main(["sweep", str(ball), "--set", "r=1..2", "-o", str(out), *TINY]) == 0
+    swept = sorted(p.name for p in out.glob("ball_r=*.png"))
+    assert swept == ["ball_r=1.png", "ball_r=2.png"]
+    assert animate(capsys, ball, out, "--frames", "3", "--jobs", "1")[0] == 0
+    assert animate(capsys, ball, out, "--frames", "2", "--jobs", "1")[0] == 0
+    assert [p.name for p in frames(out)] == ["frame_0000.png", "frame_0001.png"]
+    assert sorted(p.name for p in out.glob("ball_r=*.png")) == swept
+    # and a rerun of the sweep still finds them complete
+    assert main(["sweep", str(ball), "--set", "r=1..2", "-o", str(out), *TINY[:-1]]) == 0
+    assert "rendered 0 of 2 images" in capsys.readouterr().out
+
+
 def test_changed_options_or_source_render_again(capsys, tmp_path, ball):
     out = tmp_path / "a"
     args = ("--frames", "3", "--jobs", "1")

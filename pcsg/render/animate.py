@@ -246,7 +246,8 @@ def animate(anim: Animation) -> int:
         raise BadAnimation(f"-o {anim.out_dir}: {problem}")
     manifest = Manifest(anim.out_dir)
     gif = {f"{anim.source.stem}.gif"} if anim.gif else set()
-    for name in manifest.forget_others({j.png.name for j in jobs} | gif):
+    ours = re.compile(rf"frame_[0-9]+\.png|{re.escape(anim.source.stem)}\.gif")
+    for name in manifest.forget_others({j.png.name for j in jobs} | gif, ours.fullmatch):
         # frames of a longer earlier run, and the GIF of an earlier run where this one
         # writes none (kept till it is written again: a frame may fail)
         (anim.out_dir / name).unlink(missing_ok=True)
