@@ -621,6 +621,50 @@ def test_scheduler_addresses_dask_takes_pass(address):
     assert _scheduler(address) == address
 
 
+def _server(reply: bytes | None):
+    """A loopback server that sends `reply` to each connection (None: nothing, and keeps
+    it open); its tcp:// address."""
+    import socket
+    import threading
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(4)
+    held = []
+
+    def serve():
+        while True:
+            try:
+                c, _ = srv.accept()
+            except OSError:
+                return
+            held.append(c)
+            if reply is not None:
+                c.sendall(reply)
+    threading.Thread(target=serve, daemon=True).start()
+    return f"tcp://127.0.0.1:{srv.getsockname()[1]}", srv
+
+
+@pytest.mark.parametrize("reply, said", [
+    (b"HTTP/1.1 400 Bad Request\r\n\r\n", "it is not a Dask scheduler (it answered "
+                                           "'HTTP/1.1'..., a web server?)"),
+    (None, "it accepted the connection but sent nothing within 0.3 s"),
+    (b"", None),     # closed at once below
+    ((300).to_bytes(8, "little") + b"x" * 300, None),     # a handshake's length: may be one
+])
+def test_a_scheduler_that_is_no_dask_scheduler_is_said(reply, said):
+    """Dask's client read a web server's reply as a message length and asked for 3 EiB
+    (an internal error, MemoryError), and waited without end on one that says nothing."""
+    from pcsg.distributed.cluster import not_a_scheduler
+    address, srv = _server(reply)
+    try:
+        if reply == b"":
+            srv.close()                 # nothing listens: Dask's own connect says so
+        got = not_a_scheduler(address, wait=0.3)
+        assert got == said if said is None else said in got
+    finally:
+        srv.close()
+
+
 def test_a_negative_vector_after_its_option_is_its_value(capsys, tmp_path):
     # argparse took `--eye -3,2,1` for an option: "expected one argument"; the camera at
     # negative x could be placed only as --eye=-3,2,1

@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import logging
 import os
+import socket
+import struct
 
 INSTALL_HINT = ("--workers and --scheduler need Dask: pip install 'pcsg[dask]' "
                 "(in this repository: bash tools/test.sh sets up .venv with it)")
 RETRIES = 2             # a task that raised runs again, elsewhere if need be
 LOCAL = "this process"
+PROBE_WAIT = 10.0       # seconds for a --scheduler to open with its handshake
+MAX_HANDSHAKE = 1 << 20  # bytes: a scheduler's handshake is a few hundred
 
 
 class ClusterUnavailable(Exception):
@@ -84,6 +88,8 @@ def connect(workers: int | None = None, scheduler: str | None = None) -> DaskRun
     require_dask()
     from distributed import Client, LocalCluster
     if scheduler:
+        if problem := not_a_scheduler(scheduler):
+            raise ClusterUnavailable(f"--scheduler {scheduler}: {problem}")
         try:
             client = Client(scheduler, timeout="20s")
         except (OSError, TimeoutError) as e:
@@ -101,6 +107,41 @@ def connect(workers: int | None = None, scheduler: str | None = None) -> DaskRun
                            silence_logs=logging.CRITICAL,   # no tracebacks at shutdown
                            env={"NUMBA_NUM_THREADS": str(threads)})
     return DaskRunner(Client(cluster), cluster)
+
+
+def not_a_scheduler(address: str, wait: float = PROBE_WAIT) -> str | None:
+    """Why a tcp:// address is no Dask scheduler, by the first bytes it sends on
+    connecting (a scheduler opens with its handshake: a message of a few hundred bytes,
+    its length first, 8 bytes little-endian); None where it may be one, or where the
+    scheme is not tcp. Dask's client read an HTTP server's reply as that length and
+    asked for 3 EiB (an internal error, MemoryError), and waited without end on a server
+    that says nothing first (its timeout covers the connection, not the handshake)."""
+    scheme, _, rest = address.partition("://")
+    if scheme != "tcp":
+        return None
+    host, _, port = rest.rpartition(":")
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=wait) as s:
+            s.settimeout(wait)
+            head = b""
+            while len(head) < 8:
+                more = s.recv(8 - len(head))
+                if not more:
+                    break
+                head += more
+    except socket.timeout:
+        return (f"it accepted the connection but sent nothing within {wait:g} s, as a Dask "
+                f"scheduler would at once: is it one?")
+    except OSError:
+        return None         # Dask's own connect says why, after its retries
+    if len(head) < 8:
+        return "it closed the connection at once: it is not a Dask scheduler"
+    (length,) = struct.unpack("<Q", head)
+    if not 0 < length <= MAX_HANDSHAKE:
+        start = head.decode("latin-1")
+        return (f"it is not a Dask scheduler (it answered {start!r}..."
+                f"{', a web server?' if start.startswith('HTTP') else ''})")
+    return None
 
 
 def _pcsg_version() -> str:
