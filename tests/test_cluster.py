@@ -129,6 +129,25 @@ def test_sweep_on_a_local_cluster_of_its_own(capfd, tmp_path):
     assert (out / "sierpinski_c=3.png").read_bytes() == (tmp_path / "c3.png").read_bytes()
 
 
+def test_ctrl_c_at_a_terminal_stops_a_cluster_render_without_the_workers_tracebacks(tmp_path):
+    """A terminal's Ctrl-C reaches the whole process group: each worker of --workers
+    printed the traceback of its KeyboardInterrupt beside `pcsg: interrupted`."""
+    import subprocess
+    import sys
+    import time
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pcsg", "sweep", SIERPINSKI, "--set", "c=1..40", "--size",
+         "320x240", "--samples", "16", "-q", "-o", str(tmp_path / "s"), "--workers", "2"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True, text=True)
+    deadline = time.monotonic() + 120
+    while not list((tmp_path / "s").glob("*.png")) and time.monotonic() < deadline:
+        time.sleep(0.1)                 # the cluster is up and rendering
+    os.killpg(proc.pid, signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "pcsg: interrupted" in err and "Traceback" not in err, err
+
+
 def test_animation_frames_on_the_cluster(capsys, tmp_path, scheduler):
     """`pcsg animate --scheduler`: each frame a task; the frames and the animated PNG are
     byte for byte those of the frames rendered here, and a rerun reuses them all."""

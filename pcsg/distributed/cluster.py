@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import os
+import signal
 import socket
 import struct
 
@@ -102,10 +103,17 @@ def connect(workers: int | None = None, scheduler: str | None = None) -> DaskRun
         return DaskRunner(client)
     # one thread per worker process: numba's own threads share the cores among the workers
     threads = max(1, (os.cpu_count() or 1) // workers)
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                           host="127.0.0.1", dashboard_address=":0",   # not 8787: it may be taken
-                           silence_logs=logging.CRITICAL,   # no tracebacks at shutdown
-                           env={"NUMBA_NUM_THREADS": str(threads)})
+    # the worker processes start with SIGINT ignored, which Python keeps so: a Ctrl-C at
+    # a terminal reaches the whole process group, and each worker printed the traceback
+    # of its KeyboardInterrupt beside `pcsg: interrupted`; this process closes them
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               host="127.0.0.1", dashboard_address=":0",   # not 8787: taken?
+                               silence_logs=logging.CRITICAL,   # no tracebacks at shutdown
+                               env={"NUMBA_NUM_THREADS": str(threads)})
+    finally:
+        signal.signal(signal.SIGINT, previous)
     return DaskRunner(Client(cluster), cluster)
 
 
