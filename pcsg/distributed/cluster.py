@@ -91,6 +91,7 @@ def connect(workers: int | None = None, scheduler: str | None = None) -> DaskRun
     if scheduler:
         if problem := not_a_scheduler(scheduler):
             raise ClusterUnavailable(f"--scheduler {scheduler}: {problem}")
+        _silence_dask()
         try:
             client = Client(scheduler, timeout="20s")
         except (OSError, TimeoutError) as e:
@@ -115,6 +116,16 @@ def connect(workers: int | None = None, scheduler: str | None = None) -> DaskRun
     finally:
         signal.signal(signal.SIGINT, previous)
     return DaskRunner(Client(cluster), cluster)
+
+
+def _silence_dask():
+    """Dask's client logged its own tracebacks where the scheduler went away mid-run;
+    each image that fails says so (batch.py), as a LocalCluster's logs are silenced
+    (silence_logs). Its loggers' records all reach the handler of "distributed", whose
+    own loggers keep levels of their own."""
+    for handler in logging.getLogger("distributed").handlers:
+        if isinstance(handler, logging.StreamHandler):
+            handler.setLevel(logging.CRITICAL)
 
 
 def not_a_scheduler(address: str, wait: float = PROBE_WAIT) -> str | None:
