@@ -129,11 +129,13 @@ def distance(is_julia, args, row, x, y, z):
 
 
 @kernel
-def march(is_julia, args, row, ox, oy, oz, dx, dy, dz, tmin, tmax, lod, lod0, out):
+def march(is_julia, args, row, ox, oy, oz, dx, dy, dz, tmin, tmax, lod, lod0, scale, out):
     """The first surface of the line o + t d with t in (tmin, tmax]: out[0] = out[1] = t
     and out[2:5] = out[5:8] = the gradient there (object frame). False if none.
     args[row] holds the arguments and the bounding radius (A_R). The ray's footprint
-    is (lod0 + lod t) |d|: lod0 > 0 for a ray that leaves a surface seen by a pixel."""
+    is (lod0 + lod t) scale in object units: lod0 > 0 for a ray that leaves a surface seen
+    by a pixel; scale the object units of a world unit, |d| where the map is uniform
+    (walk.footprint_scale)."""
     dd = math.sqrt(dx * dx + dy * dy + dz * dz)
     if not (dd > 0.0 and dd < math.inf and abs(ox) < math.inf and abs(oy) < math.inf
             and abs(oz) < math.inf):
@@ -151,8 +153,8 @@ def march(is_julia, args, row, ox, oy, oz, dx, dy, dz, tmin, tmax, lod, lod0, ou
     end = min(-b + half, tmax)
     if not t <= end:
         return False
-    foot = 0.5 * lod * dd                                    # object units per unit t
-    base = 0.5 * lod0 * dd
+    foot = 0.5 * lod * scale                                 # object units per unit t
+    base = 0.5 * lod0 * scale
     # A ray that starts on the surface (a shadow or reflected ray) sees only what is
     # ahead: it steps out until the estimate clears the threshold, for a few thresholds
     # at most, so that it cannot slide through the solid it starts on.

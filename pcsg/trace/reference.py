@@ -101,7 +101,7 @@ def _intersect_many(code, O, D, out, hit):
 def _march_many(is_julia, args, O, D, tmin, tmax, out, hit):
     for k in range(O.shape[0]):
         hit[k] = fractals.march(is_julia, args, 0, O[k, 0], O[k, 1], O[k, 2],
-                                D[k, 0], D[k, 1], D[k, 2], tmin, tmax, 0.0, 0.0, out[k])
+                                D[k, 0], D[k, 1], D[k, 2], tmin, tmax, 0.0, 0.0, 1.0, out[k])
 
 
 class Reference:

@@ -18,7 +18,8 @@ from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE
                     PHASE, SLOT, T0, T1, axis_aligned, cheap_operand, child_hash,
                     copy_frame, culprit, enter_paint, enter_transform, note, pick_rule,
                     pops_before, cached_calc)
-from .normals import world_diameter, world_normal, world_size, average_box_normal
+from .normals import (average_box_normal, footprint_scale, world_diameter, world_normal,
+                      world_size)
 from .windows import (entry_window, instance_slot, operand_entry, node_window, instance_window,
                       operand_slot, state_window, volume_window, volume_normal)
 from .deferred import defer_step, deferred_paint
@@ -356,7 +357,9 @@ def hit_primitive(flat, node, R, r, F, I, H, f, params, tmin, t1, best, lod, con
         # marched from tmin, not t0, so that the reference finds the same steps
         found = march(code == JULIA, flat.fractal, node, R[r, OX], R[r, OX + 1],
                       R[r, OX + 2], R[r, DX], R[r, DX + 1], R[r, DX + 2], tmin, t1,
-                      lod, cone / dnorm, out8)
+                      lod, cone / dnorm,
+                      footprint_scale(F, f, R[r, DX], R[r, DX + 1], R[r, DX + 2], dnorm),
+                      out8)
     else:
         found = intersect(code, R[r, OX], R[r, OX + 1], R[r, OX + 2],
                           R[r, DX], R[r, DX + 1], R[r, DX + 2], out8)
