@@ -49,7 +49,7 @@ class _Expander:
         self.uses = 0
         self.defines: list[tuple[int, int]] = []
 
-    def emit(self, start: int, end: int, uses: tuple):
+    def emit(self, start: int, end: int, uses: tuple | None):
         if end <= start:
             return
         self.pieces.append(Piece(self.length, start, uses))
@@ -73,8 +73,12 @@ class _Expander:
             if name not in self.used:
                 self.warn(macro.defined, f"macro '{name}' is never used", "unused")
 
-    def expand(self, start: int, end: int, uses: tuple, active: frozenset, top: bool):
-        """Copy text[start:end], replacing macro names (and, at top level, consuming #define)."""
+    def expand(self, start: int, end: int, uses: tuple | None, active: set, top: bool):
+        """Copy text[start:end], replacing macro names (and, at top level, consuming
+        #define). `uses` is a chain of the macro uses this text is inside, innermost first
+        (Piece.uses), `active` the macros being expanded, each left out of its own text.
+        Both grow by one where a use nests, in place: copied at every level, a chain of
+        10,000 macros each naming the one before held a copy per level, 2.8 GB."""
         text, pos = self.text, start
         while pos < end:
             m = _TOKEN.search(text, pos, end)
@@ -103,8 +107,10 @@ class _Expander:
                 if self.uses > MAX_USES:
                     raise _TooLarge
                 self.emit(pos, m.start(), uses)
-                inner = ((macro.name, m.start(), macro.defined),) + uses
-                self.expand(*macro.body, inner, active | {macro.name}, top=False)
+                inner = ((macro.name, m.start(), macro.defined), uses)
+                active.add(macro.name)
+                self.expand(*macro.body, inner, active, top=False)
+                active.discard(macro.name)
                 # An empty expansion still marks its place, so errors can point at the use.
                 self.pieces.append(Piece(self.length, m.start(), uses))
                 pos = m.end()
@@ -254,7 +260,7 @@ def preprocess(text: str, file: str) -> tuple[Source, list[Diagnostic]]:
     source = Source(file, text)
     ex = _Expander(text, source)
     try:
-        ex.expand(0, len(text), (), frozenset(), top=True)
+        ex.expand(0, len(text), None, set(), top=True)
         ex.unused()
     except _TooLarge:
         ex.errors.append(Diagnostic(

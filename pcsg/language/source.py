@@ -28,12 +28,14 @@ class Location:
 class Piece:
     """Expanded text [start, start+len) is a copy of original text from `origin`.
 
-    `uses` lists, innermost macro first, (macro name, offset of the use,
-    offset of the definition's name) for text that came out of a macro body.
+    `uses` chains, innermost macro first, (macro name, offset of the use,
+    offset of the definition's name) for text that came out of a macro body: a pair
+    (that use, the chain of the uses around it), None outside any macro, so that nested
+    uses share their tails (Source.macro_uses lists them).
     """
     start: int
     origin: int
-    uses: tuple = ()
+    uses: tuple | None = None
 
 
 @dataclass
@@ -90,8 +92,14 @@ class Source:
         return p.origin + (expanded_offset - p.start)
 
     def macro_uses(self, expanded_offset: int) -> tuple:
+        """(macro name, offset of the use, offset of its definition) of each macro use
+        the text at `expanded_offset` came out of, innermost first."""
         p = self._piece(expanded_offset)
-        return p.uses if p else ()
+        out, chain = [], p.uses if p else None
+        while chain is not None:
+            out.append(chain[0])
+            chain = chain[1]
+        return tuple(out)
 
     def locate(self, expanded_offset: int) -> Location:
         """Where the user should look: for macro text, the outermost place of use."""
