@@ -13,6 +13,7 @@ import os
 import re
 import sys
 import time
+import warnings
 from pathlib import Path
 
 IMPORTS_BEGAN = time.perf_counter()     # for --timings: the imports start here
@@ -496,7 +497,7 @@ NOT_A_SCENE = {**dict.fromkeys((".png", ".gif", ".jpg", ".jpeg", ".bmp", ".tga",
 
 def cmd_export(args) -> int:
     from .povray import export_pov
-    from .render.camera import make_camera
+    from .render.camera import CameraError, make_camera
     from .render.shade import make_lighting
     from .tracer import Traced
     out = Path(args.pov)
@@ -516,14 +517,25 @@ def cmd_export(args) -> int:
     start = time.perf_counter()
     graph = _compile(args.file, args.overrides)
     _report(None, graph.warnings)
+    total = None
+    if args.max_depth is None:
+        # counted before the bounds, so that a scene too large is refused at once (one of
+        # 27e9 primitives walked its bounds for 96 s first); a cut is counted as it derives
+        total = _export_total(graph, None)
+        _export_fits(args, out, total)
     traced = Traced(graph, args.max_depth)
     cut = _export_cut(args, traced)
     w, h = args.size
-    camera = make_camera(traced, w / h)
+    try:
+        camera = make_camera(traced, w / h)
+    except CameraError as e:        # an object too large to frame: as render says it
+        print(f"pcsg export: {args.file}: {e}", file=sys.stderr)
+        return EXIT_ERRORS
     lighting = make_lighting(traced, camera, not args.no_shadows, args.shadow_samples,
                              args.bounces)
-    total = _export_total(graph, cut)
-    _export_fits(args, out, total)
+    if total is None:
+        total = _export_total(graph, cut)
+        _export_fits(args, out, total)
     progress = _export_progress(args, total)
     try:
         count, empty, dropped = export_pov(traced, camera, lighting, out, args.size,
@@ -595,11 +607,11 @@ def _export_fits(args, out: Path, total: int):
     268 million primitives, filled 15 GB of a temporary file in ten minutes and said
     nothing), and past EXPORT_LIMIT one POV-Ray could not hold, unless --force."""
     if total > EXPORT_LIMIT and not args.force:
-        _too_many(args, f"has {total:,} primitives, a scene of {_bytes(total * 150)} or so "
-                        f"that POV-Ray needs about {total / 1e6:.0f} GB of memory to parse")
+        _too_many(args, f"has {_count(total)} primitives, a scene of {_bytes(total * 150)} or "
+                        f"so that POV-Ray needs about {_bytes(total * 1000)} of memory to parse")
     free = _free(out)
     if free is not None and total * BYTES_AT_LEAST > free:
-        raise UsageError(f"--pov {out}: the {total:,} primitives take at least "
+        raise UsageError(f"--pov {out}: the {_count(total)} primitives take at least "
                          f"{_bytes(total * BYTES_AT_LEAST)}, and its disk has {_bytes(free)} free")
 
 
@@ -641,8 +653,24 @@ def _free(out: Path) -> int | None:
     return usage.free if usage.total else None
 
 
-def _bytes(n: float) -> str:
-    return f"{n / 1e9:.1f} GB" if n >= 1e9 else f"{n / 1e6:.1f} MB"
+def _count(n: int) -> str:
+    """A count of primitives: written out, or past 10^15 by its power of ten."""
+    if n < 10 ** 15:
+        return f"{n:,}"
+    digits = len(str(n))
+    return f"about {n // 10 ** (digits - 3) / 100:.2f}e{digits - 1}"
+
+
+def _bytes(n: int | float) -> str:
+    """A size for people: MB, GB, TB, and past a petabyte by its power of ten (Sierpinski
+    at 510 has 1.1e307 primitives, an int no float holds: an internal error here)."""
+    if n >= 10 ** 15:
+        digits = len(str(int(n)))
+        return f"about {int(n) // 10 ** (digits - 3) / 100:.2f}e{digits - 1 - 9} GB"
+    for unit, size in (("TB", 10 ** 12), ("GB", 10 ** 9)):
+        if n >= size:
+            return f"{n / size:.1f} {unit}"
+    return f"{n / 1e6:.1f} MB"
 
 
 def _export_progress(args, total: int):
@@ -663,6 +691,10 @@ FILE_COMMANDS = ("render", "sweep", "animate", "export")     # stdout: status li
 
 def main(argv: list[str] | None = None) -> int:
     redeliver_in_finalizers()
+    # numpy's overflow and invalid-value warnings in pcsg's own arithmetic (the bounds of
+    # `xshear(1e308, 1e308) sphere`) printed a source line to the user: the maps that
+    # empty an instance are warned of in pcsg's own words (bounds.fault_warnings)
+    warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"pcsg\.")
     args = parser().parse_args(argv)
     if args.command not in FILE_COMMANDS:
         return _run(args)

@@ -195,6 +195,30 @@ def test_a_scene_past_what_povray_holds_is_refused_at_once(tmp_path, capsys):
     assert not out.exists() and list(tmp_path.iterdir()) == []
 
 
+def test_a_scene_past_what_a_float_holds_is_refused_before_its_bounds(tmp_path, capsys,
+                                                                     monkeypatch):
+    """Sierpinski at 510: 1.1e307 primitives, an int no float holds; its size was an
+    internal error (OverflowError). And the count comes before the bounding walk (a
+    system of 27e9 primitives walked its bounds for 96 s before it was refused)."""
+    walked = []
+    monkeypatch.setattr("pcsg.tracer.Traced.__init__", lambda *a, **k: walked.append(a))
+    out = tmp_path / "s.pov"
+    assert main(["export", str(SIERPINSKI), "--set", "c=510", "--pov", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "the derivation has about 1.12e307 primitives, a scene of about 1.68e300 GB" in err
+    assert "--force" in err and not walked and not out.exists()
+
+
+def test_an_object_too_large_to_frame_is_said_as_render_says_it(tmp_path, capsys):
+    """export's camera error was an internal error (exit 3); render's is exit 1."""
+    src = tmp_path / "shear.pcsg"
+    src.write_text("xshear(1e300, 0) sphere\n", encoding="utf-8")
+    assert main(["export", str(src), "--pov", str(tmp_path / "s.pov")]) == 1
+    err = capsys.readouterr().err
+    assert f"pcsg export: {src}: the object's box" in err and "too large to frame" in err
+    assert not (tmp_path / "s.pov").exists()
+
+
 def test_a_scene_the_disk_cannot_hold_is_refused_even_with_force(tmp_path, capsys,
                                                                  monkeypatch):
     import shutil
