@@ -378,3 +378,22 @@ def test_a_module_and_a_parameter_of_one_name_is_a_warning():
     [w] = graph.warnings
     assert "'N' is both a module and a parameter" in w.message and w.span[0] == 1
     assert count_by_primitive(graph) == {"cube": 1, "sphere": 1}
+
+
+def test_the_memoised_bounds_ask_the_poll_as_they_go():
+    """bound()'s poll (--timeout, and the Ctrl-C check) was asked by the walk of every
+    instance only: the memoised walks of a deep chain ran for a minute past --timeout."""
+    from pcsg.graph import bounds
+    graph = compile_text("{c = 3000} S\nS if(c > 0, 2, 1)\n1: S → sphere\n"
+                         "2: S → {c = c-1} (uscale(0.999) S ∪ move(1,0,0) uscale(0.5) sphere)\n")
+    asked = []
+    found = bounds.bound(graph, 4000, poll=lambda visits, expected: asked.append(visits))
+    assert found[1] == bounds.MEMOISED and len(asked) >= 2
+
+    class Stop(Exception):
+        pass
+
+    def stop(visits, expected):
+        raise Stop
+    with pytest.raises(Stop):
+        bounds.bound(graph, 4000, poll=stop)

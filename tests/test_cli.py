@@ -648,7 +648,6 @@ def _server(reply: bytes | None):
     (b"HTTP/1.1 400 Bad Request\r\n\r\n", "it is not a Dask scheduler (it answered "
                                            "'HTTP/1.1'..., a web server?)"),
     (None, "it accepted the connection but sent nothing within 0.3 s"),
-    (b"", None),     # closed at once below
     ((300).to_bytes(8, "little") + b"x" * 300, None),     # a handshake's length: may be one
 ])
 def test_a_scheduler_that_is_no_dask_scheduler_is_said(reply, said):
@@ -657,12 +656,18 @@ def test_a_scheduler_that_is_no_dask_scheduler_is_said(reply, said):
     from pcsg.distributed.cluster import not_a_scheduler
     address, srv = _server(reply)
     try:
-        if reply == b"":
-            srv.close()                 # nothing listens: Dask's own connect says so
         got = not_a_scheduler(address, wait=0.3)
         assert got == said if said is None else said in got
     finally:
         srv.close()
+
+
+def test_a_scheduler_address_where_nothing_listens_is_left_to_dasks_connect():
+    import socket
+    from pcsg.distributed.cluster import not_a_scheduler
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))            # bound, never listening: refused
+        assert not_a_scheduler(f"tcp://127.0.0.1:{s.getsockname()[1]}", wait=0.3) is None
 
 
 def test_a_negative_vector_after_its_option_is_its_value(capsys, tmp_path):
@@ -1004,3 +1009,16 @@ def test_an_ao_distance_must_be_positive_and_finite(capsys, sierpinski, tmp_path
     assert main(["render", str(sierpinski), "-o", str(tmp_path / "s.png"), "--size", "16x12",
                  "--ao", "2", f"--ao-distance={value}"]) == 2
     assert "give a positive finite distance" in capsys.readouterr().err
+
+
+def test_numpys_warnings_do_not_reach_the_user(tmp_path):
+    """Overflow in the bounds of a huge shear printed numpy's RuntimeWarning and its
+    source line (pytest records warnings itself, so a process of its own shows it)."""
+    src = tmp_path / "rw.pcsg"
+    src.write_text("#camera eye=(4,-5,3) at=(0,0,0)\nsphere ∪ xshear(1e308, 1e308) sphere\n",
+                   encoding="utf-8")
+    r = subprocess.run([sys.executable, "-m", "pcsg", "render", str(src), "--size", "16x12",
+                        "-q", "-o", str(tmp_path / "rw.png")], capture_output=True, text=True,
+                       timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert "RuntimeWarning" not in r.stderr and "Warning" not in r.stderr, r.stderr

@@ -11,6 +11,8 @@ own heights), the numba walk in pcsg.trace.boxwalk visits every instance.
 """
 from __future__ import annotations
 
+from contextvars import ContextVar
+
 import numpy as np
 
 from ..language.errors import Diagnostic, PcsgError
@@ -41,6 +43,8 @@ NOTHING = np.zeros((0, 3))
 # any threshold between 1/16 and 16 million pixels, within a factor 1.5
 PIXEL_PROBES = (0.0, *(m * 2.0 ** k for k in range(-4, 25) for m in (1.0, 1.5)), np.inf)
 SEED = np.zeros((1, 3))         # a point: a graftal's growth starts there
+POLL = ContextVar("bounds_poll", default=None)   # bound()'s poll, for the walkers it makes
+POLL_EVERY = 1024               # new states between two asks of it
 MEMOISED = "memoised"
 ANY_RULE = "any rule"           # memoised, with every rule of each selection (_any_rule)
 
@@ -206,6 +210,10 @@ class _Walker:
         # S-nodes whose maps do not contract and which derive no primitive (voids_of):
         # bounded as empty, so nothing of them is walked or drawn
         self.voids: frozenset = frozenset()
+        # bound()'s poll (--timeout, Ctrl-C's check), asked every POLL_EVERY new states:
+        # rounds of 5,000 states each, and tries of several walkers, ran for a minute
+        self.poll = POLL.get()
+        self.states = 0
         self.reset()
 
     def reset(self):
@@ -242,6 +250,9 @@ class _Walker:
                 (len(self.memo) >= self.probe and self.hits < len(self.memo) // 50):
             raise TooManyStates
         self.active.add(key)
+        self.states += 1
+        if self.poll is not None and self.states % POLL_EVERY == 0:
+            self.poll(self.states, None)
         finishes = n.kind == SELECT and self.finishing.get(i, -1) >= 0
         outer, self.deepest = self.deepest, (level if finishes else -1)
         if n.kind == SELECT:
@@ -649,6 +660,15 @@ def hyper_boxes(graph: Graph, max_depth: int = 64):
 
 def bound(graph: Graph, max_depth: int | None = MAX_DEPTH, budget: int = BOUNDS_BUDGET,
           poll=None, fuse: bool = False):
+    """_bound, with `poll` asked every POLL_EVERY states of the memoised walks too."""
+    token = POLL.set(poll)
+    try:
+        return _bound(graph, max_depth, budget, poll, fuse)
+    finally:
+        POLL.reset(token)
+
+
+def _bound(graph: Graph, max_depth: int | None, budget: int, poll, fuse: bool):
     """hyper_boxes, the instance table (for the memoised method a StateTable or
     None: graph/states.py), for the memoised method the re-entered states'
     final bounds (see _memoised; empty otherwise), the derivation depth the boxes

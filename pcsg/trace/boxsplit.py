@@ -17,6 +17,7 @@ from .jit import share, watched
 
 MAX_ITEMS = 8192            # instances one split level may have
 ITEMS_PER_WORKER = 64       # enough that the threads' shares come out even
+DEEPEST_SPLIT = 64          # levels searched for them: a binary tree has 128 at level 7
 
 
 def items_for(flat, count: int):
@@ -146,7 +147,10 @@ def _split_level(flat, depth: int, budget: int, capacity: int, workers: int, wat
         return got, int(split[2])
 
     best = last = 0
-    for level in range(1, depth + 2):
+    # not past DEEPEST_SPLIT: each level's collect walks every level above it again, and a
+    # chain that never reaches ITEMS_PER_WORKER instances a level (one recursive call and a
+    # sphere, 10,000 deep) took 49 s of quadratic collects, past --timeout and Ctrl-C
+    for level in range(1, min(depth, DEEPEST_SPLIT) + 2):
         got, count = collect(level)
         if got < 0 or count == 0:
             break                   # too many to hold, over budget, or the system ended
