@@ -65,3 +65,25 @@ def test_a_row_whose_states_cull_nothing_is_still_drawn_to_its_end():
     assert pcsg.loads(tight).max_depth == 101
     drawn = pcsg.loads(ROW.format(n=100).replace("move(2, 0, 0)", "move(2, rand() * 0.1, 0)"))
     assert drawn.bounds_method == "memoised" and drawn.max_depth == 101
+
+
+def test_a_counter_that_no_longer_counts_is_drawn_at_pixel_size():
+    """At c = 1e16, c - 1 is c: the state recurs and never selects the terminating rule,
+    so its tetrahedron had no box, and the instances the level of detail finishes with
+    it drew nothing ("no ray met the object"). Drawn now as at c = 40, ray by ray."""
+    import numpy as np
+    import pcsg
+    from pcsg.render.camera import make_camera
+    text = ("{c = 40} S\nS if(c > 0, 2, 1)\n1: S → tetrahedron\n2: S → {c = c-1} ("
+            "move(0.5,0.5,0.5) uscale(0.5) S ∪ move(-0.5,-0.5,0.5) uscale(0.5) S ∪ "
+            "move(0.5,-0.5,-0.5) uscale(0.5) S ∪ move(-0.5,0.5,-0.5) uscale(0.5) S)\n")
+    hits = []
+    for c in (40, 1e16):
+        obj = pcsg.loads(text, c=c)
+        cam = make_camera(obj, 4 / 3)
+        ys, xs = np.mgrid[0:60, 0:80]
+        o, d = cam.rays(80, 60, xs.ravel() + 0.5, ys.ravel() + 0.5)
+        hits.append(obj.trace(o, d, lod=cam.pixel_angle(60)))
+    assert hits[0].hit.sum() > 400
+    assert np.array_equal(hits[0].hit, hits[1].hit)
+    np.testing.assert_array_equal(hits[0].t[hits[0].hit], hits[1].t[hits[1].hit])

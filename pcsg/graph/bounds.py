@@ -358,7 +358,13 @@ def _memoised(graph: Graph, faults: set | None = None, max_depth: int | None = N
     if max_depth is None:
         ends = ends and deepest <= DEEPEST_DEFAULT
         max_depth = max(MAX_DEPTH, deepest + 1) if ends else MAX_DEPTH
-    if deepest >= max_depth:
+    # a state that recurs in a module with a terminating rule (Sierpinski at c=1e16,
+    # where c - 1 is c) may never select that rule, but the level of detail finishes its
+    # sub-pixel instances with it: without its geometry in the bounds they drew nothing
+    finishing, boxes = terminating_rules(graph), found[0]
+    untaken = any(finishing.get(k[0], -1) >= 0 and _empty(
+        boxes[graph.nodes[k[0]].children[finishing[k[0]]]]) for k in found[1])
+    if deepest >= max_depth or untaken:
         (boxes, _, states), _, _ = _memoised_walk(graph, faults, True, voids=voids,
                                                   any_rule=any_rule)
         # no hulls: the bounding spheres of graftals (graph/spheres.py) would be walked
