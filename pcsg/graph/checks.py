@@ -1,8 +1,9 @@
 """Static checks over the cyclic graph (notation §7 and §9)."""
 from __future__ import annotations
 
+import functools
 import math
-from collections import deque
+from collections import Counter, deque
 
 import numpy as np
 
@@ -410,10 +411,16 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
     live = reachable(graph)
     component = components(graph)
     counters = _counters(graph, component)
+    size = Counter(component)
+    reads_parameters = functools.lru_cache(maxsize=None)(
+        lambda i: _reads_parameters(graph, nodes[i]))
+    named_rules = functools.lru_cache(maxsize=None)(lambda i: _named_rules(graph, i))
     out = []
     for m, s in enumerate(nodes):
         if s.kind != SELECT or not live[m] or table.uses_rand(s.exprs[0]):
             continue
+        if size[component[m]] == 1 and m not in s.children:
+            continue             # on no cycle: it cannot call itself
         if graph.pixels >= 0 and PIXELS in table.reads(s.exprs[0]):
             continue             # it ends where the instances become small enough
         reads = {graph.params[p] for p in table.reads(s.exprs[0])}
@@ -422,12 +429,14 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
         # one's own check decides (S → T → S, where T's block counts down what S reads,
         # made T "a graftal"). A module that reads parameters is endless where they never
         # change on a cycle, whatever the modules between choose on the way round.
-        fixed_rule = not _reads_parameters(graph, s)
+        fixed_rule = not reads_parameters(m)
         # a module between that reads a counter of the cycle (n = n - 1 and never set
         # afresh on it) ends it whatever m reads; one that reads a parameter the cycle
         # sets afresh ({d = 20000} ... {d = d - 1}) only delays the way round
         counted = counters[component[m]]
         closing = []             # (parent, child number) of edges that close such a cycle
+        # within m's component: every way back to m runs through it (a chain of 3,000
+        # modules walked all that lay below each one, 50 s)
         seen, stack = {m}, [m]
         while stack:
             i = stack.pop()
@@ -435,16 +444,16 @@ def endless_cycles(graph: Graph) -> list[Diagnostic]:
             if n.kind == CALC and i != m and reads & set(n.targets):
                 continue         # this path changes what the selection reads
             if n.kind == SELECT and i != m and (
-                    (fixed_rule and _reads_parameters(graph, n))
+                    (fixed_rule and reads_parameters(i))
                     or {graph.params[p] for p in table.reads(n.exprs[0])} & counted):
                 continue
-            named = _named_rules(graph, i) if n.kind == SELECT else None
+            named = named_rules(i) if n.kind == SELECT else None
             for k, c in enumerate(n.children):
                 if named is not None and k + 1 not in named:
                     continue     # a rule the selection never names: no cycle through it
                 if c == m:
                     closing.append((i, k))
-                elif c not in seen:
+                elif c not in seen and component[c] == component[m]:
                     seen.add(c)
                     stack.append(c)
         if not closing or not (reads or _written(graph, s)):
