@@ -658,9 +658,9 @@ def _unboundable_voids(graph: Graph, max_depth: int | None):
 
 def hyper_boxes(graph: Graph, max_depth: int = 64):
     """(n, 6) boxes (xmin, ymin, zmin, xmax, ymax, zmax) per node; which method computed
-    them: 'memoised', 'any rule' (ANY_RULE), 'every instance', or 'unbounded' when there were too many instances
-    to visit (then no box culls anything: slow, never wrong); and the runtime errors met
-    on the way (an invalid selection: that instance is empty)."""
+    them: 'memoised', 'any rule' (ANY_RULE), 'every instance', or 'unbounded' when there
+    were too many instances to visit (then no box culls anything: slow, never wrong); and
+    the runtime errors met on the way (an invalid selection: that instance is empty)."""
     return bound(graph, max_depth)[:4]
 
 
