@@ -452,7 +452,7 @@ def cmd_animate(args) -> int:
         # show as 0.1 s, and they slow any delay under 0.02 s so
         raise UsageError(f"--fps {args.fps:g} with --gif: a GIF plays at most {GIF_FPS} "
                          f"frames a second (a frame lasts whole hundredths of a second, two "
-                         f"at least); the animated PNG alone takes up to below 1000")
+                         f"at least); the animated PNG alone takes any rate below 1000")
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs {args.jobs}: give 1 or more")
     if args.path is not None and args.eye is not None:
