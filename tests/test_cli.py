@@ -792,6 +792,16 @@ def test_a_local_sweep_reports_each_image_once(capsys, tmp_path):
     assert "rendered 2 of 2 images" in captured.out
 
 
+def test_a_sweeps_notes_name_their_image(capsys, tmp_path):
+    """Each image's level-of-detail note said the file's name alone."""
+    out = tmp_path / "sweep"
+    assert main(["sweep", str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=5..6", "--size",
+                 "24x18", "-o", str(out), "-q"]) == 0
+    err = capsys.readouterr().err
+    for c in (5, 6):
+        assert f"sierpinski.pcsg (sierpinski_c={c}.png): level of detail: " in err
+
+
 def test_a_sweep_names_itself_and_the_image_that_failed(capsys, tmp_path):
     """--strict's failure of one image said "pcsg render: sel.pcsg: ..." in a sweep."""
     src = tmp_path / "sel.pcsg"

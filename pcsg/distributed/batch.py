@@ -183,8 +183,12 @@ class Batch:
     def _finished(self, job: Job, key: str, notes, seconds: float, rays: int, extra: str):
         if self.manifest and job.opts.depth is None:
             self._manifest(job.out).record(job.out, key)
+        # a sweep's notes name the image too (each of its images said the file's name alone)
+        where = job.label if not job.name or job.name == job.label else \
+            f"{job.label} ({job.name})"
         for note in notes:
-            print(labelled(job.label, note), file=sys.stderr)
+            print(note if note.startswith(f"{job.label}:") else labelled(where, note),
+                  file=sys.stderr)
         print(summary_line(job.out, job.opts, seconds, rays) + extra)
         self.done += 1
 
