@@ -615,15 +615,7 @@ def _any_rule(graph: Graph, max_depth: int | None):
     from .volumes import graftal_nodes
     if not graftal_nodes(graph):
         return None     # a system that ends is bounded as it derives, instance by instance
-    try:
-        with recursion_limit(20 * MAX_LEVELS):
-            (boxes, hulls, states), depth = _memoised(graph, set(), max_depth,
-                                                      any_rule=True)
-    except (TooManyStates, PcsgError):
-        return None
-    # no fault warnings: its instances include some the selections never pick; the
-    # tracer's own walk reports the faults of those they do
-    return boxes, ANY_RULE, [], states, hulls, depth, graph, depth
+    return _memoised_bound(graph, max_depth, [], any_rule=True)
 
 
 def _unboundable_voids(graph: Graph, max_depth: int | None):
@@ -638,22 +630,34 @@ def _unboundable_voids(graph: Graph, max_depth: int | None):
     voids = frozenset(s for s in graftal_nodes(graph) if not _derives_primitive(graph, s))
     if not voids:
         return None
-    faults: set = set()
-    try:
-        with recursion_limit(20 * MAX_LEVELS):
-            (boxes, hulls, states), depth = _memoised(graph, faults, max_depth, voids)
-    except (TooManyStates, PcsgError):
-        return None
-    problems = [Diagnostic(
+    return _memoised_bound(graph, max_depth, [Diagnostic(
         "warning", f"'{graph.nodes[i].name}' is a graftal (no rule of it ends) whose "
         f"instances differ in their maps (values drawn by rand(), or counted): no bounding "
         f"volume found holds them all, and no primitive stands on its cycles, so `render` "
         f"draws nothing of it; give its maps the same arguments in every instance (a "
         f"rand() may pick the rule)", graph.nodes[i].span, graph.source,
-        code="unbounded-graftal") for i in sorted(voids)]
-    problems += fault_warnings(graph, graph, [(k, 0, f) for k, f in sorted(faults)],
-                               counted=False)
-    return boxes, MEMOISED, problems, states, hulls, depth, graph, depth
+        code="unbounded-graftal") for i in sorted(voids)], voids)
+
+
+def _memoised_bound(graph: Graph, max_depth: int | None, problems: list,
+                    voids: frozenset = frozenset(), any_rule: bool = False,
+                    faults: set | None = None):
+    """bound()'s result by the memoised walk (`_memoised`'s arguments), `problems`
+    before the faults of its maps, or None where that walk cannot bound the system. With
+    `any_rule` no fault is said: its instances include some the selections never pick,
+    and the tracer's own walk reports the faults of those they do."""
+    faults = set() if faults is None else faults
+    try:
+        with recursion_limit(20 * MAX_LEVELS):
+            (boxes, hulls, states), depth = _memoised(graph, faults, max_depth, voids,
+                                                      any_rule)
+    except (TooManyStates, PcsgError):
+        return None
+    if not any_rule:
+        problems = problems + fault_warnings(graph, graph, [(k, 0, f) for k, f
+                                                            in sorted(faults)], counted=False)
+    return (boxes, ANY_RULE if any_rule else MEMOISED, problems, states, hulls, depth, graph,
+            depth)
 
 
 def hyper_boxes(graph: Graph, max_depth: int = 64):
@@ -695,19 +699,11 @@ def _bound(graph: Graph, max_depth: int | None, budget: int, poll, fuse: bool):
     except DoesNotContract as found:
         voids = voids_of(graph, found.nodes)
         problems = not_contracting(graph, found, bool(voids))
-        if voids:
-            # nothing to bound and nothing to draw: walked instance by instance, every ray
-            # entered --max-instances instances (a minute at 160x120) and drew nothing
-            try:
-                with recursion_limit(20 * MAX_LEVELS):
-                    (boxes, hulls, states), max_depth = _memoised(graph, faults, max_depth,
-                                                                  voids)
-                problems += fault_warnings(graph, graph, [(k, 0, f) for k, f in sorted(faults)],
-                                           counted=False)
-                return (boxes, MEMOISED, problems, states, hulls, max_depth, graph,
-                        max_depth)
-            except (TooManyStates, PcsgError):
-                pass
+        # nothing to bound and nothing to draw: walked instance by instance, every ray
+        # entered --max-instances instances (a minute at 160x120) and drew nothing
+        if voids and (found := _memoised_bound(graph, max_depth, problems, voids,
+                                               faults=faults)) is not None:
+            return found
     except TooManyStates:
         if (found := _any_rule(graph, max_depth) or _unboundable_voids(graph, max_depth)) \
                 is not None:
