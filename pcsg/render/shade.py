@@ -12,7 +12,8 @@ import numpy as np
 
 from ..scene import MATERIAL_DEFAULTS
 from ..trace.jit import threads
-from ..trace.shading import GOLDEN, LIGHT_STREAM, M_TRANSMIT, MAX_CROSSINGS, MIN_WEIGHT
+from ..trace.shading import (AO_STREAM, GOLDEN, LIGHT_STREAM, M_TRANSMIT, MAX_CROSSINGS,
+                             MIN_WEIGHT)
 from ..trace.walk import HIT_SHEET, HIT_SHELL
 from ..trace.vm import hash_to_unit_array, splitmix64_array
 from ..tracer import Hits
@@ -232,8 +233,7 @@ def _visibility(traced, light: Lighting, lt: Light, origin: np.ndarray, n: np.nd
     facing = n[:, 0] * ldir[:, 0] + n[:, 1] * ldir[:, 1] + n[:, 2] * ldir[:, 2] > 0.0
     seen = np.zeros(len(origin))
     o = origin[facing]
-    h = splitmix64_array(ids[facing].astype(np.uint64) ^ (LIGHT_STREAM + np.uint64(li)))
-    shift = np.stack([hash_to_unit_array(h), hash_to_unit_array(splitmix64_array(h))], 1)
+    shift = _pixel_shift(ids[facing], LIGHT_STREAM + np.uint64(li))
     glass = bool(len(light.materials)) and bool((light.materials[:, M_TRANSMIT] > 0).any())
     for k in range(samples if len(o) else 0):
         # one sample: the light is a point at its centre
@@ -290,13 +290,26 @@ def _through_glass(traced, light: Lighting, o: np.ndarray, target: np.ndarray):
     return out
 
 
+def _pixel_shift(ids: np.ndarray, stream: np.uint64) -> np.ndarray:
+    """Each pixel's shift (m, 2) of a sample pattern, from its id in one stream (the
+    kernel's trace/shading.pixel_shift)."""
+    h = splitmix64_array(ids.astype(np.uint64) ^ stream)
+    return np.stack([hash_to_unit_array(h), hash_to_unit_array(splitmix64_array(h))], 1)
+
+
+def _shifted(k: int, n: int, shift: np.ndarray) -> np.ndarray:
+    """Point k of n of the pattern in the unit square for each row of `shift` (the
+    kernel's trace/shading.shifted)."""
+    uv = np.stack([(k + 0.5) / n + shift[:, 0], k * GOLDEN + shift[:, 1]], 1)
+    return uv - np.floor(uv)
+
+
 def _disk(k: int, n: int, radius: float, shift: np.ndarray, normal: np.ndarray
           ) -> np.ndarray:
     """Sample k of n on a disk of `radius` facing each normal, shifted by each row of
     `shift` mod 1 (the kernel's trace/shading.disk, which says why): the same points
     every render, deterministic soft shadows."""
-    uv = np.stack([(k + 0.5) / n + shift[:, 0], k * GOLDEN + shift[:, 1]], 1)
-    uv -= np.floor(uv)
+    uv = _shifted(k, n, shift)
     r = radius * np.sqrt(uv[:, :1])
     a = 2 * math.pi * uv[:, 1:]
     u, v = _basis(normal)
@@ -314,8 +327,7 @@ def _basis(normal: np.ndarray):
 def _unoccluded(traced, light: Lighting, origin, normal, ids) -> np.ndarray:
     """The fraction of ao_samples cosine-weighted hemisphere rays about each normal that
     meet nothing within ao_distance: the ambient light a Lambertian point receives."""
-    h = splitmix64_array(ids)
-    shift = np.stack([hash_to_unit_array(h), hash_to_unit_array(splitmix64_array(h))], 1)
+    shift = _pixel_shift(ids, AO_STREAM)
     seen = np.zeros(len(origin))
     for k in range(light.ao_samples):
         hit = traced.trace(origin, _hemisphere(k, light.ao_samples, shift, normal), tmin=1e-9,
@@ -329,8 +341,7 @@ def _hemisphere(k: int, n: int, shift: np.ndarray, normal: np.ndarray) -> np.nda
     """Direction k of n about each unit normal, cosine weighted: a pattern stratified in
     elevation with golden-ratio azimuths, shifted by each row of `shift` mod 1 (the
     kernel's trace/shading.hemisphere, which says why)."""
-    uv = np.stack([(k + 0.5) / n + shift[:, 0], k * GOLDEN + shift[:, 1]], 1)
-    uv -= np.floor(uv)
+    uv = _shifted(k, n, shift)
     s, c = np.sqrt(uv[:, :1]), np.sqrt(np.clip(1.0 - uv[:, :1], 0.0, None))
     a = 2 * math.pi * uv[:, 1:]
     u, v = _basis(normal)

@@ -52,8 +52,9 @@ M_TRANSMIT = 8              # the material table's transmit column (shade.FINISH
 # blocked (0.9 ** 16 of it would be left through glass of transmit 0.9)
 MAX_CROSSINGS = 16
 GOLDEN = 0.6180339887498949                    # the pattern's azimuths: k * GOLDEN mod 1
-# an area light's shift per pixel draws from a stream of its own (the hemisphere's is the
-# pixel id's splitmix64), one per light
+# the streams a pixel's shift of a pattern is drawn from (pixel_shift): the hemisphere's,
+# and an area light's, one per light from LIGHT_STREAM on
+AO_STREAM = np.uint64(0)
 LIGHT_STREAM = np.uint64(0x2545F4914F6CDD1D)
 
 
@@ -226,8 +227,7 @@ def occlusion(flat, hits, ao_samples, ao_distance, ids, lod, max_depth, S, P, to
         sh[j, SH_SEEN] = 0.0
     for s in range(ao_samples):
         for j in range(hits):
-            h = splitmix64(np.uint64(ids[int(sh[j, SH_PIX])]))
-            r1, r2 = hash_to_unit(h), hash_to_unit(splitmix64(h))
+            r1, r2 = pixel_shift(ids[int(sh[j, SH_PIX])], AO_STREAM)
             a0, a1, a2 = hemisphere(s, ao_samples, r1, r2, sh[j, SH_N], sh[j, SH_N + 1],
                                     sh[j, SH_N + 2])
             aim(P, j, sh, j, a0, a1, a2)
@@ -287,10 +287,9 @@ def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S,
                 g2 = lights[li, L_POS + 2]
                 if samples > 1:
                     l0, l1, l2 = to_light(lights, li, sh, j)
-                    h = splitmix64(np.uint64(ids[int(sh[j, SH_PIX])])
-                                   ^ (LIGHT_STREAM + np.uint64(li)))
-                    e0, e1, e2 = disk(s, samples, radius, hash_to_unit(h),
-                                      hash_to_unit(splitmix64(h)), l0, l1, l2)
+                    r1, r2 = pixel_shift(ids[int(sh[j, SH_PIX])],
+                                         LIGHT_STREAM + np.uint64(li))
+                    e0, e1, e2 = disk(s, samples, radius, r1, r2, l0, l1, l2)
                     g0 += e0
                     g1 += e1
                     g2 += e2
@@ -468,16 +467,31 @@ def _push(pend, p, k, o0, o1, o2, d0, d1, d2, w0, w1, w2, cone, pix):
 
 
 @kernel
+def pixel_shift(pixel_id, stream):
+    """A pixel's shift (r1, r2) of a sample pattern, from its id in one stream."""
+    h = splitmix64(np.uint64(pixel_id) ^ stream)
+    return hash_to_unit(h), hash_to_unit(splitmix64(h))
+
+
+@kernel
+def shifted(k, n, r1, r2):
+    """Point k of n of the pattern in the unit square, stratified in u, golden-ratio
+    steps in v, shifted by (r1, r2) mod 1 (shade._shifted is its numpy)."""
+    u = (k + 0.5) / n + r1
+    u -= math.floor(u)
+    v = k * GOLDEN + r2
+    v -= math.floor(v)
+    return u, v
+
+
+@kernel
 def disk(k, n, radius, r1, r2, x, y, z):
     """shade._disk: sample k of n on a disk of `radius` facing (x, y, z): stratified in
     area, golden-ratio angles, shifted by (r1, r2) mod 1 as the hemisphere's pattern is.
     One pattern for every pixel cast n hard shadows, one beside the other, in bands
     across a penumbra (the table tower's at 8 samples); shifted per pixel, they are noise
     that averages to the penumbra."""
-    u = (k + 0.5) / n + r1
-    u -= math.floor(u)
-    v = k * GOLDEN + r2
-    v -= math.floor(v)
+    u, v = shifted(k, n, r1, r2)
     r = radius * math.sqrt(u)
     a = 2 * math.pi * v
     ux, uy, uz, vx, vy, vz = basis(x, y, z)
@@ -492,10 +506,7 @@ def hemisphere(k, n, r1, r2, x, y, z):
     a Lambertian surface receives. The pattern (stratified in elevation, golden-ratio
     azimuths) is shifted by (r1, r2) mod 1 (Cranley-Patterson rotation): stratified
     within a pixel, noise rather than bands across pixels."""
-    u = (k + 0.5) / n + r1
-    u -= math.floor(u)
-    v = k * GOLDEN + r2
-    v -= math.floor(v)
+    u, v = shifted(k, n, r1, r2)
     s, c = math.sqrt(u), math.sqrt(max(1.0 - u, 0.0))
     a = 2 * math.pi * v
     ux, uy, uz, vx, vy, vz = basis(x, y, z)
