@@ -439,7 +439,7 @@ def _distinct(files: list[str], paths: list[Path]) -> list[Path]:
 
 
 def cmd_animate(args) -> int:
-    from .render.animate import Animation, BadAnimation, animate
+    from .render.animate import Animation, BadAnimation, CannotFrame, animate
     opts = _options(args)
     if not 1 <= args.frames <= MAX_FRAMES:
         raise UsageError(f"--frames {args.frames:,}: give 1 to {MAX_FRAMES:,}")
@@ -455,6 +455,11 @@ def cmd_animate(args) -> int:
                          f"at least); the animated PNG alone takes any rate below 1000")
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs {args.jobs}: give 1 or more")
+    if args.jobs is not None and (args.workers is not None or args.scheduler):
+        # the cluster's workers render the frames: --jobs was dropped without a word
+        cluster = "--workers" if args.workers is not None else "--scheduler"
+        raise UsageError(f"--jobs counts local processes and {cluster} renders the frames "
+                         f"on a cluster's workers: give one of them")
     if args.path is not None and args.eye is not None:
         raise UsageError("--eye and --path both place the eye; give one")
     if args.at_path is not None and args.at is not None:
@@ -483,6 +488,9 @@ def cmd_animate(args) -> int:
         failed = animate(anim)
     except BadAnimation as e:
         raise UsageError(str(e)) from None
+    except CannotFrame as e:        # found once the file is compiled: as render says it
+        print(f"pcsg animate: {source}: {e}", file=sys.stderr)
+        return EXIT_ERRORS
     finally:
         if anim.cluster is not None:
             anim.cluster.close()

@@ -287,10 +287,31 @@ def test_the_default_sun_stays_put_while_the_camera_moves(capsys, tmp_path):
     # a GIF is made from every frame at once (the animated PNG a frame at a time)
     (["--frames", "2000", "--gif", "--size", "640x480"], "--gif: 2,000 frames of 640x480"),
     (["--path", "0,0,0.6 0,0,0.6", "--at", "0,0,0.6"], "frame 0 (t = 0): the camera's eye"),
+    # --jobs was dropped without a word
+    (["-j", "2", "--workers", "2"], "--jobs counts local processes and --workers renders"),
+    (["-j", "2", "--scheduler", "tcp://127.0.0.1:1"], "and --scheduler renders the frames"),
 ])
 def test_usage_errors(capsys, tmp_path, ball, extra, message):
     code, stdout, stderr = animate(capsys, ball, tmp_path / "a", *extra)
     assert code == 2 and message in stderr and "Traceback" not in stderr
+
+
+@pytest.mark.parametrize("lit, extra, message", [
+    # without #light, default_light asked the camera's basis outside the try: an internal
+    # error (exit 3)
+    (False, ["--eye", "1e200,0,0"], ": the camera's eye is too far from at"),
+    (True, ["--eye", "1e200,0,0"], ": the camera's eye is too far from at"),
+    # the point looked at is the file's: render says this with exit 1, animate said 2
+    (True, ["--path", "1e200,0,0 0,1e200,0"], ": frame 0 (t = 0): the camera's eye is too far"),
+])
+def test_a_camera_that_cannot_look_at_the_file_is_an_error_in_it(capsys, tmp_path, ball,
+                                                                   lit, extra, message):
+    if not lit:
+        ball.write_text(BALL.replace("#light at=(3,-2,8)\n", ""), encoding="utf-8")
+        assert "#light" not in ball.read_text(encoding="utf-8")
+    code, stdout, stderr = animate(capsys, ball, tmp_path / "a", *extra)
+    assert code == 1 and stderr.startswith(f"pcsg animate: {ball}{message}")
+    assert "Traceback" not in stderr and "internal error" not in stderr
 
 
 def test_a_bad_path_is_an_argument_error(capsys, tmp_path, ball):
@@ -370,3 +391,31 @@ def test_ctrl_c_keeps_finished_frames_and_the_rerun_resumes(tmp_path):
     # every finished frame is reused (but one whose record Ctrl-C cut short, if that struck
     # while the manifest was being written)
     assert reused + rendered == 16 and len(done) - 1 <= reused <= len(done)
+
+
+# rule 3 is no rule: with --strict the frames past t = 1/2 fail
+FAILS_LATE = """#camera eye=(0,-6,3) at=(0,0,0.6) fov=40
+#light at=(3,-2,8)
+{t = 0} S
+S if(t > 0.5, 3, 1)
+1: S → move(t,0,0) sphere
+"""
+
+
+def test_a_failed_frame_writes_no_animation_and_names_the_earlier_one(capsys, tmp_path):
+    source = tmp_path / "late.pcsg"
+    source.write_text(FAILS_LATE, encoding="utf-8")
+    out = tmp_path / "a"
+    code, stdout, _ = animate(capsys, source, out, "--frames", "2", "-j", "1")
+    assert code == 0 and "; animation " in stdout
+    earlier = (out / "late.png").read_bytes()
+    code, stdout, stderr = animate(capsys, source, out, "--frames", "2", "-j", "1", "--strict",
+                                   "--force")
+    assert code == 1 and "failed: frame_0001.png" in stdout and "--strict" in stderr
+    # the earlier run's animation is kept, as render keeps a picture it could not replace,
+    # and said to be the earlier run's (a user took it for this run's)
+    assert f"no animation written ({out / 'late.png'} is an earlier run's)" in stdout
+    assert (out / "late.png").read_bytes() == earlier
+    (out / "late.png").unlink()
+    code, stdout, _ = animate(capsys, source, out, "--frames", "2", "-j", "1", "--strict")
+    assert code == 1 and "; no animation written; failed: frame_0001.png" in stdout

@@ -36,6 +36,11 @@ class BadAnimation(Exception):
     """An animation that cannot be made as asked (a usage error)."""
 
 
+class CannotFrame(Exception):
+    """A camera that cannot look at the file's object (an error in the file's render, as
+    render says it: exit 1, not a usage error)."""
+
+
 @dataclass
 class Animation:
     source: Path
@@ -68,8 +73,8 @@ def _moves(path) -> bool:
 
 def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
     """Every frame's options; and whether the file assigns t (else only the camera moves).
-    Raises PcsgError for a file with errors, BadAnimation for a still animation or a
-    camera that cannot look."""
+    Raises PcsgError for a file with errors, BadAnimation for a still animation,
+    CannotFrame for a camera that cannot look."""
     from ..compiler import compile_file
     from ..language.files import read_source_text
     from .camera import Camera, CameraError, make_camera
@@ -87,8 +92,9 @@ def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
     w, h = o.size
     try:
         still = make_camera(traced, w / h, o.eye, o.at, o.up, o.fov)
+        still.basis()       # default_light asks for it: a CameraError there was internal
     except CameraError as e:
-        raise BadAnimation(str(e)) from None
+        raise CannotFrame(str(e)) from None
     # the default sun stands where the unmoved camera would put it, in every frame: one
     # that followed the camera path would move the shadows with it
     sun = o.light
@@ -104,7 +110,9 @@ def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
         try:
             Camera(eye, at, still.up, still.fov).basis()
         except ValueError as e:
-            raise BadAnimation(f"frame {i} (t = {t:g}): {e}") from None
+            # options alone placed this camera (as render's --eye and --at): a usage error
+            given = anim.eye_path is not None and (o.at is not None or anim.at_path is not None)
+            raise (BadAnimation if given else CannotFrame)(f"frame {i} (t = {t:g}): {e}") from None
         overrides = {**o.overrides, TIME: t} if timed else o.overrides
         fo = dataclasses.replace(o, overrides=overrides, eye=_floats(eye), at=_floats(at),
                                  up=_floats(still.up), fov=float(still.fov), light=sun,
@@ -292,6 +300,13 @@ def animate(anim: Animation) -> int:
             manifest.record(anim.out_dir / f"{stem}.gif", "animation")
             manifest.flush()
             made += f" and {stem}.gif"
+    else:
+        # kept, as render keeps a picture it could not replace; but it is not this run's
+        earlier = [p for p in (anim.out_dir / f"{anim.source.stem}{e}" for e in (".png", ".gif"))
+                   if p.is_file()]
+        made = "; no animation written" + (
+            f" ({' and '.join(map(str, earlier))} {'is' if len(earlier) == 1 else 'are'} "
+            f"an earlier run's)" if earlier else "")
     seconds = time.perf_counter() - report.start
     unit = "worker" if anim.cluster is not None else "job"
     how = f" with {workers} {unit}{'s' if workers > 1 else ''}" if report.rendered else ""
