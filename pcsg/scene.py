@@ -61,20 +61,21 @@ def camera_degenerate(eye, at, up) -> str | None:
     return None
 
 
-def _camera_problem(camera: dict) -> str | None:
-    """What keeps a #camera with both eye and at from being placed."""
+def _camera_problem(camera: dict) -> tuple[tuple[str, ...], str] | None:
+    """What keeps a #camera with both eye and at from being placed, and the keys at fault
+    (the error points at the last of them that the directive gives)."""
     if not any(camera.get("up", DEFAULT_UP)):
-        return "#camera: up is (0, 0, 0), no direction: give one such as (0, 0, 1)"
+        return ("up",), "#camera: up is (0, 0, 0), no direction: give one such as (0, 0, 1)"
     if "eye" not in camera or "at" not in camera:
         return None
     what = camera_degenerate(camera["eye"], camera["at"], camera.get("up", DEFAULT_UP))
     if what == "same":
-        return "#camera: eye and at are the same point"
+        return ("eye", "at"), "#camera: eye and at are the same point"
     if what == "parallel":
-        return ("#camera: up is parallel to the view from eye to at (up defaults to "
-                "(0, 0, 1)): give another up")
+        return ("eye", "at", "up"), ("#camera: up is parallel to the view from eye to at (up "
+                                     "defaults to (0, 0, 1)): give another up")
     if what == "far":
-        return f"#camera: eye is too far from at (at most {FARTHEST:g} apart)"
+        return ("eye", "at"), f"#camera: eye is too far from at (at most {FARTHEST:g} apart)"
     return None
 
 
@@ -141,7 +142,9 @@ def build_scene(directives: list[ast.Directive], constants, report,
             values[item.key] = nums[0] if want == 1 else nums
         if d.kind == "camera":
             if problem := _camera_problem(values):
-                report(d.kind_span, problem, "directive")
+                keys, message = problem
+                at_fault = [i.span for i in d.items if i.key in keys]
+                report(at_fault[-1] if at_fault else d.kind_span, message, "directive")
             scene.camera = values
         elif d.kind == "light":
             if "at" not in values and len(values) == len(d.items):
