@@ -165,3 +165,32 @@ def test_a_run_goes_below_thousands_of_calculations():
     hits = pcsg.Traced(written).trace(np.array([[1.0, 0, -5], [1.0, 2, -5], [-0.9, 0, -5]]),
                                       np.array([[0, 0, 1.0]] * 3))
     assert list(hits.hit) == [True, True, False] and np.allclose(hits.t[:2], 4.0)
+
+
+def test_a_run_with_a_map_of_parameters_is_pushed_below_that_map_only():
+    """The constant maps below `move(c, 0, 0)` go into the operands, the move and the map
+    above it stay over the union; the maps above a run that stays are not walked again
+    from each of them (a chain of 10 000 maps took 7.5 s)."""
+    text = """{c = 2} S
+S if(c > 0, 2, 1)
+1: S → sphere
+2: S → {c = c - 1} rotx(10) move(c, 0, 0) rotz(30) uscale(0.8) (S ∪ move(0, 2, 0) cube)
+"""
+    written = compile_text(text, "t.pcsg")
+    g = regroup(written)
+
+    def run(x):
+        names = []
+        while g.nodes[x].kind == TRANSFORM:
+            names.append(g.nodes[x].name)
+            x = g.nodes[x].children[0]
+        return names, x
+
+    rule = g.nodes[g.nodes[g.nodes[g.root].children[0]].children[1]]   # {c = c - 1}
+    above, union = run(rule.children[0])
+    assert above == ["rotx", "move"] and g.nodes[union].kind == UNION
+    assert [run(c)[0][:2] for c in g.nodes[union].children] == [["rotz", "uscale"]] * 2
+    traced = pcsg.Traced(written)
+    for direction in ([1.0, -1.3, 0.8], [-0.4, 0.2, -1.0]):
+        o, d = camera_rays(finite_bounds(traced), 24, np.array(direction))
+        assert_agrees(traced, o, d, min_hits=20, reference_graph=written)
