@@ -143,3 +143,30 @@ def test_nonempty_is_leaf_inverse_for_a_stack_of_maps():
         expected = [leaf_inverse(m) is not None for m in full]
     assert 0 < sum(expected) < 200
     assert nonempty(maps).tolist() == expected
+
+
+DEEP = """{c = 300} S
+S if(c > 0, 2, 1)
+1: S → sphere
+2: S → {c = c-1} (uscale(3) cube ∩ (sphere ∪ move(0.3,0,0) uscale(0.999) S))
+"""
+
+
+def test_a_deep_nest_of_blocks_takes_memory_by_its_depth_not_its_square():
+    """Blocks nested 2,000 deep: each entry held its whole chain, and each chunk 65,536
+    chains as long as the deepest (3 GiB asked at 2,000; at an endless nest, 24 GiB and an
+    internal MemoryError). The chains come as Python's, at 300 deep."""
+    import tracemalloc
+    assert_same_leaves(compile_text(DEEP))
+    graph = compile_text(DEEP, overrides={"c": 2000})
+    tracemalloc.start()
+    try:
+        count = depth = 0
+        for c in leaf_chunks(graph, True):
+            count += len(c)
+            depth = max(depth, int(c.csg.max()))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert count == 4001 and depth == 4000
+    assert peak < 100 << 20, peak            # the chunk's chains 32 MB, the walk's rows a few

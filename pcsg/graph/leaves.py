@@ -17,6 +17,7 @@ from .model import PRIMITIVE, Graph
 from .stats import MAX_LEVELS
 
 CHUNK = 1 << 16              # primitives per chunk of the compiled walk
+CHAIN_BYTES = 1 << 25        # the most a chunk's chains take: fewer primitives where deep
 PYTHON_CHUNK = 1 << 10       # per chunk of the Python derivation: 0.1 s of it
 
 
@@ -90,7 +91,8 @@ def _compiled(graph: Graph, cut: Cut | None) -> Iterator[Leaves]:
                                   TOO_DEEP, walker)
     walk = walker(graph, None if cut is None else cut.depth)
     while True:
-        k = walk.run(CHUNK)
+        # a chunk's chains are as long as the deepest: 65,536 of 16,384 links were 24 GiB
+        k = walk.run(max(1, min(CHUNK, CHAIN_BYTES // walk.path.nbytes)))
         if k:
             csg = walk.out_csg[:k].copy()
             yield Leaves(walk.out_node[:k].copy(), walk.out_world[:k].reshape(k, 3, 4).copy(),

@@ -31,12 +31,12 @@ RUNNING, ROOM, BAD_SELECTION, TOO_DEEP, CHAIN_ROOM, GRAFTAL_CUT = range(6)
 
 
 @kernel
-def leaves(flat, max_levels, cut, fr, hs, world, paint, chain, params, stack, args, m34,
-           state, out_node, out_world, out_paint, out_mat, out_chain, out_csg):
+def leaves(flat, max_levels, cut, fr, hs, world, paint, last, path, params, stack, args,
+           m34, state, out_node, out_world, out_paint, out_mat, out_chain, out_csg):
     """Walk on from state[SP] pending entries, writing leaves into the out_ arrays until
     they are full or the walk ends (state[SP] = 0); returns the leaves written. Stops
     early with state[STATUS] = ROOM when the entry arrays need more rows, CHAIN_ROOM when
-    the chains need more columns (the caller grows them and calls again), or with
+    the path needs more rows (the caller grows them and calls again), or with
     BAD_SELECTION or TOO_DEEP (more than max_levels nested selections) at the entry on
     top. Selections deeper than `cut` take their terminating rule, as the tracer's past
     its depth bound; GRAFTAL_CUT where there is none.
@@ -44,7 +44,12 @@ def leaves(flat, max_levels, cut, fr, hs, world, paint, chain, params, stack, ar
     An entry's chain is the CSG operators above it from the first ∩ or \\ down, unions
     below that included, which the export writes as blocks: (instance id, node, operand
     number) each, the id numbering the operator's instances (state[NEXT_ID]); a leaf
-    takes its chain to out_chain and its length to out_csg."""
+    takes its chain to out_chain and its length to out_csg. An entry keeps only its chain's
+    length and last link (`last`): the links above it are `path`'s, the chain of the entry
+    taken last at each length, since every entry taken between an entry's making and its
+    turn is below its operator (the walk is depth first) and writes only links at or below
+    the entry's own. Chains copied into every entry took rows times nesting: a derivation
+    nested 10,000 blocks deep asked for gigabytes."""
     n = 0
     sp = state[SP]
     state[STATUS] = RUNNING
@@ -52,6 +57,9 @@ def leaves(flat, max_levels, cut, fr, hs, world, paint, chain, params, stack, ar
         f = sp - 1
         node = fr[f, NODE]
         kind = flat.kind[node]
+        c = fr[f, CSG]
+        if c > 0:
+            copy_into(path[c - 1], last[f])
         if kind == PRIMITIVE:
             if n == out_node.shape[0]:
                 break
@@ -59,10 +67,9 @@ def leaves(flat, max_levels, cut, fr, hs, world, paint, chain, params, stack, ar
             copy_into(out_world[n], world[f])
             copy_into(out_paint[n], paint[f])
             out_mat[n] = fr[f, MAT]
-            c = fr[f, CSG]
             out_csg[n] = c
             for i in range(c):
-                copy_into(out_chain[n, i], chain[f, i])
+                copy_into(out_chain[n, i], path[i])
             n += 1
             sp -= 1
             continue
@@ -127,9 +134,8 @@ def leaves(flat, max_levels, cut, fr, hs, world, paint, chain, params, stack, ar
             continue
         # an operator: its operands above it, the first on top; position f last, as the
         # others copy from it
-        c = fr[f, CSG]
         block = c > 0 or kind != UNION
-        if block and c == chain.shape[1]:
+        if block and c == path.shape[0]:
             state[STATUS] = CHAIN_ROOM
             break
         op = state[NEXT_ID]
@@ -141,14 +147,12 @@ def leaves(flat, max_levels, cut, fr, hs, world, paint, chain, params, stack, ar
                 copy_into(fr[g], fr[f])
                 copy_into(world[g], world[f])
                 copy_into(paint[g], paint[f])
-                for i in range(c):
-                    copy_into(chain[g, i], chain[f, i])
             fr[g, NODE] = flat.children[first + k]
             hs[g] = vm.edge_hash(h, node, k)
             if block:
-                chain[g, c, 0] = op
-                chain[g, c, 1] = node
-                chain[g, c, 2] = k
+                last[g, 0] = op
+                last[g, 1] = node
+                last[g, 2] = k
                 fr[g, CSG] = c + 1
         sp = f + count
     state[SP] = sp
@@ -178,7 +182,8 @@ class Walker:
         self.hs = np.zeros(rows, dtype=np.uint64)
         self.world = np.zeros((rows, 12))
         self.paint = np.full((rows, 3), np.nan)
-        self.chain = np.zeros((rows, 4, 3), dtype=np.int64)
+        self.last = np.zeros((rows, 3), dtype=np.int64)
+        self.path = np.zeros((4, 3), dtype=np.int64)
         self.params = np.full((rows, flat.n_params), np.nan)
         self.fr[0] = (flat.root, 0, 0, -1, 0)
         self.hs[0] = vm.ROOT_HASH
@@ -195,16 +200,16 @@ class Walker:
     def run(self, chunk: int) -> int:
         """Walk on until `chunk` leaves are in the out_ arrays, or it stops (state)."""
         if (self.out_node is None or len(self.out_node) != chunk
-                or self.out_chain.shape[1] != self.chain.shape[1]):
+                or self.out_chain.shape[1] != self.path.shape[0]):
             self.out_node = np.empty(chunk, dtype=np.int64)
             self.out_world = np.empty((chunk, 12))
             self.out_paint = np.empty((chunk, 3))
             self.out_mat = np.empty(chunk, dtype=np.int64)
-            self.out_chain = np.empty((chunk,) + self.chain.shape[1:], dtype=np.int64)
+            self.out_chain = np.empty((chunk,) + self.path.shape, dtype=np.int64)
             self.out_csg = np.empty(chunk, dtype=np.int64)
         return leaves(self.flat, self.max_levels, self.cut, self.fr, self.hs, self.world,
-                      self.paint, self.chain, self.params, self.stack, self.args, self.m34,
-                      self.state, self.out_node, self.out_world, self.out_paint,
+                      self.paint, self.last, self.path, self.params, self.stack, self.args,
+                      self.m34, self.state, self.out_node, self.out_world, self.out_paint,
                       self.out_mat, self.out_chain, self.out_csg)
 
     def grow(self):
@@ -217,14 +222,14 @@ class Walker:
         self.hs = doubled(self.hs, 0)
         self.world = doubled(self.world, 0.0)
         self.paint = doubled(self.paint, np.nan)
-        self.chain = doubled(self.chain, 0)
+        self.last = doubled(self.last, 0)
         self.params = doubled(self.params, np.nan)
 
     def grow_chain(self):
-        """Chains twice as long, keeping what they hold."""
-        longer = np.zeros((self.chain.shape[0], 2 * self.chain.shape[1], 3), dtype=np.int64)
-        longer[:, :self.chain.shape[1]] = self.chain
-        self.chain = longer
+        """A path twice as long, keeping what it holds."""
+        longer = np.zeros((2 * self.path.shape[0], 3), dtype=np.int64)
+        longer[:self.path.shape[0]] = self.path
+        self.path = longer
 
 
 def walker(graph, cut: int | None = None) -> Walker:
