@@ -121,6 +121,7 @@ def parser() -> argparse.ArgumentParser:
     x.add_argument("--pov", required=True, metavar="OUT.pov", help="the POV-Ray scene to write")
     x.add_argument("--size", type=_size, default=(640, 480), metavar="WxH",
                    help="the image size the camera is framed for (default 640x480)")
+    view_arguments(x)
     x.add_argument("--shadow-samples", type=int, default=8, metavar="N",
                    help="1: lights are points; more: area lights stay area lights")
     x.add_argument("--no-shadows", action="store_true", help="lights cast no shadows")
@@ -142,6 +143,17 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+def view_arguments(r: argparse.ArgumentParser):
+    """The camera and the light, over the file's #camera and #light: render's and export's."""
+    r.add_argument("--eye", type=_vec, metavar="X,Y,Z", help="camera position")
+    r.add_argument("--at", type=_vec, metavar="X,Y,Z", help="point looked at")
+    r.add_argument("--up", type=_vec, metavar="X,Y,Z", help="up direction (default 0,0,1)")
+    r.add_argument("--fov", type=float, metavar="DEG", help="vertical field of view")
+    r.add_argument("--light", type=_vec, metavar="X,Y,Z",
+                   help="one point light at X,Y,Z instead of the file's #light lines (default: "
+                        "those, else a sun above and to the left of the camera)")
+
+
 def render_options() -> argparse.ArgumentParser:
     """What a picture looks like and how it is traced: shared by render, sweep and animate."""
     r = argparse.ArgumentParser(add_help=False)
@@ -150,13 +162,7 @@ def render_options() -> argparse.ArgumentParser:
     r.add_argument("--samples", type=int, default=1, metavar="N",
                    help="stratified jittered samples per pixel (default 1, with adaptive "
                         "oversampling where neighbouring pixels differ)")
-    r.add_argument("--eye", type=_vec, metavar="X,Y,Z", help="camera position")
-    r.add_argument("--at", type=_vec, metavar="X,Y,Z", help="point looked at")
-    r.add_argument("--up", type=_vec, metavar="X,Y,Z", help="up direction (default 0,0,1)")
-    r.add_argument("--fov", type=float, metavar="DEG", help="vertical field of view")
-    r.add_argument("--light", type=_vec, metavar="X,Y,Z",
-                   help="one point light at X,Y,Z instead of the file's #light lines (default: "
-                        "those, else a sun above and to the left of the camera)")
+    view_arguments(r)
     r.add_argument("--alpha", action="store_true", help="transparent background")
     r.add_argument("--max-depth", type=int, metavar="N",
                    help=f"derivation levels a ray may descend (default: the derivation's "

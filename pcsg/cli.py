@@ -506,6 +506,7 @@ NOT_A_SCENE = {**dict.fromkeys((".png", ".gif", ".jpg", ".jpeg", ".bmp", ".tga",
 def cmd_export(args) -> int:
     from .povray import export_pov
     from .render.camera import CameraError, make_camera
+    from .render.job import view_problem
     from .render.shade import make_lighting
     from .tracer import Traced
     out = Path(args.pov)
@@ -517,7 +518,8 @@ def cmd_export(args) -> int:
                          f"{NOT_A_SCENE[out.suffix.lower()]}; name the file "
                          f"{out.with_suffix('.pov').name}")
     for problem in (bounces_problem(args.bounces), size_problem(args.size),
-                    shadow_samples_problem(args.shadow_samples)):
+                    shadow_samples_problem(args.shadow_samples),
+                    view_problem(args.eye, args.at, args.up, args.fov, args.light)):
         if problem:
             raise UsageError(problem)
     if args.max_depth is not None and not 1 <= args.max_depth <= 10_000:
@@ -535,12 +537,13 @@ def cmd_export(args) -> int:
     cut = _export_cut(args, traced)
     w, h = args.size
     try:
-        camera = make_camera(traced, w / h)
+        camera = make_camera(traced, w / h, args.eye, args.at, args.up, args.fov)
+        camera.basis()
     except CameraError as e:        # an object too large to frame: as render says it
         print(f"pcsg export: {args.file}: {e}", file=sys.stderr)
         return EXIT_ERRORS
     lighting = make_lighting(traced, camera, not args.no_shadows, args.shadow_samples,
-                             args.bounces)
+                             args.bounces, light_at=args.light)
     if total is None:
         total = _export_total(graph, cut)
         _export_fits(args, out, total)

@@ -164,6 +164,13 @@ def test_a_block_goes_on_across_chunks_of_empty_primitives(tmp_path, monkeypatch
 def test_export_errors_are_clean(tmp_path, capsys):
     assert main(["export", str(SIERPINSKI), "--pov", str(tmp_path / "no" / "x.pov")]) == 2
     assert "does not exist" in capsys.readouterr().err
+    # the view's options are render's, and checked as render checks them
+    pov = str(tmp_path / "x.pov")
+    assert main(["export", str(SIERPINSKI), "--pov", pov, "--eye", "1,2,3", "--at", "1,2,3"]) == 2
+    assert "--eye and --at are the same point 1,2,3" in capsys.readouterr().err
+    assert main(["export", str(SIERPINSKI), "--pov", pov, "--fov", "180"]) == 2
+    assert "--fov 180.0: the vertical field of view" in capsys.readouterr().err
+    assert not (tmp_path / "x.pov").exists()
 
 
 def test_a_scene_to_standard_output_and_an_unwritable_place(tmp_path, capsys):
@@ -284,6 +291,11 @@ POVRAY = shutil.which("povray")
 
 @pytest.mark.skipif(POVRAY is None, reason="POV-Ray is not installed (apt-get install povray)")
 @pytest.mark.parametrize("grammar,options", [(SIERPINSKI, ["--set", "c=2"]), (CSG, []),
+                                             # the view and the light of the command line
+                                             (SIERPINSKI, ["--set", "c=2", "--eye", "3,-2,4",
+                                                           "--at", "0,0,0.2", "--up", "0,1,1",
+                                                           "--fov", "45", "--light",
+                                                           "-4,-6,8"]),
                                              (EMPTY, []), (THIN, []), (NESTED, []),
                                              (MIRROR, []),
                                              (FERN, ["--max-depth", "4"]),

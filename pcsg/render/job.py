@@ -90,23 +90,28 @@ def check_options(o: Options) -> str | None:
     if problem := walk_limits_problem(o.max_depth, o.stack_depth, o.interval_rows,
                                       o.max_instances, o.bounds_budget):
         return problem
-    if o.light is not None and not all(math.isfinite(v) for v in o.light):
-        return f"--light {_given(o.light)}: give a point with finite coordinates"
-    for name, v in (("--eye", o.eye), ("--at", o.at), ("--up", o.up)):
+    return view_problem(o.eye, o.at, o.up, o.fov, o.light)
+
+
+def view_problem(eye, at, up, fov, light) -> str | None:
+    """--eye, --at, --up, --fov and --light that cannot work (render's and export's)."""
+    if light is not None and not all(math.isfinite(v) for v in light):
+        return f"--light {_given(light)}: give a point with finite coordinates"
+    for name, v in (("--eye", eye), ("--at", at), ("--up", up)):
         if v is not None and not all(math.isfinite(x) for x in v):
             # the render failed on it with exit 1, where --eye = --at was a usage error
             return f"{name} {_given(v)}: give finite coordinates"
-    if o.eye is not None and o.at is not None and tuple(o.eye) == tuple(o.at):
-        return f"--eye and --at are the same point {_given(o.eye)}: the camera looks nowhere"
-    if o.up is not None and not any(o.up):
+    if eye is not None and at is not None and tuple(eye) == tuple(at):
+        return f"--eye and --at are the same point {_given(eye)}: the camera looks nowhere"
+    if up is not None and not any(up):
         return "--up 0,0,0 is no direction: give one such as 0,0,1"
-    what = camera_degenerate(o.eye, o.at, o.up) if None not in (o.eye, o.at, o.up) else None
+    what = camera_degenerate(eye, at, up) if None not in (eye, at, up) else None
     if what == "parallel":
-        return f"--up {_given(o.up)} is parallel to the view from --eye to --at: give another up"
+        return f"--up {_given(up)} is parallel to the view from --eye to --at: give another up"
     if what == "far":
-        return f"--eye {_given(o.eye)} is too far from --at {_given(o.at)} (at most {FARTHEST:g})"
-    if o.fov is not None and not 0 < o.fov < 180:
-        return f"--fov {o.fov}: the vertical field of view is between 0 and 180 degrees"
+        return f"--eye {_given(eye)} is too far from --at {_given(at)} (at most {FARTHEST:g})"
+    if fov is not None and not 0 < fov < 180:
+        return f"--fov {fov}: the vertical field of view is between 0 and 180 degrees"
     return None
 
 
