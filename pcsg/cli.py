@@ -563,9 +563,10 @@ def cmd_export(args) -> int:
     if empty:
         also = (f"; {dropped:,} more went with the ∩ or \\ that lost an operand"
                 if dropped else "")
+        # a paint that is not finite empties its instance as a map does (the tracer's rule)
         print(f"{args.file}: warning: {_many(empty, 'primitive')} left out: their transform is "
-              f"singular or not finite (a runtime error in the grammar), so pcsg draws "
-              f"nothing there either{also}", file=sys.stderr)
+              f"singular or not finite, or their paint not finite (a runtime error in the "
+              f"grammar), so pcsg draws nothing there either{also}", file=sys.stderr)
     return EXIT_OK
 
 

@@ -464,7 +464,9 @@ def _header(camera: Camera, lighting: Lighting, size, graph) -> str:
     aspect = w / h
     hfov = math.degrees(2 * math.atan(aspect * math.tan(math.radians(camera.fov) / 2)))
     lines = [
-        f"// {Path(graph.source.file).name}: exported by pcsg (pcsg export --pov)",
+        # a line break in the file's name ended the comment: POV-Ray read the rest as code
+        f"// {Path(graph.source.file).name.encode('unicode_escape').decode('ascii')}: "
+        f"exported by pcsg (pcsg export --pov)",
         f"// render: povray +I{{this file}} +W{w} +H{h}",
         "#version 3.7;",
         f"global_settings {{ assumed_gamma 1.0 max_trace_level {lighting.max_bounces + 1} }}",

@@ -369,3 +369,24 @@ def test_an_area_light_has_about_as_many_rays_as_shadow_samples(tmp_path, sample
     src.write_text("#light at=(3, -2, 8) radius=0.5\nsphere\n", encoding="utf-8")
     text = export(tmp_path, src, "--shadow-samples", str(samples)).read_text()
     assert f", {grid}, {grid} circular orient" in text
+
+
+def test_a_paint_not_finite_is_named_and_a_line_break_in_the_name_stays_in_the_comment(
+        tmp_path, capsys):
+    """A paint of nan empties its instance (the tracer's rule): the warning named only
+    transforms. A file whose name holds a line break ended the header's comment there, and
+    POV-Ray failed on the rest of the name."""
+    source = tmp_path / "two\nlines.pcsg"
+    source.write_text("paint(0, 0, sqrt(-1)) sphere ∪ move(3, 0, 0) cube\n", encoding="utf-8")
+    pov = tmp_path / "plain.pov"         # POV-Ray takes no line break on its command line
+    assert main(["export", str(source), "--pov", str(pov), "--size", "160x120"]) == 0
+    text = pov.read_text()
+    assert text.splitlines()[0] == r"// two\nlines.pcsg: exported by pcsg (pcsg export --pov)"
+    assert len(matrices(text)) == 1
+    err = capsys.readouterr().err
+    assert "1 primitive left out" in err and "or their paint not finite" in err
+    if POVRAY is not None:
+        r = subprocess.run([POVRAY, f"+I{pov}",
+                            f"+O{tmp_path / 'pov.png'}", "+W32", "+H24", "-D", "-GA"],
+                           capture_output=True, timeout=300)
+        assert r.returncode == 0, r.stderr[-400:]
