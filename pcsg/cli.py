@@ -157,8 +157,12 @@ def _output_directory(output: str, option: str = "-o"):
 
 def cmd_expand(args) -> int:
     from .graph.expand import ExpansionTooLarge, expand_file
+    from .graph.stats import MAX_LEVELS
     if args.steps < 0:
         raise UsageError("-n must be 0 or more")
+    if args.steps > MAX_LEVELS:
+        # expand stopped at MAX_LEVELS steps and its header said -n's
+        raise UsageError(f"-n {args.steps}: expand takes at most {MAX_LEVELS} steps")
     if args.max_chars < 1:
         raise UsageError(f"--max-chars {args.max_chars}: give 1 or more")
     graph = _compile(args.file, args.overrides)

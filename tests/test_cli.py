@@ -842,6 +842,18 @@ def test_expand_max_chars_below_one_is_a_usage_error(capsys, sierpinski, value):
     assert code == 2 and f"--max-chars {value}: give 1 or more" in err
 
 
+def test_expand_takes_at_most_the_levels_a_derivation_may_have(capsys, tmp_path):
+    """-n 20000 stopped at 10,000 steps without a word, and its header said 20000."""
+    source = tmp_path / "chain.pcsg"
+    source.write_text("S\n1: S -> move(1, 0, 0) S\n", encoding="utf-8")
+    code, _, err = run(capsys, "expand", str(source), "-n", "10001")
+    assert code == 2 and "-n 10001: expand takes at most 10000 steps" in err
+    code, out, _ = run(capsys, "expand", str(source), "-n", "10000")
+    header, word = out.splitlines()[:2]
+    assert code == 0 and header.endswith("chain.pcsg after 10000 derivation steps")
+    assert word.count("move(1, 0, 0)") == 10000
+
+
 def test_expand_says_pixels_were_taken_as_infinite_and_stats_lists_no_pixels(capsys, tmp_path):
     forest = str(GRAMMARS / "pixel_forest.pcsg")
     code, _, err = run(capsys, "expand", forest, "-n", "1", "-o", str(tmp_path / "w.pcsg"))
