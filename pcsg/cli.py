@@ -70,35 +70,69 @@ def _compile(path, overrides):
 
 
 def cmd_check(args) -> int:
-    from .graph.checks import constant_maps, derivation_faults
     failed = 0
     for path in expand_globs(args.files):
         try:
-            graph = _compile(path, args.overrides)
-            errors, warnings = derivation_faults(graph)
-            if errors:
-                raise PcsgError(errors)
-            graph.warnings += warnings + constant_maps(graph)
-        except PcsgError as e:
-            _report(e, [])
-            failed += 1
-            continue
-        _report(None, graph.warnings)
-        if args.werror and graph.warnings:
-            failed += 1
-            n = len(graph.warnings)
-            print(f"{path}: failed: {_counted(n, 'warning')} with --werror", file=sys.stderr)
-        elif not args.quiet:
-            from .graph.volumes import graftal_nodes
-            n = len(graph.warnings)
-            # not the tracer's `pixels`
-            params = len([p for p in graph.params if graph.params[p] != graph.pixels])
-            graftals = len(graftal_nodes(graph))
-            print(f"{path}: ok ({_counted(len(graph.nodes), 'node')}, "
-                  f"{_counted(len(graph.modules), 'module')}, {_counted(params, 'parameter')}"
-                  + (f", {_counted(graftals, 'graftal')}" if graftals else "")
-                  + (f", {_counted(n, 'warning')}" if n else "") + ")")
+            failed += _check_file(path, args)
+        except BrokenPipeError:
+            # `pcsg check dir | head -1`: the reader left, but the files after are checked
+            # all the same, since their errors are the exit status (it was 0, unchecked)
+            _drop_broken_streams()
     return EXIT_ERRORS if failed else EXIT_OK
+
+
+def _check_file(path, args) -> int:
+    """1 where the file fails the check, after its report."""
+    from .graph.checks import constant_maps, derivation_faults
+    try:
+        graph = _compile(path, args.overrides)
+        errors, warnings = derivation_faults(graph)
+        if errors:
+            raise PcsgError(errors)
+        graph.warnings += warnings + constant_maps(graph)
+    except PcsgError as e:
+        _unbroken(_report, e, [])
+        return 1
+    _unbroken(_report, None, graph.warnings)
+    if args.werror and graph.warnings:
+        n = len(graph.warnings)
+        _unbroken(print, f"{path}: failed: {_counted(n, 'warning')} with --werror",
+                  file=sys.stderr)
+        return 1
+    if not args.quiet:
+        from .graph.volumes import graftal_nodes
+        n = len(graph.warnings)
+        # not the tracer's `pixels`
+        params = len([p for p in graph.params if graph.params[p] != graph.pixels])
+        graftals = len(graftal_nodes(graph))
+        print(f"{path}: ok ({_counted(len(graph.nodes), 'node')}, "
+              f"{_counted(len(graph.modules), 'module')}, {_counted(params, 'parameter')}"
+              + (f", {_counted(graftals, 'graftal')}" if graftals else "")
+              + (f", {_counted(n, 'warning')}" if n else "") + ")")
+    return 0
+
+
+def _unbroken(say, *args, **kwargs):
+    """say(...), where a reader that left is no reason to stop."""
+    try:
+        say(*args, **kwargs)
+    except BrokenPipeError:
+        _drop_broken_streams()
+
+
+def _drop_broken_streams():
+    """Standard output or error, whichever pipe lost its reader, to /dev/null from now on
+    (the other may be a terminal that still reads)."""
+    import select
+    for stream in (sys.stdout, sys.stderr):
+        if stream is None:
+            continue
+        fd = stream.fileno()
+        poll = select.poll()
+        poll.register(fd, select.POLLOUT)
+        # a pipe's write end whose read end is closed polls POLLERR
+        if any(events & select.POLLERR for _, events in poll.poll(0)):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), fd)
 
 
 def _counted(n: int, word: str) -> str:

@@ -496,7 +496,7 @@ def test_an_up_of_zero_is_no_direction(capsys, tmp_path):
     path = tmp_path / "c.pcsg"
     path.write_text("#camera eye=(1, 2, 3) up=(0, 0, 0)\nsphere\n", encoding="utf-8")
     assert main(["check", str(path)]) == 1
-    assert "c.pcsg:1:1: error: #camera: up is (0, 0, 0), no direction" in capsys.readouterr().err
+    assert "c.pcsg:1:23: error: #camera: up is (0, 0, 0), no direction" in capsys.readouterr().err
     path.write_text("sphere\n", encoding="utf-8")
     assert main(["render", str(path), "--up", "0,0,0", "-o", str(tmp_path / "c.png")]) == 2
     assert "--up 0,0,0 is no direction" in capsys.readouterr().err
@@ -975,6 +975,28 @@ def test_a_reader_that_leaves_does_not_end_a_batch(tmp_path):
         os.close(write)
     assert (r.returncode, r.stderr) == (0, "")
     assert sorted(p.name for p in out.iterdir()) == ["g0.png", "g1.png", "g2.png"]
+
+
+@pytest.mark.parametrize("both", [False, True])
+def test_a_reader_that_leaves_does_not_end_a_check(tmp_path, both):
+    """`pcsg check dir | head -1`: the files after the first were never checked and the
+    status was 0, the error of the last unsaid; it goes to stderr, and the status is 1,
+    also where stderr went to the pipe that closed (`2>&1 | head -1`)."""
+    for k in range(3):
+        (tmp_path / f"a{k}.pcsg").write_text("sphere\n", encoding="utf-8")
+    (tmp_path / "z.pcsg").write_text("S\n1: S -> foo\n", encoding="utf-8")
+    read, write = os.pipe()
+    os.close(read)                  # every write to the pipe fails at once
+    try:
+        r = subprocess.run([sys.executable, "-m", "pcsg", "check", str(tmp_path)],
+                           stdout=write, stderr=write if both else subprocess.PIPE,
+                           text=True, timeout=300)
+    finally:
+        os.close(write)
+    assert r.returncode == 1
+    if not both:
+        assert "z.pcsg:2:9: error: undefined name 'foo'" in r.stderr
+        assert "Traceback" not in r.stderr and "ok (" not in r.stderr
 
 
 def test_an_image_on_standard_output_gets_no_status_line_inside(tmp_path):
