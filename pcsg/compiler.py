@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from .collector import collector_paused
 from .graph.build import build_graph
 from .graph.checks import run_checks
 from .graph.model import Graph
@@ -22,7 +23,7 @@ def compile_text(text: str, file: str = "<string>", overrides: dict[str, float] 
 def _compile(text: str, file: str, overrides: dict[str, float] | None) -> Graph:
     check_text_size(text, file)
     try:
-        with recursion_limit(SYNTAX_DEPTH):
+        with recursion_limit(SYNTAX_DEPTH), collector_paused():
             parsed = prefetch.take(file, text)
             if parsed is None:
                 from .language.parser import parse      # lark: only where it parses here

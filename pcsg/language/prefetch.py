@@ -93,13 +93,14 @@ def _fork_parse(path: str, held) -> tuple[int, int] | None:
 def _parsed(path: str) -> bytes:
     """The pickled (path, text, result): `result` the parse, or the PcsgError it raised;
     None for anything else, which the parent then meets itself."""
+    from ..collector import collector_paused
     from ..recursion import SYNTAX_DEPTH, recursion_limit
     from .files import read_source_text
     from .parser import parse
     try:
         text = read_source_text(path)
         try:
-            with recursion_limit(SYNTAX_DEPTH):     # as compiler.compile_text parses
+            with recursion_limit(SYNTAX_DEPTH), collector_paused():     # as compile_text
                 found = parse(text, path)
         except PcsgError as e:
             found = e
