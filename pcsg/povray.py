@@ -341,7 +341,7 @@ def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
                     body.add_all(lines)
                 else:
                     for j, line in zip(part.tolist(), lines):
-                        body.add(body.chain_blocks(leaves.chain[j, :leaves.csg[j]]), line)
+                        body.add_chain(leaves.chain[j, :leaves.csg[j]], line)
             done += len(leaves)
             if progress is not None:
                 progress(done)
@@ -383,6 +383,10 @@ class _BodyWriter:
         self.open: list[_Block] = []
         self.written = 0            # primitives in the output
         self.dropped = 0            # primitives of ∩ and \\ blocks that came out empty
+        # for add_chain: the open blocks' ids, and each node's kind and operand count
+        self._ids = np.empty(64, dtype=np.int64)
+        self._kinds = np.array([n.kind for n in graph.nodes], dtype=np.int64)
+        self._sizes = [len(n.children) for n in graph.nodes]
 
     def path_blocks(self, path) -> list:
         """The blocks above a primitive from its Instance.path: (key: the path down to the
@@ -409,16 +413,42 @@ class _BodyWriter:
         while (common < min(len(self.open), len(needed))
                and self.open[common].key == needed[common][0]):
             common += 1
+        blocks = [(*needed[i][:3], needed[i - 1][3] if i else -1)
+                  for i in range(common, len(needed))]
+        cuts = sum(kind == DIFFERENCE and k > 0 for _, kind, _, k in needed)
+        self._enter(common, blocks, needed[-1][3] if needed else -1, cuts, line)
+
+    def add_chain(self, chain: np.ndarray, line: str):
+        """add(chain_blocks(chain), line), the chain compared as an array: a primitive
+        under thousands of nested blocks took as many Python steps (6,001 primitives
+        3,000 blocks deep: 13.6 s)."""
+        n = min(len(self.open), len(chain))
+        differ = np.flatnonzero(self._ids[:n] != chain[:n, 0])
+        common = int(differ[0]) if len(differ) else n
+        cuts = int(np.count_nonzero((self._kinds[chain[:, 1]] == DIFFERENCE) & (chain[:, 2] > 0)))
+        links = chain[max(common - 1, 0):].tolist()
+        if common == 0:
+            links.insert(0, (None, None, -1))
+        blocks = [(op, int(self._kinds[node]), self._sizes[node], above[2])
+                  for above, (op, node, _) in zip(links, links[1:])]
+        self._enter(common, blocks, links[-1][2] if len(chain) else -1, cuts, line)
+
+    def _enter(self, common: int, blocks: list, k: int, cuts: int, line: str):
+        """The line into the innermost of the `common` open blocks that hold it and the
+        new `blocks` below them, (key, kind, operand count, operand of the one above)
+        each; k: its operand of the innermost; cuts: the differences it is subtracted by."""
         while len(self.open) > common:
             self._close()
-        for i in range(common, len(needed)):
-            key, kind, size, _ = needed[i]
-            self.open.append(_Block(key, kind, size, needed[i - 1][3] if i else -1))
+        for key, kind, size, above in blocks:
+            if isinstance(key, int):
+                if len(self.open) == len(self._ids):
+                    self._ids = np.concatenate([self._ids, np.empty_like(self._ids)])
+                self._ids[len(self.open)] = key
+            self.open.append(_Block(key, kind, size, above))
         if self.open:
             # the operand of the innermost block; those above learn of it when it closes
             # with something in it (a ∩ inside a ∩ that came out empty empties its operand)
-            self.open[-1].present.add(needed[-1][3])
-        cuts = sum(kind == DIFFERENCE and k > 0 for _, kind, _, k in needed)
+            self.open[-1].present.add(k)
         self._emit(_grown(line, cuts) if cuts else line, 1)
 
     def add_all(self, lines: list[str]):

@@ -138,7 +138,8 @@ def both_ways(tmp_path, graph):
 
 @pytest.mark.parametrize("grammar, overrides", [
     (SIERPINSKI, {"c": 3}), (TERRAIN, {"cnt": 3}), (ROOT / "grammars" / "table_tower.pcsg", {}),
-    (ROOT / "grammars" / "sympodial_tree.pcsg", {"cnt": 4}), (CSG, {}), (EMPTY, {})])
+    (ROOT / "grammars" / "sympodial_tree.pcsg", {"cnt": 4}), (CSG, {}), (EMPTY, {}),
+    (Path(__file__).resolve().parent / "data" / "deep_csg_export.pcsg", {})])
 def test_the_compiled_derivation_writes_the_python_derivations_scene(tmp_path, grammar,
                                                                      overrides):
     """The export derives with the compiled walk (graph/leaves.py): the scene is the one
