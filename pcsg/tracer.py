@@ -132,12 +132,16 @@ class Traced:
         return self.boxes[self.graph.root]
 
     def trace(self, origins, directions, tmin: float = 1e-9, tmax: float = np.inf,
-              any_hit: bool = False, lod: float = 0.0, packets: bool = True) -> Hits:
+              any_hit: bool = False, lod: float = 0.0, packets: bool = True,
+              cone=0.0) -> Hits:
         """Trace rays o + t d: origins and directions (N, 3), or (3,) for one ray, any
         real dtype. The nearest hit with tmin < t < tmax (t in units of each direction's
         length); a ray that starts inside a solid of an ∩ or \\ reports where it leaves
         it (under a union, the nearest surface of any operand). `lod` is the pixel
-        footprint in radians (0: no level of detail); `any_hit` stops at the first hit
+        footprint in radians (0: no level of detail); `cone`, a number or one per ray, the
+        width a ray starts with (a secondary ray's: the pixel's footprint at the surface it
+        leaves; 0 for a camera ray), to which a fractal's surface is marched with lod's
+        spread; `any_hit` stops at the first hit
         found (shadow rays). With `packets`, neighbouring rays walk the graph together
         (trace/packet.py): the same hits, but on a surface that two primitives share
         exactly, either may show. Misses have t = inf and hit False."""
@@ -151,12 +155,21 @@ class Traced:
         if o.shape != d.shape:
             raise ValueError(f"origins {o.shape} and directions {d.shape} differ")
         n = len(o)
+        try:
+            cones = np.ascontiguousarray(np.broadcast_to(np.asarray(cone, dtype=np.float64),
+                                                         (n,)))
+        except (TypeError, ValueError):
+            cones = None
+        if cones is None or not (np.all(np.isfinite(cones)) and np.all(cones >= 0)):
+            raise ValueError(f"cone={cone!r}: give finite widths from 0, a number or one "
+                             f"per ray")
         out = np.empty((n, R_WIDTH))      # the kernel writes every row in full
         events = no_events(len(self.graph.nodes))
         for s in range(0, n, BATCH):
             e = min(n, s + BATCH)
             ev = no_events(len(self.graph.nodes), (e - s + CHUNK - 1) // CHUNK)
-            trace_rays(self.flat, o[s:e], d[s:e], float(tmin), float(tmax), bool(any_hit),
+            trace_rays(self.flat, o[s:e], d[s:e], cones[s:e], float(tmin), float(tmax),
+                       bool(any_hit),
                        float(lod), self.max_depth, self.limits, threads(),
                        self._packets(packets), out[s:e], ev)
             add_events(events, ev)

@@ -8,13 +8,17 @@ import pcsg
 
 
 @pytest.mark.parametrize("option", [dict(tmin=float("nan")), dict(tmax=float("nan")),
-                                    dict(lod=-1.0), dict(lod=float("nan")), dict(tmin="1")])
+                                    dict(lod=-1.0), dict(lod=float("nan")), dict(tmin="1"),
+                                    dict(cone=-1.0), dict(cone=float("inf")),
+                                    dict(cone=[0.0, 0.0]), dict(cone="wide")])
 def test_trace_refuses_bounds_and_footprints_that_are_no_numbers(option):
     # tmin or tmax nan made every ray miss; a negative lod was taken as 0
     obj = pcsg.loads("sphere")
     with pytest.raises(ValueError, match=f"^{next(iter(option))}="):
         obj.trace([0, 0, -5], [0, 0, 1], **option)
     assert obj.trace([0, 0, -5], [0, 0, 1], tmin=np.float32(0.5), lod=np.float64(1e-3)).t == 4
+    # a width each ray starts with (a secondary ray's), or one for all
+    assert obj.trace([[0, 0, -5]] * 2, [[0, 0, 1]] * 2, lod=1e-3, cone=[0.0, 0.01]).hit.all()
 
 
 @pytest.mark.parametrize("text, said", [(b"sphere", "got bytes (decode it first)"),

@@ -130,8 +130,8 @@ def test_the_compiled_shares_read_the_stop_flag_before_each_chunk():
     for stop, traced in ((1, False), (0, True)):
         out = np.full((n, R_WIDTH), -7.0)
         events = no_events(len(obj.graph.nodes), 3)
-        trace_share(0, 1, np.array([stop], dtype=np.int64), obj.flat, o, d, 1e-9, np.inf,
-                    False, 0.0, obj.max_depth, obj.limits, False, out, events)
+        trace_share(0, 1, np.array([stop], dtype=np.int64), obj.flat, o, d, np.zeros(n), 1e-9,
+                    np.inf, False, 0.0, obj.max_depth, obj.limits, False, out, events)
         assert (out != -7.0).any() == traced
 
 

@@ -23,9 +23,7 @@ S if(n > 0, 2, 1)
 """
 
 
-# glass on a sheet and a graftal (walk.HIT_SHEET, HIT_SHELL). Not a fractal seen through
-# the sheet: the model's bounce rays start their cone of view afresh at each surface, the
-# kernel's carry it on, and a fractal's surface (marched to the cone's width) moves with it
+# glass on a sheet and a graftal (walk.HIT_SHEET, HIT_SHELL)
 SHELLS = """
 #camera eye=(3, -4, 2.5) at=(0, 0, 0) up=(0, 0, 1) fov=40
 #material glass color=(0.9, 0.95, 1.0) diffuse=0.2 specular=0.8 reflect=0.1 ior=1.5 transmit=0.8
@@ -36,12 +34,31 @@ S 1
 """
 
 
+# a fractal seen through glass, in a mirror and in shadow rays, and a graftal: the rays
+# that leave a surface start with the pixel's width there, in the model as in the kernel
+# (the model's started afresh at each surface, and a fractal's surface, marched to the
+# width, moved with it)
+SECONDARY = """
+#camera eye=(3, -4, 2.5) at=(0, 0, 0.5) up=(0, 0, 1) fov=40
+#light at=(-2, -6, 8) radius=0.5
+#material glass color=(0.9, 0.95, 1.0) diffuse=0.2 specular=0.8 reflect=0.1 ior=1.5 transmit=0.8
+#material mirror color=(0.9, 0.9, 0.9) reflect=0.8
+material(glass) move(0.3, -1.2, -1) rotx(90) uscale(3) tri1 ∪
+move(0, 0.6, 0.6) uscale(0.8) julia(-0.2, 0.6, 0.2, 0) ∪
+material(mirror) move(0, 3, 0) scale(4, 0.2, 3) cube ∪
+move(-1.6, 0.4, 0) uscale(0.6) S ∪ move(0, 0, -1) plane
+S 1
+1: S → uscale(0.5) (move(1, 1, 1) S ∪ move(-1, -1, 1) S ∪ move(1, -1, -1) S ∪ move(-1, 1, -1) S)
+"""
+
+
 @pytest.mark.parametrize("obj", [
     pcsg.loads(GLASS),
     pcsg.loads(SHELLS),
+    pcsg.loads(SECONDARY),
     pcsg.load("grammars/carpenter_terrain.pcsg", cnt=3),
     pcsg.load("grammars/sympodial_tree.pcsg", cnt=4),
-], ids=["glass", "shells", "terrain", "tree"])
+], ids=["glass", "shells", "secondary", "terrain", "tree"])
 @pytest.mark.parametrize("shadows,samples,ao", [(True, 8, 0), (True, 1, 0), (False, 1, 0),
                                                 (True, 4, 8)])
 def test_kernel_shades_like_the_model(obj, shadows, samples, ao):

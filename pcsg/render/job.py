@@ -289,7 +289,8 @@ class _ReferenceTarget:
                                f"end it where the tracer does at that depth")
         self.ref = Reference(traced.graph, cut=cut)
 
-    def trace(self, origins, directions, tmin=1e-9, tmax=math.inf, any_hit=False, lod=0.0):
+    def trace(self, origins, directions, tmin=1e-9, tmax=math.inf, any_hit=False, lod=0.0,
+              cone=0.0):
         r = self.ref.trace(origins, directions, tmin=tmin, tmax=tmax, exits=True)
         normal = np.where(r["hit"][:, None], r["normal"], 0.0)
         return Hits(r["t"], normal, r["paint"], r["material"], r["hit"], what=r["what"])

@@ -141,18 +141,21 @@ def _finish(light: Lighting, material: np.ndarray, paint: np.ndarray):
 
 
 def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: bool = True,
-          ids=None, weight=None, check=None):
+          ids=None, weight=None, check=None, cone=None):
     """Linear RGB for each ray, its first-hit distance (inf for the sky) and its hits.
     ids (default 0, 1, ...) name each ray's pixel and sample for the ambient occlusion
     pattern; bounces keep their camera ray's id. weight (default 1): what each ray's
-    colour is multiplied by on its way into the pixel. The graph tracer shades in one numba
+    colour is multiplied by on its way into the pixel. cone (default 0): the width each ray
+    starts with; the rays that leave a surface start with the footprint there. The graph
+    tracer shades in one numba
     kernel (trace/shading.py), which calls check() every 50 ms and stops if it raises;
     this numpy code is the model it follows, and shades the reference renders."""
     ids = np.arange(len(origins), dtype=np.int64) if ids is None else ids
     weight = np.ones(len(origins)) if weight is None else weight
     if kernel and depth == 0 and hasattr(traced, "flat"):
         return _shade_kernel(traced, light, origins, directions, ids, check)
-    hits = traced.trace(origins, directions, lod=light.lod)
+    cone = np.zeros(len(origins)) if cone is None else cone
+    hits = traced.trace(origins, directions, lod=light.lod, cone=cone)
     light.rays[0] += len(origins)
     color = light.sky(directions)
     h = hits.hit
@@ -173,17 +176,22 @@ def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: 
     out = AMBIENT * base * (light.horizon * (1 - up) + light.zenith * up)
     scale = 1.0 + np.abs(p).max(axis=1, keepdims=True)
     origin = p + n * EPS * scale
+    # the pixel's width where it meets the surface, which the rays that leave it start with
+    # (as the kernel sums it: trace/shading.py)
+    dh = directions[h]
+    spot = cone[h] + light.lod * hits.t[h] * np.sqrt(dh[:, 0] * dh[:, 0] + dh[:, 1] * dh[:, 1]
+                                                     + dh[:, 2] * dh[:, 2])
     if light.ao_samples > 0:
-        out *= _unoccluded(traced, light, origin, n, ids[h])[:, None]
+        out *= _unoccluded(traced, light, origin, n, ids[h], spot)[:, None]
     for li, lt in enumerate(light.lights):
-        vis, ldir = _visibility(traced, light, lt, origin, n, ids[h], li)
+        vis, ldir = _visibility(traced, light, lt, origin, n, ids[h], li, spot)
         ndl = np.clip(np.einsum("ij,ij->i", n, ldir), 0, None)[:, None]
         refl = ldir - 2 * np.einsum("ij,ij->i", ldir, n)[:, None] * n
         spec = np.clip(np.einsum("ij,ij->i", refl, d), 0, None)[:, None] ** shin
         out += vis[:, None] * lt.color * (kd * base * ndl + ks * spec * (ndl > 0))
     if depth < light.max_bounces:
         out = _bounces(traced, light, out, d, n, p, scale, inside, reflect, ior, transmit,
-                       depth, ids[h], weight[h])
+                       depth, ids[h], weight[h], spot)
     color[h] = out
     return color, hits.t, hits
 
@@ -218,12 +226,12 @@ def _shade_kernel(traced, light: Lighting, origins, directions, ids, check=None)
 
 
 def _visibility(traced, light: Lighting, lt: Light, origin: np.ndarray, n: np.ndarray,
-                ids: np.ndarray, li: int):
+                ids: np.ndarray, li: int, spot: np.ndarray):
     """Fraction of the light seen from each point, and the unit direction to it. Points
     whose normal n turns away from the light get nothing from it, shadowed or not, so
     they send no shadow rays (their fraction is 0). An area light's samples are shifted
     by each point's pixel id (`ids`) in the stream of light li (the kernel's
-    trace/shading.disk, which says why)."""
+    trace/shading.disk, which says why). The rays start with the widths `spot`."""
     to = lt.position - origin
     dist = np.linalg.norm(to, axis=1, keepdims=True)
     ldir = to / dist
@@ -232,7 +240,7 @@ def _visibility(traced, light: Lighting, lt: Light, origin: np.ndarray, n: np.nd
     samples = light.shadow_samples if lt.radius > 0 else 1
     facing = n[:, 0] * ldir[:, 0] + n[:, 1] * ldir[:, 1] + n[:, 2] * ldir[:, 2] > 0.0
     seen = np.zeros(len(origin))
-    o = origin[facing]
+    o, width = origin[facing], spot[facing]
     shift = _pixel_shift(ids[facing], LIGHT_STREAM + np.uint64(li))
     glass = bool(len(light.materials)) and bool((light.materials[:, M_TRANSMIT] > 0).any())
     for k in range(samples if len(o) else 0):
@@ -241,14 +249,15 @@ def _visibility(traced, light: Lighting, lt: Light, origin: np.ndarray, n: np.nd
                                 if samples > 1 else 0.0)
         target = np.broadcast_to(target, o.shape)
         hit = traced.trace(o, target - o, tmin=1e-9, tmax=1.0 - 1e-9, any_hit=True,
-                           lod=light.lod)
+                           lod=light.lod, cone=width)
         light.rays[0] += len(o)
         passed = (~hit.hit).astype(float)
         if glass and hit.hit.any():
             # what stops light, met first, stops it whatever else is there
             again = hit.hit.copy()
             again[hit.hit] = _passes(light, hit, hit.hit) > 0
-            passed[again] = _through_glass(traced, light, o[again], target[again])
+            passed[again] = _through_glass(traced, light, o[again], target[again],
+                                           width[again])
         seen[facing] += passed
     return seen / samples, ldir
 
@@ -262,11 +271,13 @@ def _passes(light: Lighting, hits: Hits, which: np.ndarray) -> np.ndarray:
     return through
 
 
-def _through_glass(traced, light: Lighting, o: np.ndarray, target: np.ndarray):
+def _through_glass(traced, light: Lighting, o: np.ndarray, target: np.ndarray,
+                   width: np.ndarray):
     """The light that comes through to points o from targets on a light, whose shadow
     rays met something: walked again surface by surface, nearest first, each surface of
     a material that transmits letting through its transmit, anything else (or a shell)
-    stopping it; past MAX_CROSSINGS surfaces, none."""
+    stopping it; past MAX_CROSSINGS surfaces, none. Each ray starts again with its width
+    where it left the lit surface (the kernel's)."""
     out = np.zeros(len(o))
     passing = np.ones(len(o))
     origin = o.copy()
@@ -275,7 +286,8 @@ def _through_glass(traced, light: Lighting, o: np.ndarray, target: np.ndarray):
         if not len(active):
             break
         d = target[active] - origin[active]
-        h = traced.trace(origin[active], d, tmin=1e-9, tmax=1.0 - 1e-9, lod=light.lod)
+        h = traced.trace(origin[active], d, tmin=1e-9, tmax=1.0 - 1e-9, lod=light.lod,
+                         cone=width[active])
         light.rays[0] += len(active)
         out[active[~h.hit]] = passing[active[~h.hit]]
         through = np.zeros(len(active))
@@ -324,14 +336,14 @@ def _basis(normal: np.ndarray):
     return u, np.cross(normal, u)
 
 
-def _unoccluded(traced, light: Lighting, origin, normal, ids) -> np.ndarray:
+def _unoccluded(traced, light: Lighting, origin, normal, ids, spot) -> np.ndarray:
     """The fraction of ao_samples cosine-weighted hemisphere rays about each normal that
     meet nothing within ao_distance: the ambient light a Lambertian point receives."""
     shift = _pixel_shift(ids, AO_STREAM)
     seen = np.zeros(len(origin))
     for k in range(light.ao_samples):
         hit = traced.trace(origin, _hemisphere(k, light.ao_samples, shift, normal), tmin=1e-9,
-                           tmax=light.ao_distance, any_hit=True, lod=light.lod)
+                           tmax=light.ao_distance, any_hit=True, lod=light.lod, cone=spot)
         light.rays[0] += len(origin)
         seen += ~hit.hit
     return seen / light.ao_samples
@@ -349,7 +361,7 @@ def _hemisphere(k: int, n: int, shift: np.ndarray, normal: np.ndarray) -> np.nda
 
 
 def _bounces(traced, light, out, d, n, p, scale, inside, reflect, ior, transmit, depth, ids,
-             weight):
+             weight, spot):
     """Mirror reflection and refraction, traced one level deeper: a surface keeps
     1 - kr - kt of its own colour and passes kr to its reflection, kt to its
     refraction (fresnel_split)."""
@@ -363,13 +375,15 @@ def _bounces(traced, light, out, d, n, p, scale, inside, reflect, ior, transmit,
     if want_r.any():
         rd = d[want_r] + 2 * cos_i[want_r, None] * n[want_r]
         c, _, _ = shade(traced, light, p[want_r] + n[want_r] * EPS * scale[want_r], rd,
-                        depth + 1, ids=ids[want_r], weight=weight[want_r] * kr[want_r])
+                        depth + 1, ids=ids[want_r], weight=weight[want_r] * kr[want_r],
+                        cone=spot[want_r])
         out[want_r] += kr[want_r, None] * c
     if want_t.any():
         e, ci, kk = eta[want_t, None], cos_i[want_t, None], k[want_t, None]
         td = e * d[want_t] + (e * ci - np.sqrt(np.clip(kk, 0, None))) * n[want_t]
         c, _, _ = shade(traced, light, p[want_t] - n[want_t] * EPS * scale[want_t], td,
-                        depth + 1, ids=ids[want_t], weight=weight[want_t] * kt[want_t])
+                        depth + 1, ids=ids[want_t], weight=weight[want_t] * kt[want_t],
+                        cone=spot[want_t])
         out[want_t] += kt[want_t, None] * c
     return out
 
