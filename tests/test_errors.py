@@ -48,7 +48,7 @@ def test_macro_errors_name_use_and_definition():
     text = e.diagnostics[0].format()
     assert "macro_error_in_body.pcsg:6:8: error: undefined name 'e'" in text
     assert "note: in macro 'DEC' defined at" in text and ":2:9" in text
-    assert "line 2, column 31 of the file" in text
+    assert "whose text has it at line 2, column 31" in text
 
 
 @pytest.mark.parametrize("use", ["X sphere", "X sphere)"])

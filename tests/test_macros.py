@@ -116,8 +116,8 @@ def test_a_note_inside_a_macro_says_where_in_the_file_it_stands():
     with pytest.raises(PcsgError) as e:
         compile_text(text, "t.pcsg")
     lines = e.value.diagnostics[0].format().splitlines()
-    assert "t.pcsg:3:1: note: 'tri1' used here (in macro 'X' defined at t.pcsg:2:9: line 2, " \
-        "column 27 of the file)" in lines
+    assert "t.pcsg:3:1: note: 'tri1' used here (in macro 'X' defined at t.pcsg:2:9, whose " \
+        "text has it at line 2, column 27)" in lines
     # a note that names its macro already is left as it is
     with pytest.raises(PcsgError) as e:
         compile_text("#define X move(1,0,0\nX sphere\n", "t.pcsg")

@@ -50,8 +50,9 @@ class Diagnostic:
             for i, (name, _use, defined) in enumerate(uses):
                 where = self.source.location(defined)
                 what = f"in macro '{name}' defined at {where}"
-                if i == 0:
-                    what += f" (line {inner.line}, column {inner.column} of the file)"
+                if i == 0:      # the macro's name, and where in its text the error is
+                    what += (f", whose text has it at line {inner.line}, column "
+                             f"{inner.column}")
                 out.append((None, what))
         return out
 
@@ -64,8 +65,8 @@ class Diagnostic:
         if not uses or f"macro '{uses[0][0]}'" in text:
             return ""
         inner = self.source.location(self.source.original_offset(span[0]))
-        return (f" (in macro '{uses[0][0]}' defined at {self.source.location(uses[0][2])}: "
-                f"line {inner.line}, column {inner.column} of the file)")
+        return (f" (in macro '{uses[0][0]}' defined at {self.source.location(uses[0][2])}, "
+                f"whose text has it at line {inner.line}, column {inner.column})")
 
     def __str__(self):
         return self.format(show_source=False)
