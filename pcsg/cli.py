@@ -125,9 +125,10 @@ def _drop_broken_streams():
     (the other may be a terminal that still reads)."""
     import select
     for stream in (sys.stdout, sys.stderr):
-        if stream is None:
+        try:
+            fd = stream.fileno()
+        except (AttributeError, OSError, ValueError):     # None, closed, or no file's
             continue
-        fd = stream.fileno()
         poll = select.poll()
         poll.register(fd, select.POLLOUT)
         # a pipe's write end whose read end is closed polls POLLERR

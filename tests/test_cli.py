@@ -999,6 +999,18 @@ def test_a_reader_that_leaves_does_not_end_a_check(tmp_path, both):
         assert "Traceback" not in r.stderr and "ok (" not in r.stderr
 
 
+def test_streams_without_a_file_are_left_as_they_are(monkeypatch):
+    """A host that put its own objects in sys.stdout and sys.stderr (io.StringIO, or
+    None): after a broken pipe, check's clean-up asked them for a file descriptor."""
+    import io
+    from pcsg.cli import _drop_broken_streams
+    out = io.StringIO()
+    monkeypatch.setattr(sys, "stdout", out)
+    monkeypatch.setattr(sys, "stderr", None)
+    _drop_broken_streams()
+    assert sys.stdout is out
+
+
 def test_an_image_on_standard_output_gets_no_status_line_inside(tmp_path):
     # the summary came after the PNG's end, in its stream; it goes to stderr there
     r = subprocess.run([sys.executable, "-m", "pcsg", "render", str(GRAMMARS / "sierpinski.pcsg"),
