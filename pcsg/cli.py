@@ -72,12 +72,7 @@ def _compile(path, overrides):
 def cmd_check(args) -> int:
     failed = 0
     for path in expand_globs(args.files):
-        try:
-            failed += _check_file(path, args)
-        except BrokenPipeError:
-            # `pcsg check dir | head -1`: the reader left, but the files after are checked
-            # all the same, since their errors are the exit status (it was 0, unchecked)
-            _drop_broken_streams()
+        failed += _check_file(path, args)
     return EXIT_ERRORS if failed else EXIT_OK
 
 
@@ -105,15 +100,17 @@ def _check_file(path, args) -> int:
         # not the tracer's `pixels`
         params = len([p for p in graph.params if graph.params[p] != graph.pixels])
         graftals = len(graftal_nodes(graph))
-        print(f"{path}: ok ({_counted(len(graph.nodes), 'node')}, "
-              f"{_counted(len(graph.modules), 'module')}, {_counted(params, 'parameter')}"
-              + (f", {_counted(graftals, 'graftal')}" if graftals else "")
-              + (f", {_counted(n, 'warning')}" if n else "") + ")")
+        _unbroken(print, f"{path}: ok ({_counted(len(graph.nodes), 'node')}, "
+                  f"{_counted(len(graph.modules), 'module')}, {_counted(params, 'parameter')}"
+                  + (f", {_counted(graftals, 'graftal')}" if graftals else "")
+                  + (f", {_counted(n, 'warning')}" if n else "") + ")")
     return 0
 
 
 def _unbroken(say, *args, **kwargs):
-    """say(...), where a reader that left is no reason to stop."""
+    """say(...), where a reader that left is no reason to stop: `pcsg check dir | head -1`
+    checks the files after all the same, since their errors are the exit status (it was 0,
+    the rest unchecked)."""
     try:
         say(*args, **kwargs)
     except BrokenPipeError:

@@ -426,12 +426,12 @@ class _BodyWriter:
         differ = np.flatnonzero(self._ids[:n] != chain[:n, 0])
         common = int(differ[0]) if len(differ) else n
         cuts = int(np.count_nonzero((self._kinds[chain[:, 1]] == DIFFERENCE) & (chain[:, 2] > 0)))
-        links = chain[max(common - 1, 0):].tolist()
-        if common == 0:
-            links.insert(0, (None, None, -1))
-        blocks = [(op, int(self._kinds[node]), self._sizes[node], above[2])
-                  for above, (op, node, _) in zip(links, links[1:])]
-        self._enter(common, blocks, links[-1][2] if len(chain) else -1, cuts, line)
+        above = int(chain[common - 1, 2]) if common else -1   # the operand of the last kept
+        blocks = []
+        for op, node, k in chain[common:].tolist():
+            blocks.append((op, int(self._kinds[node]), self._sizes[node], above))
+            above = k
+        self._enter(common, blocks, int(chain[-1, 2]) if len(chain) else -1, cuts, line)
 
     def _enter(self, common: int, blocks: list, k: int, cuts: int, line: str):
         """The line into the innermost of the `common` open blocks that hold it and the

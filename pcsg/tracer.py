@@ -141,10 +141,10 @@ class Traced:
         footprint in radians (0: no level of detail); `cone`, a number or one per ray, the
         width a ray starts with (a secondary ray's: the pixel's footprint at the surface it
         leaves; 0 for a camera ray), to which a fractal's surface is marched with lod's
-        spread; `any_hit` stops at the first hit
-        found (shadow rays). With `packets`, neighbouring rays walk the graph together
-        (trace/packet.py): the same hits, but on a surface that two primitives share
-        exactly, either may show. Misses have t = inf and hit False."""
+        spread; `any_hit` stops at the first hit found (shadow rays). With `packets`,
+        neighbouring rays walk the graph together (trace/packet.py): the same hits, but on
+        a surface that two primitives share exactly, either may show. Misses have t = inf
+        and hit False."""
         for name, value in (("tmin", tmin), ("tmax", tmax), ("lod", lod)):
             # nan made every ray miss, a negative lod was 0
             number = real_number(value)
@@ -169,8 +169,7 @@ class Traced:
             e = min(n, s + BATCH)
             ev = no_events(len(self.graph.nodes), (e - s + CHUNK - 1) // CHUNK)
             trace_rays(self.flat, o[s:e], d[s:e], cones[s:e], float(tmin), float(tmax),
-                       bool(any_hit),
-                       float(lod), self.max_depth, self.limits, threads(),
+                       bool(any_hit), float(lod), self.max_depth, self.limits, threads(),
                        self._packets(packets), out[s:e], ev)
             add_events(events, ev)
         add_events(self.events, events)
