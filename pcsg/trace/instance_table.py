@@ -208,17 +208,24 @@ def entry_key(h, node, k):
     return vm.operand_key(h, node, k)
 
 
-@kernel
+@inline
 def append(level, h, node, k, owner, box, book, keys, used, vals, per_level):
     """Count the instance at its level; append its box under entry_key(h, node, k) to the
     buffer if its level is within book[0], the deepest level kept. When the buffer would
     pass book[1] entries, its deepest level is dropped (book[0] lowered): the levels kept
     in the end are the most that fit, all of them complete, as if they had been known in
-    advance. (A walk that only collects instances has book[0] = -1: it counts.)"""
+    advance. (A walk that only collects instances has book[0] = -1: it counts.) The count
+    is inlined and the append a call: most of a deep system's instances are only counted,
+    and a call pushes its arrays on the stack (tools/performance_notes.md, session 72)."""
     if level < per_level.shape[0]:
         per_level[level] += 1
-    if level > book[0]:
-        return
+    if level <= book[0]:
+        _append_kept(level, h, node, k, owner, box, book, keys, used, vals)
+
+
+@kernel
+def _append_kept(level, h, node, k, owner, box, book, keys, used, vals):
+    """append's entry for an instance of a level kept so far."""
     while book[2] + 1 > book[1] and book[0] >= 0:
         kept = 0
         for i in range(book[2]):

@@ -180,25 +180,45 @@ def eval_args(flat, node, params, slot, h, stack, args):
     where they could be (Flat.arg_fn): one call that leaves them in params[slot]'s
     scratch columns, where the machine took a run per argument (a T-node of the terrain's
     final triangles, with its matrix, took 56 to 66 ns that way and 13 to 14 ns compiled)."""
-    compiled = flat.arg_fn[node] != 0
-    if compiled:
-        call_block(flat.arg_fn[node], params, slot, flat.vm_consts, h, flat.block_no[node])
+    if flat.arg_fn[node] != 0:
+        return _compiled_args(flat, node, params, slot, h, args)
     e0 = flat.expr_start[node]
+    return _machine_args(flat.vm_code, flat.vm_consts, flat.vm_start, flat.vm_end,
+                         flat.expr_ids[e0:e0 + flat.expr_count[node]], params, slot, h,
+                         stack, args)
+
+
+@inline
+def _compiled_args(flat, node, params, slot, h, args):
+    call_block(flat.arg_fn[node], params, slot, flat.vm_consts, h, flat.block_no[node])
     ok = True
     for k in range(flat.expr_count[node]):
-        if compiled:
-            args[k] = params[slot, flat.arg_base + k]
-        else:
-            args[k] = expr(flat, params, slot, flat.expr_ids[e0 + k], h, k + 1, stack)
+        args[k] = params[slot, flat.arg_base + k]
         if not math.isfinite(args[k]):
             ok = False
     return ok
 
 
-@kernel
+@inline
+def _machine_args(vm_code, vm_consts, vm_start, vm_end, ids, params, slot, h, stack, args):
+    """The arguments whose expressions are ids, on the expression machine; rand() salted
+    with the argument's place, 1 on."""
+    ok = True
+    for k in range(ids.shape[0]):
+        args[k] = vm.eval_row(vm_code, vm_consts, vm_start[ids[k]], vm_end[ids[k]], params,
+                              slot, h, k + 1, stack)
+        if not math.isfinite(args[k]):
+            ok = False
+    return ok
+
+
+@inline
 def node_affine(flat, node, params, slot, h, stack, args, m34):
     """The T-node's own 3x4 map into m34 (precomputed where fixed), without what it
-    composes (Flat.then: transform_map composes). False for bad arguments."""
+    composes (Flat.then: transform_map composes). False for bad arguments. Inlined, but
+    for arguments the expression machine runs (_machine_affine): called with the Flat,
+    it pushed the Flat's arrays on the stack at every call, 304 words, a third of the
+    bounding walk's time (tools/performance_notes.md, session 72)."""
     if flat.fixed[node]:
         fm = flat.fixed_map[node]
         for i in range(3):
@@ -206,9 +226,33 @@ def node_affine(flat, node, params, slot, h, stack, args, m34):
                 m34[i, j] = fm[3 * i + j]
             m34[i, 3] = fm[9 + i]
         return True
-    ok = eval_args(flat, node, params, slot, h, stack, args)
+    if flat.arg_fn[node] == 0:
+        e0 = flat.expr_start[node]
+        return _machine_affine(flat.vm_code, flat.vm_consts, flat.vm_start, flat.vm_end,
+                               flat.expr_ids[e0:e0 + flat.expr_count[node]], flat.code[node],
+                               params, slot, h, stack, args, m34)
+    ok = _compiled_args(flat, node, params, slot, h, args)
     affine(flat.code[node], args, m34)
     return ok
+
+
+@kernel
+def _machine_affine(vm_code, vm_consts, vm_start, vm_end, ids, code, params, slot, h, stack,
+                    args, m34):
+    """node_affine where the machine runs the arguments: a call, given only the arrays
+    it reads."""
+    ok = _machine_args(vm_code, vm_consts, vm_start, vm_end, ids, params, slot, h, stack,
+                       args)
+    affine(code, args, m34)
+    return ok
+
+
+@kernel
+def called_affine(flat, node, params, slot, h, stack, args, m34):
+    """node_affine as a call, where inlining it would only grow a walk's code: the maps a
+    T-node composes (Flat.then) and the search for a failed map's culprit. Inlined there
+    too, the render of Sierpinski at 8 took 4 to 9 % longer."""
+    return node_affine(flat, node, params, slot, h, stack, args, m34)
 
 
 @inline
@@ -226,7 +270,7 @@ def composed_affine(flat, node, params, slot, h, stack, args, m34):
         a0, a1, a2, a3 = m34[0, 0], m34[0, 1], m34[0, 2], m34[0, 3]
         b0, b1, b2, b3 = m34[1, 0], m34[1, 1], m34[1, 2], m34[1, 3]
         c0, c1, c2, c3 = m34[2, 0], m34[2, 1], m34[2, 2], m34[2, 3]
-        ok = node_affine(flat, below, params, slot, h, stack, args, m34) and ok
+        ok = called_affine(flat, below, params, slot, h, stack, args, m34) and ok
         for j in range(4):
             x, y, z = m34[0, j], m34[1, j], m34[2, j]
             m34[0, j] = a0 * x + a1 * y + a2 * z
@@ -249,7 +293,7 @@ def culprit(flat, node, params, slot, h, stack, args, m34, bad):
         node = flat.origin[node]
     at = node
     while at >= 0:
-        finite = node_affine(flat, at, params, slot, h, stack, args, m34)
+        finite = called_affine(flat, at, params, slot, h, stack, args, m34)
         if bad == 1 and not finite:
             return at
         if bad == 2 and singular_map(m34):
