@@ -6,7 +6,7 @@ cent, see tools/performance_notes.md), medians, and whether the PNGs are the sam
     git worktree add /tmp/before HEAD~1
     (cd /tmp && PYTHONPATH=/tmp/before python -m pcsg.cli render ...)   # compile its kernels
     python tools/ab.py /tmp/before . --rounds 8 carpenter_terrain:cnt=9 sierpinski:c=8
-A load is a sample's name or a .pcsg path (from the repository's root), and its --set;
+A load is a sample's name or a .pcsg path (from the repository's root), and its --set if any;
 --options adds render options to every render (after the bench's, which they override):
     python tools/ab.py /tmp/before . tests/data/bush_uscale.pcsg:d=12 \
         --options "--size 160x120 --eye 5,-6,3 --at 0,0,1.8"
@@ -49,7 +49,7 @@ def render(tree: Path, grammar: str, setting: str, png: Path,
     # the bounds walked in every process: kept ones would time a file read (graph/boxcache.py)
     env = dict(os.environ, PYTHONPATH=str(tree), PCSG_BOUNDS_CACHE="1" if keep_bounds else "0")
     out = subprocess.run([sys.executable, "-m", "pcsg.cli", "render",
-                          str(grammar_path(grammar)), "--set", setting,
+                          str(grammar_path(grammar)), *(("--set", setting) if setting else ()),
                           "--size", "640x480", *look, "--timings", "-q", "-o", str(png)],
                          cwd=tempfile.gettempdir(), env=env, capture_output=True, text=True)
     if out.returncode != 0:
@@ -92,7 +92,7 @@ def main():
         subprocess.run([sys.executable, "-m", "compileall", "-q", str(t / "pcsg")], check=True)
     with tempfile.TemporaryDirectory() as tmp:
         for load in args.loads:
-            grammar, setting = load.rsplit(":", 1)
+            grammar, _, setting = load.partition(":")     # a sample as its file has it
             phases = {t: {} for t in trees}
             digests = {}
             if args.keep_bounds:        # each version's walk, kept before the first round

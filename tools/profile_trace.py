@@ -7,7 +7,8 @@ numba loads the kernel from its cache as an object file with no symbols that `pe
 can see, so this keeps that object file as numba loads it, records the samples of this
 process while it traces the camera rays of SAMPLE (default carpenter_terrain) on one
 thread, and prints the share of samples in each run of 16 instructions, with the
-instructions of the hottest runs. With --walk it profiles the bounding walk
+instructions of the hottest runs, and the share on push instructions (arguments a call
+passes on the stack). With --walk it profiles the bounding walk
 (trace/boxwalk.py, every instance once) instead, and lists the runs of the library
 most samples fell in. Needs `perf` (Debian: linux-perf) and binutils.
 """
@@ -170,6 +171,11 @@ def main():
     print(f"{args.sample} {overrides or ''} {what}: {seconds:.3f} s on one thread; "
           f"{len(ips)} samples, {inside} in {ranges[k][2]}")
     print("by compiled function (its library): " + library_shares(ips, ranges))
+    # a call that passes arrays by value pushes their fields one by one, hundreds of words
+    # for the Flat: spread over many runs, it reads as a flat profile (session 72)
+    pushed = sum(counts.get(a, 0) for a, ins in asm if ins.startswith("push"))
+    print(f"on push instructions (a call's arguments on the stack): "
+          f"{100 * pushed / max(inside, 1):.1f} %")
     runs = collections.Counter()
     for k, (a, _) in enumerate(asm):
         runs[k // RUN] += counts.get(a, 0)
