@@ -202,6 +202,10 @@ def render_options() -> argparse.ArgumentParser:
                         "#occlusion, else 15%% of the object's box diagonal)")
     r.add_argument("--reference", action="store_true",
                    help="trace the fully expanded system instead (small orders; for checking)")
+    r.add_argument("--threads", type=int, metavar="N",
+                   help="the tracer's threads in this process, at most the cores (default: "
+                        "every core; animate: each frame process's share); the bytes do "
+                        "not depend on N")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     return r
 

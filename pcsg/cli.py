@@ -298,6 +298,7 @@ def _options(args, overrides: dict | None = None):
                    max_instances=args.max_instances, bounds_budget=args.bounds_budget,
                    ao=args.ao,
                    ao_distance=args.ao_distance)
+    _threads(args)
     problem = check_options(opts)
     if problem and getattr(args, "tiles", 1) > 1:
         from .distributed.batch import check_tiles
@@ -305,6 +306,22 @@ def _options(args, overrides: dict | None = None):
     if problem:
         raise UsageError(problem)
     return opts
+
+
+def _threads(args) -> None:
+    """--threads: the tracer's threads in this process (animate's frame processes take
+    it as their share, Animation.threads). A cluster's workers have their own."""
+    if args.threads is None:
+        return
+    if args.threads < 1:
+        raise UsageError(f"--threads {args.threads}: give 1 or more")
+    if args.workers is not None or args.scheduler:
+        cluster = "--workers" if args.workers is not None else "--scheduler"
+        raise UsageError(f"--threads counts this process's threads and {cluster} renders on "
+                         f"a cluster's workers, each with its own (NUMBA_NUM_THREADS where "
+                         f"it starts): give one of them")
+    from .trace.jit import set_threads
+    set_threads(args.threads)
 
 
 def _distributed(args) -> bool:
@@ -513,7 +530,7 @@ def cmd_animate(args) -> int:
     source = Path(args.file)
     out = Path(args.output) if args.output else Path(f"{source.stem}_frames")
     anim = Animation(source, out, args.frames, opts, args.path, args.at_path, args.fps,
-                     args.gif, args.jobs, force=args.force)
+                     args.gif, args.jobs, force=args.force, threads=args.threads)
     if _distributed(args):
         from .distributed.cluster import ClusterUnavailable, connect
         try:

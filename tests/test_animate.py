@@ -97,6 +97,12 @@ def test_jobs_give_the_same_bytes(capsys, tmp_path, ball):
     assert code == 0, stderr
     assert "rendered with 2 jobs" in stdout
     assert [p.read_bytes() for p in frames(one)] == [p.read_bytes() for p in frames(two)]
+    # --threads: each frame process's threads instead of its share of the cores
+    three = tmp_path / "three"
+    code, _, stderr = animate(capsys, ball, three, "--frames", "4", "--path=" + PATH,
+                              "--jobs", "2", "--threads", "1")
+    assert code == 0, stderr
+    assert [p.read_bytes() for p in frames(one)] == [p.read_bytes() for p in frames(three)]
 
 
 def test_jobs_are_at_most_the_cores(capsys, tmp_path, ball):

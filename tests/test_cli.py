@@ -1078,3 +1078,37 @@ def test_numpys_warnings_do_not_reach_the_user(tmp_path):
                        timeout=600)
     assert r.returncode == 0, r.stderr
     assert "RuntimeWarning" not in r.stderr and "Warning" not in r.stderr, r.stderr
+
+
+def test_threads_sets_the_tracers_threads_and_not_the_bytes(capsys, tmp_path, sierpinski):
+    """--threads N: the tracer's threads in this process (NUMBA_NUM_THREADS alone set
+    them before), at most the cores; the PNG the same at any N."""
+    from numba import config
+
+    from pcsg.trace import jit
+    before = jit.threads()
+    try:
+        pngs = []
+        for n in (1, 2):
+            out = tmp_path / f"t{n}.png"
+            assert run(capsys, "render", str(sierpinski), "--size", "64x48", "--threads",
+                       str(n), "-q", "-o", str(out))[0] == 0
+            assert jit.threads() == min(n, config.NUMBA_NUM_THREADS)
+            pngs.append(out.read_bytes())
+        assert pngs[0] == pngs[1]
+    finally:
+        jit.set_threads(before)
+
+
+@pytest.mark.parametrize("argv, said", [
+    (("--threads", "0"), "--threads 0: give 1 or more"),
+    (("--threads", "1", "--workers", "2"), "--threads counts this process's threads and "
+                                            "--workers renders on a cluster's workers"),
+    (("--threads", "1", "--scheduler", "tcp://localhost:8786"), "and --scheduler renders"),
+])
+def test_threads_usage_errors(capsys, tmp_path, sierpinski, argv, said):
+    from pcsg.trace import jit
+    before = jit.threads()
+    code, _, err = run(capsys, "render", str(sierpinski), "-o", str(tmp_path / "x.png"), *argv)
+    assert code == 2 and said in err
+    assert jit.threads() == before

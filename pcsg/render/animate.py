@@ -54,6 +54,7 @@ class Animation:
     jobs: int | None = None             # None: one per core
     cluster: object = None              # a pcsg.distributed runner: the frames run there
     force: bool = False                 # render every frame, done or not
+    threads: int | None = None          # each frame process's; None: the cores shared
 
 
 @dataclass
@@ -279,7 +280,7 @@ def animate(anim: Animation) -> int:
             for job in todo:
                 report.finished(manifest, _render_job(job, in_worker=False))
         else:
-            _run_parallel(todo, workers, manifest, report)
+            _run_parallel(todo, workers, manifest, report, anim.threads)
     except KeyboardInterrupt:
         tell(f"{anim.out_dir}: interrupted with {report.done} of {len(jobs)} frames done; "
              f"the same command resumes")
@@ -341,9 +342,9 @@ def _run_on_cluster(todo, runner, manifest, report):
             report.finished(manifest, (job.index, None, [], str(error)))
 
 
-def _run_parallel(todo, workers, manifest, report):
+def _run_parallel(todo, workers, manifest, report, threads=None):
     import multiprocessing
-    threads = max(1, cores() // workers)
+    threads = threads or max(1, cores() // workers)
     pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
                                initializer=_init_worker, initargs=(threads,))
     with pool:
