@@ -423,11 +423,11 @@ def cmd_sweep(args) -> int:
                          f"directory; name it, e.g. -o {out_dir.with_suffix('')}/")
     # the file's errors and unknown names once, not once for every image
     _compile(args.file, {**fixed, name: values[0]})
+    # checked before the directory is made: a usage error left an empty one
+    options = [_options(args, {**fixed, name: value}) for value in values]
     _make_directory(out_dir, args.output)
-    jobs = []
-    for value, out in zip(values, sweep_outputs(args.file, out_dir, name, values)):
-        opts = _options(args, {**fixed, name: value})
-        jobs.append(Job(args.file, out, opts, name=out.name))
+    jobs = [Job(args.file, out, opts, name=out.name)
+            for opts, out in zip(options, sweep_outputs(args.file, out_dir, name, values))]
     return _exit(run_jobs(jobs, args, resume=True, what="images"))
 
 

@@ -105,6 +105,14 @@ def test_jobs_give_the_same_bytes(capsys, tmp_path, ball):
     assert [p.read_bytes() for p in frames(one)] == [p.read_bytes() for p in frames(three)]
 
 
+def test_a_frame_process_has_its_share_of_the_cores_or_threads_at_most_the_cores():
+    from pcsg.render.animate import cores, worker_threads
+    assert worker_threads(None, 1) == cores()
+    assert worker_threads(None, cores() + 1) == 1
+    assert worker_threads(1, 2) == 1
+    assert worker_threads(300, 2) == cores()      # each worker started 300 threads
+
+
 def test_jobs_are_at_most_the_cores(capsys, tmp_path, ball):
     """--jobs 1000 started a process per frame on two cores (17 s against 2.6 s)."""
     from pcsg.render.animate import cores

@@ -710,6 +710,9 @@ def test_a_directive_value_in_error_is_reported_once(tmp_path):
     (["--set", "c=1..2", "--set", "c=3"], 2, "--set c is given twice"),
     (["--set", "z=1..3"], 1, "cannot set 'z': it is not an initial parameter"),
     (["--set", "c=1..100000000"], 2, "100,000,000 images; a sweep renders at most 10,000"),
+    # the options' errors too: they left an empty directory
+    (["--set", "c=1..2", "--threads", "0"], 2, "--threads 0: give 1 or more"),
+    (["--set", "c=1..2", "--threads", "1", "--workers", "2"], 2, "--threads counts this"),
 ])
 def test_sweep_usage_errors_are_said_once_before_any_image(capsys, tmp_path, args, code,
                                                           message):

@@ -342,9 +342,15 @@ def _run_on_cluster(todo, runner, manifest, report):
             report.finished(manifest, (job.index, None, [], str(error)))
 
 
-def _run_parallel(todo, workers, manifest, report, threads=None):
+def worker_threads(asked: int | None, workers: int) -> int:
+    """A frame process's threads: --threads, at most the cores (each worker of `--threads
+    300` started 300, and the animation took 25 s for 2), else its share of the cores."""
+    return min(asked, cores()) if asked else max(1, cores() // workers)
+
+
+def _run_parallel(todo, workers, manifest, report, asked=None):
     import multiprocessing
-    threads = threads or max(1, cores() // workers)
+    threads = worker_threads(asked, workers)
     pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
                                initializer=_init_worker, initargs=(threads,))
     with pool:
