@@ -315,13 +315,21 @@ def _threads(args) -> None:
         return
     if args.threads < 1:
         raise UsageError(f"--threads {args.threads}: give 1 or more")
-    if args.workers is not None or args.scheduler:
-        cluster = "--workers" if args.workers is not None else "--scheduler"
+    cluster = _cluster_option(args)
+    if cluster:
         raise UsageError(f"--threads counts this process's threads and {cluster} renders on "
                          f"a cluster's workers, each with its own (NUMBA_NUM_THREADS where "
                          f"it starts): give one of them")
     from .trace.jit import set_threads
     set_threads(args.threads)
+
+
+def _cluster_option(args) -> str | None:
+    """--workers or --scheduler, whichever was given (both: _distributed's error), or
+    None: the frames or images render in this process's threads."""
+    if args.workers is not None:
+        return "--workers"
+    return "--scheduler" if args.scheduler else None
 
 
 def _distributed(args) -> bool:
@@ -508,9 +516,9 @@ def cmd_animate(args) -> int:
                          f"at least); the animated PNG alone takes any rate below 1000")
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs {args.jobs}: give 1 or more")
-    if args.jobs is not None and (args.workers is not None or args.scheduler):
+    cluster = _cluster_option(args)
+    if args.jobs is not None and cluster:
         # the cluster's workers render the frames: --jobs was dropped without a word
-        cluster = "--workers" if args.workers is not None else "--scheduler"
         raise UsageError(f"--jobs counts local processes and {cluster} renders the frames "
                          f"on a cluster's workers: give one of them")
     if args.path is not None and args.eye is not None:
