@@ -57,6 +57,26 @@ def test_the_instance_walk_counts_the_instances_the_reference_expansion_has():
     assert (w.location.line, w.location.column) == (3, 8)
 
 
+@pytest.mark.parametrize("bad_map, code", [("move(sqrt(k - 0.1), 0, 0)", "non-finite-map"),
+                                           ("scale(1, floor(k * 5), 1)", "singular-map")])
+def test_the_instance_walk_names_the_map_of_a_fused_run_that_fails(bad_map, code):
+    """The walk bounds a run of maps as one `matrix` node (graph/fuse.py), written at the
+    run's head: it said `rotz(30)` where `move(sqrt(k - 0.1), 0, 0)` had the fault."""
+    text = DRAWN.replace("move(sqrt(rand() - 0.1), 0, 0)",
+                         "{k = rand()} rotz(30) " + bad_map + " roty(20)")
+    text = text.replace("{c = 5}", "{c = 7}")   # states enough to be walked one by one
+    graph = compile_text(text, "t.pcsg")
+    bad = sum(leaf_inverse(x.matrix) is None for x in flatten(graph))
+    assert 0 < bad < 3 ** 7
+    from pcsg.tracer import loads
+    traced = loads(text, "t.pcsg")
+    assert traced.bounds_method == "every instance" and traced.graph.origins
+    (w,) = faults_of(traced, code)
+    assert f" in {bad:,} instances" in w.message
+    line = text.splitlines()[2]
+    assert (w.location.line, w.location.column) == (3, line.index(bad_map) + 1)
+
+
 def test_a_system_without_such_maps_has_no_warning():
     from pcsg.tracer import loads
     fine = loads(DRAWN.replace("- 0.1", "+ 0.1"), "t.pcsg")

@@ -18,7 +18,7 @@ from ..graph import boxcache
 from . import vm
 from .jit import copy_into, inline, kernel, threads
 from .instance_table import TABLE_SLOTS, append, empty_table, new_book
-from .nodes import node_affine, pick_rule, run_calc, singular_map
+from .nodes import culprit, node_affine, pick_rule, run_calc, singular_map
 from .fractals import A_R
 from .balls import ROW, ball_of_box, map_ball, rotates, smaller_ball, tighten, unite_ball
 from .primitives import BOXES, FRACTAL_MIN, HULL, HULL_COUNT, TRI1, TRI2
@@ -125,12 +125,14 @@ def _mapped_primitive_box(flat, prim, m, inner, out):
 
 
 @inline
-def _fault(changed, kind, node):
+def _fault(flat, changed, kind, node, params, slot, h, stack, args, m34):
     """A map with non-finite arguments or a singular one (kind) emptied an instance of
     T-node `node`: the tracer empties it too, and no ray may ever reach it to say so (its
-    box is empty)."""
+    box is empty). Counted at the node of a fused run that fails so (nodes.culprit), as
+    the tracer's note is: the run's head named `rotz(a)` of `rotz(a) move(0,0,ln(d))`."""
+    at = culprit(flat, node, params, slot, h, stack, args, m34, kind + 1)
     changed[FAULTS + 2 * kind] += 1
-    changed[FAULTS + 2 * kind + 1] = min(changed[FAULTS + 2 * kind + 1], node)
+    changed[FAULTS + 2 * kind + 1] = min(changed[FAULTS + 2 * kind + 1], at)
 
 
 @inline
@@ -165,10 +167,12 @@ def _walk_chain(flat, f, capacity, boxes, fr, params, acc, hs, stack, args, m34,
         else:
             if not node_affine(flat, node, params, fr[k, SLOT], hs[f], stack, args, m34):
                 _empty(acc[k])
-                _fault(changed, NONFINITE, node)
+                _fault(flat, changed, NONFINITE, node, params, fr[k, SLOT], hs[f], stack, args,
+                       m34)
             elif singular_map(m34):
                 _empty(acc[k])
-                _fault(changed, SINGULAR, node)
+                _fault(flat, changed, SINGULAR, node, params, fr[k, SLOT], hs[f], stack, args,
+                       m34)
             elif bare:
                 _mapped_primitive_box(flat, fr[g, NODE], m34, acc[k + 1], acc[k])
             else:
@@ -391,7 +395,7 @@ def walk_in(flat, max_depth, budget, capacity, boxes, book, keys, used, vals, pe
                     copy_into(acc[p], tmp)
                 else:               # the tracer empties the instance
                     _empty(acc[p])
-                    _fault(changed, bad, up)
+                    _fault(flat, changed, bad, up, params, fr[p, SLOT], hs[p], stack, args, m34)
             elif above == CALC or above == PAINT or above == MATERIAL:
                 copy_into(acc[p], acc[p + 1])
             else:

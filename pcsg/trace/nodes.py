@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from ..graph.model import TRANSFORM
 from . import vm
 from .jit import copy_into, inline, kernel
 from .native import call_block
@@ -283,13 +284,17 @@ def composed_affine(flat, node, params, slot, h, stack, args, m34):
     return ok
 
 
-@inline
+@kernel
 def culprit(flat, node, params, slot, h, stack, args, m34, bad):
     """Which of the T-nodes that `node` composes made transform_map fail with `bad`
     (1: a non-finite argument, 2: a singular map), for the warning's location: the
     first whose own map fails so; `node` if only their product is singular. A `matrix`
-    node written for a run (Flat.origin) stands for the run as written."""
+    node written for a run (Flat.origin) stands for the run as written, which a flat
+    that composes no runs (the bounding walk's: `then` all -1) follows child by child
+    down to the node below the run."""
+    below = -1
     if flat.origin[node] >= 0:
+        below = flat.children[flat.child_start[node]]
         node = flat.origin[node]
     at = node
     while at >= 0:
@@ -298,7 +303,11 @@ def culprit(flat, node, params, slot, h, stack, args, m34, bad):
             return at
         if bad == 2 and singular_map(m34):
             return at
-        at = flat.then[at]
+        nxt = flat.then[at]
+        if nxt < 0 and below >= 0:
+            c = flat.children[flat.child_start[at]]
+            nxt = c if c != below and flat.kind[c] == TRANSFORM else -1
+        at = nxt
     return node
 
 
