@@ -78,13 +78,13 @@ def cmd_check(args) -> int:
 
 def _check_file(path, args) -> int:
     """1 where the file fails the check, after its report."""
-    from .graph.checks import constant_maps, derivation_faults
+    from .graph.checks import derivation_faults
     try:
         graph = _compile(path, args.overrides)
         errors, warnings = derivation_faults(graph)
         if errors:
             raise PcsgError(errors)
-        graph.warnings += warnings + constant_maps(graph)
+        graph.warnings += warnings
     except PcsgError as e:
         _unbroken(_report, e, [])
         return 1

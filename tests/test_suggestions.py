@@ -125,6 +125,41 @@ def test_check_warns_of_a_constant_map_that_empties_its_operand(capsys, tmp_path
     assert "it empties its operand" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("text, where", [
+    # a block below the axiom's head: `d` is no constant there, and check said "ok"
+    ("{d = 0; a = 10} S ∪ cube\nS 1\n1: S → scale(1, d, 1) sphere\n", (3, 8)),
+    ("cube ∪ {d = -1} S\nS 1\n1: S → rotz(30) move(0, 0, ln(d)) sphere\n", (3, 17)),
+    # derived: only the third level's instances are empty
+    ("{k = 0} S\nS if(k < 3, 2, 1)\n1: S → sphere\n"
+     "2: S → {k = k + 1} scale(1, 1, 2 - k) S ∪ move(3, 0, 0) cube\n", (4, 20)),
+])
+def test_check_warns_of_a_map_that_empties_instances_where_render_does(capsys, tmp_path,
+                                                                        text, where):
+    # notation §4: reported once; check and render say it at the same place, in the same
+    # words ("in some instances": not every instance of the T-node is empty)
+    from pcsg.tracer import loads
+    src = tmp_path / "t.pcsg"
+    src.write_text(text, encoding="utf-8")
+    assert main(["check", str(src)]) == 0
+    err = capsys.readouterr().err
+    said = [line for line in err.splitlines() if "warning:" in line]
+    (rendered,) = [w for w in loads(text, "t.pcsg").warnings if w.code.endswith("-map")]
+    assert said == [f"{src}:{where[0]}:{where[1]}: warning: {rendered.message}"]
+    assert (rendered.location.line, rendered.location.column) == where
+    assert "in some instances" in rendered.message
+
+
+def test_check_says_a_constant_map_once(capsys, tmp_path):
+    # the derivation meets it too: "it empties its operand" alone, not also "in some
+    # instances"
+    src = tmp_path / "t.pcsg"
+    src.write_text("uscale(0) sphere ∪ move(3, 0, 0) cube\n", encoding="utf-8")
+    assert main(["check", str(src)]) == 0
+    said = [line for line in capsys.readouterr().err.splitlines() if "warning:" in line]
+    assert said == [f"{src}:1:1: warning: this transformation is singular (a zero scale) or "
+                    "too large to invert: it empties its operand"]
+
+
 @pytest.mark.parametrize("text, want", [
     ("{c = 1} S\nS 1\n1: S → sphere\n2: S → cube\n",
      [(4, "rule 2 of 'S' is never selected: its selection only gives 1")]),

@@ -23,7 +23,7 @@ from ..trace.primitives import CODES, hull, object_box
 from .dependence import StateKey
 from .derive import Deriver, State
 from .fuse import fuse_runs
-from .linear import singular
+from .linear import SINGULAR, map_fault
 from .passthrough import fill_boxes, without_passable
 from .model import CALC, DIFFERENCE, INTERSECTION, PRIMITIVE, SELECT, TRANSFORM, UNION, Graph
 from .states import StateTable, state_table
@@ -270,10 +270,10 @@ class _Walker:
             m = self.matrices.get(key)
             if m is None:       # the key fixes the matrix: rounds need not derive it again
                 m = self.d.matrix(i, state, h)
-                if not np.isfinite(m).all():
-                    self.faults.add((NONFINITE, i))
-                elif singular(m):
-                    self.faults.add((SINGULAR, i))
+                fault = map_fault(m)
+                if fault is not None:
+                    self.faults.add((fault, i))
+                if fault == SINGULAR:
                     m = EMPTIED         # the tracer empties the instance: so do the bounds
                 self.matrices[key] = m
             b = self.transform(m, self.box(n.children[0], state, h, level))
@@ -550,7 +550,6 @@ GROWTH = 1e-9           # relative widening per growing round: makes containment
 TIGHTEN_ROUNDS = 200
 
 
-NONFINITE, SINGULAR = 0, 1          # kinds of faults, as trace/boxwalk.py counts them
 EMPTIED = np.full((4, 4), np.nan)   # a singular map's stand-in: every walker empties by it
 EMPTIED.flags.writeable = False
 FAULTS = (("the arguments of this transformation are not finite", "non-finite-map"),

@@ -58,24 +58,42 @@ def derivation_faults(graph: Graph, max_states: int = CHECK_STATES):
     fail on it. A state met again on its own path is a warning: that derivation never
     ends (`{c = 1/0}`, or a count that never reaches its end: stats failed, check said
     ok), and a render draws it to pixel size only. Deeper than the budget, in a graftal
-    (warned of already) or where `pixels` ends the derivation, nothing is said."""
+    (warned of already) or where `pixels` ends the derivation, nothing is said.
+    The warnings begin with the transformations that empty their instances (map_faults)."""
     from .stats import count_primitives
     from .volumes import graftal_nodes
+    faults: set = set()
     try:
-        count_primitives(graph, max_states)
+        count_primitives(graph, max_states, faults=faults)
     except PcsgError as e:
         errors = [d for d in e.diagnostics if d.code == "selection"]
         # a graftal, or a system whose selections read `pixels` (+inf here), ends where
         # the render's pixels end it, a graftal only where its maps contract
         if errors or graph.pixels >= 0:
-            return errors, []
+            return errors, map_faults(graph, faults)
         if graftal_nodes(graph):
-            return [], _unbounded_graftal(graph)
+            return [], map_faults(graph, faults) + _unbounded_graftal(graph)
         repeats = [Diagnostic("warning", d.message + ": a render draws it only to pixel "
                               "size", d.span, d.source, code=d.code)
                    for d in e.diagnostics if d.code == "repeats"]
-        return [], repeats or _runaway(graph)
-    return [], []
+        return [], map_faults(graph, faults) + (repeats or _runaway(graph))
+    return [], map_faults(graph, faults)
+
+
+def map_faults(graph: Graph, faults: set) -> list[Diagnostic]:
+    """`check`'s word for the transformations that empty their operand, singular or not
+    finite (notation §4), as render's bounding walk says it: in every instance where the
+    arguments are constant (constant_map_warning), else "in some instances", for those
+    that the derivation check follows met (`faults`: (kind, T-node), count_primitives').
+    A parameter set by a block below the axiom's head is no constant (`{d = 0} S ∪ cube`,
+    `S → scale(1, d, 1) sphere`): check said nothing where render warned."""
+    from .bounds import fault_warnings
+    found = fault_warnings(graph, graph, [(k, 0, n) for k, n in sorted(faults)],
+                           counted=False)
+    met = {n for _, n in faults}
+    live = reachable(graph)
+    return found + [d for i in range(len(graph.nodes)) if live[i] and i not in met
+                    if (d := constant_map_warning(graph, i)) is not None]
 
 
 def _unbounded_graftal(graph: Graph) -> list[Diagnostic]:
@@ -109,15 +127,6 @@ def _runaway(graph: Graph) -> list[Diagnostic]:
     return [Diagnostic("warning", f"{found.message}: a count running away from its end? a "
                        f"render refines it to pixel size or --max-depth", found.span,
                        found.source, code="runaway")]
-
-
-def constant_maps(graph: Graph) -> list[Diagnostic]:
-    """`check`'s word for a transformation of constant arguments that empties its
-    operand in every instance, singular or not finite (notation §4): `scale(1, 0, 1)`
-    passed check, and only render's bounding walk said so."""
-    live = reachable(graph)
-    out = [constant_map_warning(graph, i) for i in range(len(graph.nodes)) if live[i]]
-    return [d for d in out if d is not None]
 
 
 def constant_map_warning(graph: Graph, i: int) -> Diagnostic | None:

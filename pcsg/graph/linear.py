@@ -11,6 +11,18 @@ import math
 import numpy as np
 
 
+# the faults of a map that empty its instance, in every walk and in the tracer (as
+# trace/boxwalk.py counts them)
+NONFINITE, SINGULAR = 0, 1
+
+
+def map_fault(m: np.ndarray) -> int | None:
+    """NONFINITE or SINGULAR where the map m empties its instance, else None."""
+    if not np.isfinite(m).all():
+        return NONFINITE
+    return SINGULAR if singular(m) else None
+
+
 def singular(m: np.ndarray) -> bool:
     """Whether one map's linear part is singular or its determinant not finite, by the
     cofactors: the bounding walks empty such an instance. Python's floats: inf without a

@@ -5,12 +5,15 @@ from __future__ import annotations
 import math
 from collections import Counter
 
+import numpy as np
+
 from ..language.errors import Diagnostic, PcsgError
 from ..recursion import recursion_limit
 from .cut import NO_VOLUME, VOLUME_NAMES, Cut
 from .dependence import StateKey
 from .derive import Deriver, readable
-from .model import CALC, KIND_NAMES, OPERATORS, PRIMITIVE, SELECT, Graph
+from .linear import map_fault
+from .model import CALC, KIND_NAMES, OPERATORS, PRIMITIVE, SELECT, TRANSFORM, Graph
 
 MAX_LEVELS = 10_000         # derivation levels (S-node nesting) before we call it endless
 MAX_STATES = 2_000_000      # distinct (node, relevant state) pairs before giving up
@@ -25,9 +28,12 @@ class Endless(Exception):
         self.deep = deep        # past the levels it may follow (not its states)
 
 
-def count_primitives(graph: Graph, max_states: int = MAX_STATES, cut: Cut | None = None) -> int:
-    """Primitives in the complete derivation of the axiom (cut where `cut` says)."""
-    return sum(count_by_primitive(graph, max_states, cut).values())
+def count_primitives(graph: Graph, max_states: int = MAX_STATES, cut: Cut | None = None,
+                     faults: set | None = None) -> int:
+    """Primitives in the complete derivation of the axiom (cut where `cut` says). With
+    `faults`, a set, the maps met that empty their instances go into it as (kind,
+    T-node), kind as graph/linear.py's map_fault gives it."""
+    return sum(count_by_primitive(graph, max_states, cut, faults).values())
 
 
 def ends_from(graph: Graph, node: int, state, h, max_states: int, max_levels: int) -> bool:
@@ -52,7 +58,7 @@ def derivation_end(graph: Graph, node: int, state, h, max_states: int, max_level
 
 
 def count_by_primitive(graph: Graph, max_states: int = MAX_STATES,
-                       cut: Cut | None = None) -> dict[str, int]:
+                       cut: Cut | None = None, faults: set | None = None) -> dict[str, int]:
     """Primitives of each kind in the complete derivation of the axiom (memoised on node
     and the parameters that can change its derivation). PcsgError if it never ends, or
     passes max_states distinct states (a system that draws its rules at random has one
@@ -60,6 +66,7 @@ def count_by_primitive(graph: Graph, max_states: int = MAX_STATES,
     (graph/cut.py), the derivation flatten.instances writes: S-node instances deeper than
     its depth end as the tracer ends them, a cut graftal instance as its volume."""
     counter = _Counter(graph, max_states, cut)
+    counter.faults = faults
     try:
         with recursion_limit(12 * MAX_LEVELS + 1000):
             state, h = counter.d.initial()
@@ -84,6 +91,7 @@ class _Counter:
         self.none = (0,) * len(self.kinds)
         self.memo: dict = {}
         self.active: set = set()
+        self.faults: set | None = None      # count_primitives' faults
 
     def count(self, node_id: int, state, h: int, level: int) -> tuple:
         """Counts per primitive kind, in the order of self.kinds."""
@@ -125,6 +133,11 @@ class _Counter:
                      for i, c in enumerate(node.children)]
             total = tuple(map(sum, zip(*parts)))
         else:       # T, paint, material: one child, same instance
+            if self.faults is not None and node.kind == TRANSFORM:
+                with np.errstate(all="ignore"):
+                    fault = map_fault(self.d.matrix(node_id, state, h))
+                if fault is not None:
+                    self.faults.add((fault, node_id))
             total = self.count(node.children[0], state, h, level)
         self.active.discard(key)
         self.memo[key] = total
