@@ -372,13 +372,17 @@ def _run_parallel(todo, workers, manifest, report, asked=None):
                 pending.discard(f)
                 report.finished(manifest, f.result())
         except KeyboardInterrupt as e:
-            # frames being rendered stop (the workers saw Ctrl-C too; a SIGTERM or SIGHUP
-            # of this process alone is passed on to them) or finish; either way what they
-            # wrote is whole, and finished ones go into the manifest
+            # frames being rendered stop or finish; either way what they wrote is whole,
+            # and finished ones go into the manifest. A Ctrl-C at the terminal reached the
+            # workers too; a signal to this process alone (`kill -INT PID`, SIGTERM,
+            # SIGHUP) is passed on to them, a SIGINT as SIGTERM, which a worker that had
+            # the group's Ctrl-C already takes as the same stop (_init_worker), where a
+            # second SIGINT would interrupt it again. Without it, `kill -INT` left the
+            # frames being rendered to finish, and the frames queued for the workers
+            # (which cancel() cannot take back) to start
             for f in pending:
                 f.cancel()
-            if isinstance(e, Terminated):
-                _signal_workers(pool, e.signum)
+            _signal_workers(pool, e.signum if isinstance(e, Terminated) else signal.SIGTERM)
             for f in pending:
                 if f.cancelled():
                     continue
