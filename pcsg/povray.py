@@ -42,6 +42,10 @@ SHAPES = {
 MIN_AXIS = 1e-9         # the shortest axis an exported object gets (_drawable)
 LINES_AT_ONCE = 1 << 13  # lines formatted at a time: their strings and lists stay few
 SKY_STEPS = 12          # colour-map entries for the sky's s**0.6 blend
+# POV-Ray takes a camera within 1e-5 of its look_at as none ("Camera location and look_at
+# point must be different") and draws nothing of a scene about that size: a scene framed
+# from nearer than this is written scaled up (_scale_up)
+NEAREST_VIEW = 1e-2
 
 
 def _num(x: float) -> str:
@@ -303,6 +307,7 @@ def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
     (graph/cut.py), the derivation ends where the tracer's does at that depth bound."""
     graph = traced.graph
     _refuse_fractals(graph)
+    k = _scale_up(camera)
     textures = _Textures(graph, lighting)
     mesh = _Mesh()
     empty = done = 0
@@ -313,7 +318,7 @@ def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
     # declared where it is first needed, between the top-level objects; the blocks
     # held in memory (∩, \\ and the mesh) are written after their declarations
     with open_atomic(path, "w") as out:
-        out.write(_header(camera, lighting, size, graph))
+        out.write(_header(camera, lighting, size, graph, k))
         for name, shape in SHAPES.items():
             out.write(f"#declare P_{name} = {shape}\n")
         body = _BodyWriter(graph, out)
@@ -327,13 +332,14 @@ def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
             declared = len(textures.declares)
             sign = triangle[leaves.node]
             flat = kept & (sign != 0)
-            mesh.add(leaves.world[flat], sign[flat], [tex[j] for j in np.flatnonzero(flat)])
+            mesh.add(k * leaves.world[flat], sign[flat],
+                     [tex[j] for j in np.flatnonzero(flat)])
             rows = np.flatnonzero(kept & (sign == 0))
             # a block of lines at a time: their strings and lists stay few. A chunk with
             # none leaves the blocks open: the next chunk's primitives may be in them
             for b in range(0, len(rows), LINES_AT_ONCE):
                 part = rows[b:b + LINES_AT_ONCE]
-                lines = _objects(leaves, part, tex, names, textures)
+                lines = _objects(leaves, part, tex, names, textures, k)
                 if leaves.paths is not None:
                     for j, line in zip(part.tolist(), lines):
                         body.add(body.path_blocks(leaves.paths[j]), line)
@@ -350,10 +356,11 @@ def export_pov(traced, camera: Camera, lighting: Lighting, path: Path,
     return body.written + mesh.faces, empty, body.dropped
 
 
-def _objects(leaves, rows: np.ndarray, tex: list, names: list, textures) -> list[str]:
-    """The object lines of the primitives `rows` of a chunk; a cut graftal instance's
-    volume as an intersection with the volumes that clip it."""
-    maps = _drawable(leaves.world[rows]).transpose(0, 2, 1).reshape(-1, 12).tolist()
+def _objects(leaves, rows: np.ndarray, tex: list, names: list, textures,
+             k: float = 1.0) -> list[str]:
+    """The object lines of the primitives `rows` of a chunk, their maps scaled by k; a
+    cut graftal instance's volume as an intersection with the volumes that clip it."""
+    maps = _drawable(k * leaves.world[rows]).transpose(0, 2, 1).reshape(-1, 12).tolist()
     lines = [f"object {{ P_{names[n]} {_MATRIX % tuple(m)} texture {{ {tex[j]} }}"
              f"{textures.interior(mat)} }}"
              for j, n, m, mat in zip(rows.tolist(), leaves.node[rows].tolist(), maps,
@@ -362,7 +369,7 @@ def _objects(leaves, rows: np.ndarray, tex: list, names: list, textures) -> list
         (i, j) for i, j in enumerate(rows.tolist()) if leaves.clips[j]]
     if clipped:
         volumes = [v for _, j in clipped for v in leaves.clips[j]]
-        maps = iter(_drawable(np.array([m[:3] for _, m in volumes]))
+        maps = iter(_drawable(k * np.array([m[:3] for _, m in volumes]))
                     .transpose(0, 2, 1).reshape(-1, 12).tolist())
         for i, j in clipped:
             lines[i] = "intersection { " + " ".join(
@@ -489,7 +496,19 @@ class _BodyWriter:
             self._close()
 
 
-def _header(camera: Camera, lighting: Lighting, size, graph) -> str:
+def _scale_up(camera: Camera) -> float:
+    """The factor, a power of two (exact), that a scene framed from nearer than
+    NEAREST_VIEW is written scaled by about the origin, its objects, camera and lights
+    alike: the same picture. `uscale(1e-6) sphere` gave a scene POV-Ray refused to parse,
+    and at 1e-5 one it drew empty. 1 for any other."""
+    d = float(np.linalg.norm(np.subtract(camera.eye, camera.at)))
+    if not 0.0 < d < NEAREST_VIEW:
+        return 1.0
+    return 2.0 ** math.ceil(math.log2(1.0 / d))
+
+
+def _header(camera: Camera, lighting: Lighting, size, graph, k: float = 1.0) -> str:
+    """The scene's settings, camera, lights and sky, its lengths scaled by k."""
     w, h = size
     aspect = w / h
     hfov = math.degrees(2 * math.atan(aspect * math.tan(math.radians(camera.fov) / 2)))
@@ -501,19 +520,21 @@ def _header(camera: Camera, lighting: Lighting, size, graph) -> str:
         "#version 3.7;",
         f"global_settings {{ assumed_gamma 1.0 max_trace_level {lighting.max_bounces + 1} }}",
         # right-handed like pcsg: a negative right vector mirrors POV-Ray's left-handed frame
-        f"camera {{ perspective location {_vec(camera.eye)} sky {_vec(camera.up)} up y "
-        f"right -x*{_num(aspect)} angle {_num(hfov)} look_at {_vec(camera.at)} }}",
+        f"camera {{ perspective location {_vec(k * np.asarray(camera.eye))} sky "
+        f"{_vec(camera.up)} up y right -x*{_num(aspect)} angle {_num(hfov)} look_at "
+        f"{_vec(k * np.asarray(camera.at))} }}",
     ]
     for lt in lighting.lights:
         area = ""
         if lt.radius > 0 and lighting.shadow_samples > 1:
-            s = 2 * lt.radius
-            # about as many rays as --shadow-samples: a k x k grid, k at least 2 (it
+            s = 2 * lt.radius * k
+            # about as many rays as --shadow-samples: an n x n grid, n at least 2 (it
             # was 3 x 3 whatever the option)
-            k = max(2, round(math.sqrt(lighting.shadow_samples)))
-            area = f" area_light <{_num(s)}, 0, 0>, <0, {_num(s)}, 0>, {k}, {k} circular orient"
+            n = max(2, round(math.sqrt(lighting.shadow_samples)))
+            area = f" area_light <{_num(s)}, 0, 0>, <0, {_num(s)}, 0>, {n}, {n} circular orient"
         shadows = "" if lighting.shadows else " shadowless"
-        lines.append(f"light_source {{ {_vec(lt.position)} color rgb {_vec(lt.color)}{area}"
+        lines.append(f"light_source {{ {_vec(k * np.asarray(lt.position))} color rgb "
+                     f"{_vec(lt.color)}{area}"
                      f"{shadows} }}")
     entries = [f"[0 rgb {_vec(lighting.horizon)}]", f"[0.5 rgb {_vec(lighting.horizon)}]"]
     for k in range(1, SKY_STEPS + 1):

@@ -2,6 +2,7 @@
 checked against the derivation itself; where POV-Ray is installed, its picture of the
 exported scene is compared with pcsg's own render of the same file."""
 import argparse
+import math
 import os
 import re
 import shutil
@@ -36,6 +37,7 @@ MIRROR = Path(__file__).resolve().parent / "data" / "mirror_export.pcsg"
 FLUSH = Path(__file__).resolve().parent / "data" / "flush_export.pcsg"
 FERN = ROOT / "grammars" / "barnsley_fern.pcsg"      # a graftal: cut at --max-depth
 GLASS = ROOT / "grammars" / "glass_and_mirror.pcsg"
+TINY = Path(__file__).resolve().parent / "data" / "tiny_export.pcsg"
 
 
 def export(tmp_path, grammar, *options):
@@ -287,6 +289,20 @@ def test_export_progress_is_out_of_the_counted_primitives_and_off_with_quiet(mon
     assert not _export_progress(args, _export_total(graph, None)).enabled
 
 
+def test_a_scene_framed_from_near_is_written_scaled_up_by_a_power_of_two(tmp_path):
+    # its objects, camera and lights alike; any other scene as it is
+    text = export(tmp_path, TINY).read_text()
+    ((eye,),) = [re.findall(r"location <([^>]*)>", line) for line in text.splitlines()
+                 if line.startswith("camera")]
+    assert 0.5 < np.linalg.norm(np.array(eye.split(", "), float)) < 4
+    sphere = matrices(text)[0]          # uscale(1e-6) sphere, times k
+    k = sphere[0, 0] / 1e-6
+    assert k > 1e5 and math.log2(k) == pytest.approx(round(math.log2(k)), abs=1e-9)
+    assert np.allclose(sphere, np.diag([k * 1e-6] * 3 + [0])[:3], rtol=1e-8, atol=0)
+    plain = export(tmp_path, SIERPINSKI, "--set", "c=1").read_text()
+    assert "location <" in plain and all(abs(m[0][0]) <= 1 for m in matrices(plain))
+
+
 POVRAY = shutil.which("povray")
 
 
@@ -303,7 +319,8 @@ POVRAY = shutil.which("povray")
                                              # no bounce: the surfaces' whole own colours
                                              # (POV-Ray's were dark where they reflect:
                                              # mean 12.1, 11 % of the pixels off by > 48)
-                                             (GLASS, ["--set", "k=1", "--bounces", "0"])])
+                                             (GLASS, ["--set", "k=1", "--bounces", "0"]),
+                                             (TINY, [])])
 def test_povray_draws_the_same_picture(tmp_path, grammar, options):
     pov = export(tmp_path, grammar, "--shadow-samples", "1", *options)
     subprocess.run([POVRAY, f"+I{pov}", f"+O{tmp_path / 'pov.png'}", "+W160", "+H120", "-D",
