@@ -145,7 +145,10 @@ def make_camera(traced, aspect: float, eye=None, at=None, up=None, fov=None) -> 
     at = np.asarray(at if at is not None else (box[:3] + box[3:]) / 2, float)
     if eye is None:
         with np.errstate(over="ignore", invalid="ignore"):     # a box too large: below
-            radius = max(np.linalg.norm(box[3:] - box[:3]) / 2, 1e-9)
+            radius = np.linalg.norm(box[3:] - box[:3]) / 2
+        # a point's box: some size to frame. Not a floor under every radius: an object
+        # smaller than it (uscale(1e-10) sphere) was framed too far away
+        radius = 1e-9 if radius <= 0 else radius
         half = math.radians(fov) / 2
         fit = radius / math.sin(min(half, half * aspect)) * 1.08
         eye = at + DEFAULT_DIRECTION / np.linalg.norm(DEFAULT_DIRECTION) * fit

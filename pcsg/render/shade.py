@@ -155,7 +155,8 @@ def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: 
     if kernel and depth == 0 and hasattr(traced, "flat"):
         return _shade_kernel(traced, light, origins, directions, ids, check)
     cone = np.zeros(len(origins)) if cone is None else cone
-    hits = traced.trace(origins, directions, lod=light.lod, cone=cone)
+    # tmin 0 as the kernel's (trace/shading.py): the eye, or a point moved off its surface
+    hits = traced.trace(origins, directions, tmin=0.0, lod=light.lod, cone=cone)
     light.rays[0] += len(origins)
     color = light.sky(directions)
     h = hits.hit
@@ -342,7 +343,7 @@ def _unoccluded(traced, light: Lighting, origin, normal, ids, spot) -> np.ndarra
     shift = _pixel_shift(ids, AO_STREAM)
     seen = np.zeros(len(origin))
     for k in range(light.ao_samples):
-        hit = traced.trace(origin, _hemisphere(k, light.ao_samples, shift, normal), tmin=1e-9,
+        hit = traced.trace(origin, _hemisphere(k, light.ao_samples, shift, normal), tmin=0.0,
                            tmax=light.ao_distance, any_hit=True, lod=light.lod, cone=spot)
         light.rays[0] += len(origin)
         seen += ~hit.hit

@@ -130,7 +130,10 @@ def shade_share(w, workers, stop, flat, origins, directions, lights, horizon, ze
                     P.O[k, a] = pend[top, k, P_O + a]
                     P.D[k, a] = pend[top, k, P_D + a]
                 P.cone[k] = pend[top, k, P_CONE]
-            trace(flat, m, 1e-9, np.inf, nearest, lod, max_depth, S, P, together, ev, res)
+            # tmin 0: a ray leaves the eye, or a point moved off its surface by a share of
+            # its size (EPS); at 1e-9, as the shadow rays' relative one, an object smaller
+            # than 1e-9 was drawn as nothing (uscale(1e-10) sphere)
+            trace(flat, m, 0.0, np.inf, nearest, lod, max_depth, S, P, together, ev, res)
             if traced == 0:         # the camera rays
                 for k in range(m):
                     first_t[i0 + k] = res[k, R_T]
@@ -231,7 +234,7 @@ def occlusion(flat, hits, ao_samples, ao_distance, ids, lod, max_depth, S, P, to
             a0, a1, a2 = hemisphere(s, ao_samples, r1, r2, sh[j, SH_N], sh[j, SH_N + 1],
                                     sh[j, SH_N + 2])
             aim(P, j, sh, j, a0, a1, a2)
-        trace(flat, hits, 1e-9, ao_distance, any_hit, lod, max_depth, S, P, together, ev, occ)
+        trace(flat, hits, 0.0, ao_distance, any_hit, lod, max_depth, S, P, together, ev, occ)
         for j in range(hits):
             if occ[j, R_HIT] == 0.0:
                 sh[j, SH_SEEN] += 1.0
