@@ -27,6 +27,12 @@ class Parser(argparse.ArgumentParser):
         `pcsg sweep ... --timings` printed the top level's "usage: pcsg COMMAND ..."."""
         given = list(sys.argv[1:] if args is None else args)
         args, extra = self.parse_known_args(given, namespace)
+        if extra and isinstance(getattr(args, "files", None), list) and not any(
+                x.startswith("-") and not NEGATIVE.match(x) for x in extra):
+            # files after options (`pcsg render a.pcsg --size 64x48 b.pcsg`): argparse
+            # takes a list of positionals in one run, and called b.pcsg unrecognized
+            args.files += extra
+            extra = []
         if extra:
             name = getattr(args, "command", None)
             command = getattr(self, "commands", {}).get(name, self)

@@ -763,13 +763,20 @@ def test_check_does_not_derive_a_graftal_to_the_end(capsys):
 
 
 def test_a_picture_of_nothing_says_so(capsys, tmp_path):
-    # c only grows: every instance shrinks on towards the origin and none is ever drawn;
     # the render wrote a sky without a word
+    src = tmp_path / "away.pcsg"
+    src.write_text("#camera eye=(0, -5, 0) at=(0, -10, 0)\nsphere\n", encoding="utf-8")
+    assert main(["render", str(src), "--size", "40x30", "-o", str(tmp_path / "a.png")]) == 0
+    assert "warning: no ray met the object" in capsys.readouterr().err
+    # c only grows: every instance shrinks on towards the origin, and what is drawn is
+    # the sphere --max-depth ends it with, 2^-64 across, framed as any object is (it was
+    # "no ray met", framed as 1e-9 across at least); the render says where it stopped
     src = tmp_path / "up.pcsg"
     src.write_text("{c = 3} S\nS if(c > 0, 2, 1)\n1: S → sphere\n"
                    "2: S → {c = c+1} uscale(0.5) S\n", encoding="utf-8")
-    assert main(["render", str(src), "--size", "40x30", "-o", str(tmp_path / "a.png")]) == 0
-    assert "warning: no ray met the object" in capsys.readouterr().err
+    assert main(["render", str(src), "--size", "40x30", "-o", str(tmp_path / "u.png")]) == 0
+    err = capsys.readouterr().err
+    assert "no ray met" not in err and "depth limit: instances at --max-depth 64" in err
     assert main(["render", str(GRAMMARS / "sierpinski.pcsg"), "--size", "40x30",
                  "-o", str(tmp_path / "b.png")]) == 0
     assert "no ray met" not in capsys.readouterr().err
@@ -927,6 +934,22 @@ def test_an_unknown_option_is_said_by_its_command(capsys, sierpinski, argv):
     assert e.value.code == 2
     assert f"pcsg {argv[0]}: error: unrecognized arguments: {argv[-1]}" in err
     assert f"usage: pcsg {argv[0]} " in err
+
+
+def test_files_may_follow_options(capsys, sierpinski, tmp_path):
+    # argparse takes a command's list of files in one run: the second was "unrecognized"
+    tower = GRAMMARS / "table_tower.pcsg"
+    out = tmp_path / "out"
+    assert main(["render", str(sierpinski), "--size", "16x12", str(tower), "-q", "-o",
+                 f"{out}/"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == [f"{sierpinski.stem}.png", "table_tower.png"]
+    assert main(["check", str(sierpinski), "-q", str(tower)]) == 0
+    # but not an unknown option among them, nor a second file where one is read
+    for argv in (["check", str(sierpinski), "--bogus", str(tower)],
+                 ["export", str(sierpinski), "--pov", str(tmp_path / "s.pov"), str(tower)]):
+        with pytest.raises(SystemExit) as e:
+            main(argv)
+        assert e.value.code == 2 and "unrecognized arguments" in capsys.readouterr().err
 
 
 def test_an_ao_distance_without_occlusion_is_said(capsys, sierpinski, tmp_path):
