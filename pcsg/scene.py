@@ -84,12 +84,17 @@ def _known(words) -> str:
 
 
 def build_scene(directives: list[ast.Directive], constants, report,
-                warn=lambda span, message, code: None) -> Scene:
+                warn=lambda span, message, code: None, locate=None) -> Scene:
     """Evaluate directives; `constants(node)` compiles a parameter-free expression to a float
     (reporting its own errors, and then None); `report(span, message, code)` reports the
-    rest, and `warn` what is legal but most likely not meant."""
+    rest, and `warn` what is legal but most likely not meant. `locate(offset)`, if given,
+    names where a directive given twice was first given."""
     scene = Scene()
     seen: dict[str, ast.Directive] = {}
+    materials: dict[str, ast.Directive] = {}
+
+    def first(d: ast.Directive) -> str:
+        return f" (first at {locate(d.kind_span[0])})" if locate is not None else ""
     for d in directives:
         keys = DIRECTIVES.get(d.kind)
         if keys is None:
@@ -106,7 +111,8 @@ def build_scene(directives: list[ast.Directive], constants, report,
         elif d.name is not None:
             report(d.kind_span, f"#{d.kind} takes no name, only key=value pairs", "directive")
         if d.kind in ONCE and d.kind in seen:
-            report(d.kind_span, f"a second #{d.kind}; a file has at most one", "directive")
+            report(d.kind_span, f"a second #{d.kind}; a file has at most one"
+                                f"{first(seen[d.kind])}", "directive")
             continue
         seen[d.kind] = d
         values = {}
@@ -158,9 +164,11 @@ def build_scene(directives: list[ast.Directive], constants, report,
             scene.sky = values
         elif d.kind == "occlusion":
             scene.occlusion = values
-        elif d.name in scene.materials:
-            report(d.kind_span, f"material '{d.name}' is defined twice", "directive")
+        elif d.name in materials:
+            report(d.kind_span, f"material '{d.name}' is defined twice"
+                                f"{first(materials[d.name])}", "directive")
         else:
+            materials[d.name] = d
             scene.materials[d.name] = m = {**MATERIAL_DEFAULTS, **values}
             if "color" in values:
                 scene.coloured.add(d.name)

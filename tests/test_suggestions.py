@@ -177,11 +177,27 @@ def test_a_rule_the_selection_never_names_is_warned_of(text, want):
     ("paint(255, 0, 0)", "paint(255, 0, 0): colours are fractions from 0 to 1; above 1"),
     ("paint(-1, 0, 0)", "paint(-1, 0, 0): colours are fractions from 0 to 1: a negative one"),
     ("paint(1, 0.5, 0)", None),
+    # both faults said (it said "above 1" only; QA)
+    ("paint(2, -1, 0.5)", "paint(2, -1, 0.5): colours are fractions from 0 to 1; above 1 "
+                          "shades brighter than the light allows (from bytes 0..255, divide "
+                          "by 255); a negative one is drawn as 0"),
     ("{k = 1} paint(k, 0, 2 * k)", "paint(1, 0, 2)"),    # the axiom's constants fold in
 ])
 def test_a_constant_colour_out_of_range_is_warned_of(paint, want):
     got = [w.message for w in warnings_of(f"{paint} sphere\n") if w.code == "paint-range"]
     assert [g[:len(want)] for g in got] == ([want] if want else [])
+
+
+@pytest.mark.parametrize("text, want", [
+    ("#material m color=(1,0,0)\n#material m color=(0,1,0)\nsphere\n",
+     (2, "material 'm' is defined twice (first at t.pcsg:1:1)")),
+    ("#sky color=(1,1,1)\nsphere\n#sky color=(0,0,0)\n",
+     (3, "a second #sky; a file has at most one (first at t.pcsg:1:1)")),
+])
+def test_a_directive_given_twice_names_the_first(text, want):
+    # as a named expression or a macro given twice does (QA)
+    from .conftest import errors_of
+    assert [(e.location.line, e.message) for e in errors_of(text)] == [want]
 
 
 @pytest.mark.parametrize("name", ["x.jpg", "x.pcsg", "x", "x.npy"])
@@ -325,9 +341,8 @@ def test_rules_that_are_picked_otherwise_are_not_called_unselected(text):
 
 
 def test_a_tiled_picture_of_nothing_says_so(capsys, tmp_path):
-    src = tmp_path / "up.pcsg"
-    src.write_text("{c = 3} S\nS if(c > 0, 2, 1)\n1: S → sphere\n"
-                   "2: S → {c = c+1} uscale(0.5) S\n", encoding="utf-8")
+    src = tmp_path / "away.pcsg"      # (test_cli.test_a_picture_of_nothing_says_so)
+    src.write_text("#camera eye=(0, -5, 0) at=(0, -10, 0)\nsphere\n", encoding="utf-8")
     assert main(["render", str(src), "--size", "40x30", "--tiles", "3",
                  "-o", str(tmp_path / "a.png")]) == 0
     assert "warning: no ray met the object" in capsys.readouterr().err

@@ -110,7 +110,7 @@ class _Builder:
                                self._unknown_number, self._operand_kind)
         self.material_names: list[str] = []
         self.scene = build_scene([s for s in stmts if isinstance(s, ast.Directive)],
-                                 self._constant, self.error, self.warn)
+                                 self._constant, self.error, self.warn, self.source.locate)
 
         # S-nodes first, so that rule bodies can point at them before they are filled.
         self.modules = {}
@@ -409,8 +409,11 @@ class _Builder:
                 or all(0 <= v <= 1 for v in known):
             return
         shown = ", ".join("…" if v is None else f"{v:g}" for v in values)
-        why = ("; above 1 shades brighter than the light allows (from bytes 0..255, "
-               "divide by 255)" if max(known) > 1 else ": a negative one is drawn as 0")
+        # each fault said: paint(2, -1, 0.5) said only "above 1"
+        faults = ((["above 1 shades brighter than the light allows (from bytes 0..255, "
+                    "divide by 255)"] if max(known) > 1 else [])
+                  + (["a negative one is drawn as 0"] if min(known) < 0 else []))
+        why = ("; " if max(known) > 1 else ": ") + "; ".join(faults)
         self.warn(e.head_span, f"paint({shown}): colours are fractions from 0 to 1{why}",
                   "paint-range")
 
