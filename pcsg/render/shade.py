@@ -51,6 +51,10 @@ class Lighting:
     ao_distance: float = 1.0        # occluders farther than this do not count
     lod: float = 0.0
     packets: bool = True            # neighbouring rays walk the graph together (trace/packet.py)
+    # a shaded point moves off its surface by EPS of unit + its largest coordinate: 1, or
+    # the object's size where smaller (with 1, `uscale(1e-12) sphere` was lit from 1e-6
+    # off it, past its light, and drawn dark)
+    unit: float = 1.0
     rays: list = field(default_factory=lambda: [0])   # rays traced, for the summary
 
     def sky(self, d: np.ndarray) -> np.ndarray:
@@ -87,7 +91,15 @@ def make_lighting(traced, camera, shadows=True, shadow_samples=8, max_bounces=3,
         box = finite_bounds(traced) if ao > 0 else np.zeros(6)
         ao_distance = AO_DISTANCE * float(np.linalg.norm(box[3:] - box[:3]))
     return Lighting(lights, horizon, zenith, mats, shadows, max(1, shadow_samples), max_bounces,
-                    ao, float(ao_distance))
+                    ao, float(ao_distance), unit=_unit(traced))
+
+
+def _unit(traced) -> float:
+    """Lighting.unit: the diagonal of the object's box where it is finite and below 1 (a
+    ground plane's object is as large as a scene gets)."""
+    box = traced.boxes[traced.graph.root]
+    size = float(np.linalg.norm(box[3:] - box[:3])) if np.isfinite(box).all() else math.inf
+    return size if 0.0 < size < 1.0 else 1.0
 
 
 # A light farther than REACH times the scene's size (the camera's distance to the point it
@@ -175,7 +187,7 @@ def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: 
         transmit = np.where(hits.what[h] == HIT_SHELL, 0.0, transmit)
     up = np.clip(n[:, 2:3] * 0.5 + 0.5, 0, 1)
     out = AMBIENT * base * (light.horizon * (1 - up) + light.zenith * up)
-    scale = 1.0 + np.abs(p).max(axis=1, keepdims=True)
+    scale = light.unit + np.abs(p).max(axis=1, keepdims=True)
     origin = p + n * EPS * scale
     # the pixel's width where it meets the surface, which the rays that leave it start with
     # (as the kernel sums it: trace/shading.py)
@@ -218,7 +230,7 @@ def _shade_kernel(traced, light: Lighting, origins, directions, ids, check=None)
                np.asarray(light.zenith, float), np.ascontiguousarray(materials, dtype=float),
                default, bool(light.shadows), int(light.shadow_samples), int(light.max_bounces),
                float(light.lod), traced.max_depth, traced.limits, workers,
-               AMBIENT, int(light.ao_samples), float(light.ao_distance),
+               AMBIENT, int(light.ao_samples), float(light.ao_distance), float(light.unit),
                np.ascontiguousarray(ids, dtype=np.int64), traced._packets(light.packets), rgb,
                t, hit, rays, events, tick=check)
     add_events(traced.events, events)
@@ -298,7 +310,7 @@ def _through_glass(traced, light: Lighting, o: np.ndarray, target: np.ndarray,
         passing[active] *= through[go]
         p = origin[active] + t[:, None] * d
         dn = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])
-        scale = 1.0 + np.abs(p).max(axis=1)
+        scale = light.unit + np.abs(p).max(axis=1)
         origin[active] = p + d / dn[:, None] * EPS * scale[:, None]
     return out
 

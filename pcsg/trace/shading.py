@@ -60,7 +60,7 @@ LIGHT_STREAM = np.uint64(0x2545F4914F6CDD1D)
 
 def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, default,
                shadows, shadow_samples, max_bounces, lod, max_depth, limits, workers, ambient,
-               ao_samples, ao_distance, ids, together, rgb, first_t, first_hit_out, rays,
+               ao_samples, ao_distance, unit, ids, together, rgb, first_t, first_hit_out, rays,
                events, tick=None):
     """rgb[i] = the linear colour of camera ray i; first_t / first_hit_out its first hit;
     rays[chunk] = rays traced; events[worker] as trace_rays' events[chunk]: counts add and
@@ -68,17 +68,18 @@ def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, de
     one array per worker is cheaper to clear and fold than one per chunk. ids[i] seeds
     the ambient occlusion pattern of ray i and of its bounces. With `together` the rays
     of each packet walk the graph together. Ctrl-C, or an exception from tick() (called
-    every 50 ms), stops it after the chunk each worker is shading (jit.stoppable)."""
+    every 50 ms), stops it after the chunk each worker is shading (jit.stoppable). A
+    point is moved off its surface by EPS of `unit` + its largest coordinate (Lighting.unit)."""
     stoppable(shade_share, workers, flat, origins, directions, lights, horizon, zenith,
               materials, default, shadows, shadow_samples, max_bounces, lod, max_depth,
-              limits, ambient, ao_samples, ao_distance, ids, together, rgb, first_t,
+              limits, ambient, ao_samples, ao_distance, unit, ids, together, rgb, first_t,
               first_hit_out, rays, events, tick=tick)
 
 
 @share
 def shade_share(w, workers, stop, flat, origins, directions, lights, horizon, zenith,
                 materials, default, shadows, shadow_samples, max_bounces, lod, max_depth,
-                limits, ambient, ao_samples, ao_distance, ids, together, rgb, first_t,
+                limits, ambient, ao_samples, ao_distance, unit, ids, together, rgb, first_t,
                 first_hit_out, rays, events):
     """Worker w's share of shade_rays: every workers-th chunk, with scratch of its own,
     until stop[0] is set."""
@@ -140,7 +141,7 @@ def shade_share(w, workers, stop, flat, origins, directions, lights, horizon, ze
                     first_hit_out[i0 + k] = res[k, R_HIT] > 0.0
             traced += m
             hits = surfaces(pend, top, m, res, horizon, zenith, materials, default,
-                            ambient, lod, P, sh, rgb)
+                            ambient, lod, P, sh, rgb, unit)
             if hits == 0:
                 continue
             if ao_samples > 0:
@@ -149,14 +150,14 @@ def shade_share(w, workers, stop, flat, origins, directions, lights, horizon, ze
             for li in range(lights.shape[0]):
                 traced += light_up(flat, lights, li, shadows, shadow_samples, hits, lod,
                                    max_depth, S, P, together, blocker, ev, occ, sh, glass,
-                                   materials, default, slot, ids)
+                                   materials, default, slot, ids, unit)
             top = bounce(pend, count, depths, top, depth, max_bounces, hits, sh, rgb)
         rays[c] = traced
 
 
 @kernel
 def surfaces(pend, top, m, res, horizon, zenith, materials, default, ambient, lod, P, sh,
-             rgb):
+             rgb, unit):
     """The packet's misses add the sky to their pixels; its hits go into sh with their
     ambient colour. Returns how many hit."""
     hits = 0
@@ -189,7 +190,7 @@ def surfaces(pend, top, m, res, horizon, zenith, materials, default, ambient, lo
             b = (max(res[k, R_PAINT], 0.0), max(res[k, R_PAINT + 1], 0.0),
                  max(res[k, R_PAINT + 2], 0.0))
         up = min(max(n2 * 0.5 + 0.5, 0.0), 1.0)
-        scale = 1.0 + max(abs(p[0]), abs(p[1]), abs(p[2]))
+        scale = unit + max(abs(p[0]), abs(p[1]), abs(p[2]))
         for a in range(3):
             sh[j, SH_Q + a] = p[a] + nrm[a] * EPS * scale
             sh[j, SH_N + a] = nrm[a]
@@ -257,7 +258,7 @@ def to_light(lights, li, sh, j):
 
 @inline
 def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S, P, together,
-             any_hit, ev, occ, sh, glass, materials, default, slot, ids):
+             any_hit, ev, occ, sh, glass, materials, default, slot, ids, unit):
     """Light li's diffuse and specular terms on every surface, times the fraction of
     its samples that no shadow ray finds blocked (one packet per sample; an area light's
     samples shifted by each pixel's id in `ids`: disk); with `glass`,
@@ -318,7 +319,7 @@ def light_up(flat, lights, li, shadows, shadow_samples, hits, lod, max_depth, S,
                 k += 1
             if blocked > 0:
                 rays += through_glass(flat, blocked, slot, lod, max_depth, S, P, together,
-                                      not any_hit, ev, occ, sh, materials, default)
+                                      not any_hit, ev, occ, sh, materials, default, unit)
     for j in range(hits):
         vis = sh[j, SH_SEEN] / samples if shadows else 1.0
         l0, l1, l2 = to_light(lights, li, sh, j)
@@ -348,7 +349,7 @@ def passes(occ, i, materials, default):
 
 @inline
 def through_glass(flat, n, slot, lod, max_depth, S, P, together, nearest, ev, occ, sh,
-                  materials, default):
+                  materials, default, unit):
     """The shadow rays of surfaces slot[:n], which met something on the way to their
     light, walked again surface by surface, nearest first: each surface of a material
     that transmits lets through its transmit (a ball of glass twice, going in and out,
@@ -380,7 +381,7 @@ def through_glass(flat, n, slot, lod, max_depth, S, P, together, nearest, ev, oc
             d0, d1, d2 = P.D[i, 0], P.D[i, 1], P.D[i, 2]
             p0, p1, p2 = P.O[i, 0] + t * d0, P.O[i, 1] + t * d1, P.O[i, 2] + t * d2
             dn = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-            scale = 1.0 + max(abs(p0), abs(p1), abs(p2))
+            scale = unit + max(abs(p0), abs(p1), abs(p2))
             o0 = p0 + d0 / dn * EPS * scale
             o1 = p1 + d1 / dn * EPS * scale
             o2 = p2 + d2 / dn * EPS * scale
