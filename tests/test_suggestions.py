@@ -188,6 +188,17 @@ def test_a_constant_colour_out_of_range_is_warned_of(paint, want):
     assert [g[:len(want)] for g in got] == ([want] if want else [])
 
 
+def test_a_number_past_what_a_double_holds_is_warned_of():
+    # it read as inf without a word, where --set c=1e999 is refused (QA)
+    w = [(x.location.line, x.location.column, x.message) for x in
+         warnings_of("{c = 1e999} S\nS 1\n1: S → move(0, 0, c * 1e-300) sphere\n")
+         if x.code == "huge-number"]
+    assert w == [(1, 6, "the number 1e999 is too large for a double (at most 1.8e+308): it "
+                        "reads as inf")]
+    assert not [x for x in warnings_of("{c = 1.7e308} S\nS 1\n1: S → sphere\n")
+                if x.code == "huge-number"]
+
+
 @pytest.mark.parametrize("text, want", [
     ("#material m color=(1,0,0)\n#material m color=(0,1,0)\nsphere\n",
      (2, "material 'm' is defined twice (first at t.pcsg:1:1)")),

@@ -3,6 +3,7 @@ expressions built once and shared, every semantic error collected."""
 from __future__ import annotations
 
 import math
+import sys
 from collections import defaultdict
 
 from ..language import ast
@@ -72,6 +73,12 @@ class _Builder:
                 stack.append(n.operand)
             elif isinstance(n, ast.Call):
                 stack += n.args
+            elif isinstance(n, ast.Num) and math.isinf(n.value):
+                # a number past what a double holds reads as inf, where `--set c=1e999` is
+                # refused: legal (1/0 is inf too), and most likely a slip
+                text = self.source.expanded[n.span[0]:n.span[1]]
+                self.warn(n.span, f"the number {text} is too large for a double (at most "
+                                  f"{sys.float_info.max:.2g}): it reads as inf", "huge-number")
 
     def _bracketed(self, n, left) -> bool:
         """Whether `left`, n's left operand, is written in brackets: `(1 < c) < 3` says
