@@ -507,8 +507,8 @@ def _scale_up(camera: Camera) -> float:
     return 2.0 ** math.ceil(math.log2(1.0 / d))
 
 
-def _header(camera: Camera, lighting: Lighting, size, graph, k: float = 1.0) -> str:
-    """The scene's settings, camera, lights and sky, its lengths scaled by k."""
+def _header(camera: Camera, lighting: Lighting, size, graph, scale: float = 1.0) -> str:
+    """The scene's settings, camera, lights and sky, its lengths scaled by `scale` (_scale_up)."""
     w, h = size
     aspect = w / h
     hfov = math.degrees(2 * math.atan(aspect * math.tan(math.radians(camera.fov) / 2)))
@@ -520,20 +520,20 @@ def _header(camera: Camera, lighting: Lighting, size, graph, k: float = 1.0) -> 
         "#version 3.7;",
         f"global_settings {{ assumed_gamma 1.0 max_trace_level {lighting.max_bounces + 1} }}",
         # right-handed like pcsg: a negative right vector mirrors POV-Ray's left-handed frame
-        f"camera {{ perspective location {_vec(k * np.asarray(camera.eye))} sky "
+        f"camera {{ perspective location {_vec(scale * np.asarray(camera.eye))} sky "
         f"{_vec(camera.up)} up y right -x*{_num(aspect)} angle {_num(hfov)} look_at "
-        f"{_vec(k * np.asarray(camera.at))} }}",
+        f"{_vec(scale * np.asarray(camera.at))} }}",
     ]
     for lt in lighting.lights:
         area = ""
         if lt.radius > 0 and lighting.shadow_samples > 1:
-            s = 2 * lt.radius * k
+            s = 2 * lt.radius * scale
             # about as many rays as --shadow-samples: an n x n grid, n at least 2 (it
             # was 3 x 3 whatever the option)
             n = max(2, round(math.sqrt(lighting.shadow_samples)))
             area = f" area_light <{_num(s)}, 0, 0>, <0, {_num(s)}, 0>, {n}, {n} circular orient"
         shadows = "" if lighting.shadows else " shadowless"
-        lines.append(f"light_source {{ {_vec(k * np.asarray(lt.position))} color rgb "
+        lines.append(f"light_source {{ {_vec(scale * np.asarray(lt.position))} color rgb "
                      f"{_vec(lt.color)}{area}"
                      f"{shadows} }}")
     entries = [f"[0 rgb {_vec(lighting.horizon)}]", f"[0.5 rgb {_vec(lighting.horizon)}]"]
