@@ -65,8 +65,7 @@ def count_by_primitive(graph: Graph, max_states: int = MAX_STATES,
     per instance: counting it costs about what deriving it does). With a cut
     (graph/cut.py), the derivation flatten.instances writes: S-node instances deeper than
     its depth end as the tracer ends them, a cut graftal instance as its volume."""
-    counter = _Counter(graph, max_states, cut)
-    counter.faults = faults
+    counter = _Counter(graph, max_states, cut, faults=faults)
     try:
         with recursion_limit(12 * MAX_LEVELS + 1000):
             state, h = counter.d.initial()
@@ -78,7 +77,7 @@ def count_by_primitive(graph: Graph, max_states: int = MAX_STATES,
 
 class _Counter:
     def __init__(self, graph: Graph, max_states: int = MAX_STATES, cut: Cut | None = None,
-                 max_levels: int = MAX_LEVELS):
+                 max_levels: int = MAX_LEVELS, faults: set | None = None):
         self.g = graph
         self.max_states = max_states
         self.max_levels = max_levels
@@ -91,7 +90,7 @@ class _Counter:
         self.none = (0,) * len(self.kinds)
         self.memo: dict = {}
         self.active: set = set()
-        self.faults: set | None = None      # count_primitives' faults
+        self.faults = faults                # count_primitives' faults
 
     def count(self, node_id: int, state, h: int, level: int) -> tuple:
         """Counts per primitive kind, in the order of self.kinds."""
