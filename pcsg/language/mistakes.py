@@ -111,11 +111,22 @@ def rule_as_selection(text: str, pos: int):
             (line_start + m.start(1), line_start + m.end(1)))
 
 
-def assignment_for_comparison(expected) -> str | None:
-    """`if(c = 0, ...)`: '=' where a comparison may stand."""
-    if "CMP" in expected and "EQUAL" not in expected:
-        return "'=' assigns; to compare, write '=='"
-    return None
+def assignment_for_comparison(expected, text: str, pos: int, bracketed: bool) -> str | None:
+    """`if(c = 0, ...)`, `S c = 1`: '=' where a comparison may stand. Outside brackets
+    that is a module's selection, the one expression a line holds unbracketed, said so
+    where the file has rules for the module (`let seg = sphere` is no selection)."""
+    if "CMP" not in expected or "EQUAL" in expected:
+        return None
+    said = "'=' assigns; to compare, write '=='"
+    if bracketed:
+        return said
+    line_start = text.rfind("\n", 0, pos) + 1
+    m = re.match(r"[ \t]*([A-Za-z_][A-Za-z0-9_]*)[ \t]", text[line_start:pos])
+    if m is None or not re.search(rf"^[ \t]*\d+[ \t]*:[ \t]*{m.group(1)}[ \t]*(→|->)", text,
+                                  re.MULTILINE):
+        return None
+    return (f"{said} (the line reads as the declaration of module '{m.group(1)}', whose "
+            f"selection is an arithmetic expression giving a rule's number)")
 
 
 def axiom_slip(text: str, name: str, name_end: int):

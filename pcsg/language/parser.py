@@ -392,9 +392,14 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner,
                   or csg_for_logical(tok.type, tok.value, tok.start_pos, expected)
                   or rule_as_selection(text, tok.start_pos)):
         msg, span = said
-    elif tok.type == "EQUAL" and joiner.open_brackets and \
-            (said := assignment_for_comparison(expected)):
+    elif tok.type == "EQUAL" and (said := assignment_for_comparison(
+            expected, text, tok.start_pos, bool(joiner.open_brackets))):
         msg = said
+    elif tok.type == "_NL" and not tok.value:
+        # the end postlex gives a file's last statement: where the file stops, not at its
+        # last token (`1: S → ` ends the file after the arrow)
+        msg = f"unexpected end of file, expected {_expected(expected)}"
+        span = (tok.end_pos, tok.end_pos + 1)
     elif tok.type == "_NL" and joiner.open_brackets:
         msg = f"unexpected end of line, expected {_expected(expected)}"
     else:
