@@ -376,3 +376,24 @@ def test_sierpinski_order_1():
     assert tetra_hits > 150
     assert (res["primitive"] == "plane").sum() > 500
     assert (~res["hit"]).sum() > 200
+
+
+def test_trace_polls_its_caller_within_a_chunk():
+    """--timeout stops a reference render: its per-ray walk is Python's, and a chunk of
+    4096 rays over the Sierpinski tetrahedron at 6 took minutes between two checks."""
+    r = ref("{c = 2} S\nS if(c > 0, 2, 1)\n1: S → tetrahedron\n"
+            "2: S → {c = c - 1} (uscale(0.5) S ∪ move(1, 0, 0) uscale(0.5) S)\n")
+    o, d = rays_at(np.random.default_rng(3), 1000)
+    calls = []
+
+    def poll():
+        calls.append(1)
+        if len(calls) == 3:
+            raise TimeoutError
+
+    with pytest.raises(TimeoutError):
+        r.trace(o, d, poll=poll)
+    assert len(calls) == 3          # stopped at the third poll, 128 rays in: one chunk
+    full = []
+    r.trace(o, d, poll=lambda: full.append(1))
+    assert len(full) == 1000 // 64 + 1

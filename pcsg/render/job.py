@@ -184,7 +184,8 @@ def render_scene(scene: Scene, label: str, opts: Options, deadline: float | None
         kernelcache.load()                  # not on the render's clock (once a process)
     traced = copy.copy(scene.traced)        # its own events, however often the scene is used
     traced.events = no_events(len(traced.graph.nodes))
-    target = _ReferenceTarget(traced) if opts.reference else traced
+    target = _ReferenceTarget(traced, lambda: check_deadline(deadline, opts.timeout)) \
+        if opts.reference else traced
     w, h = opts.size
     try:
         camera = make_camera(traced, w / h, opts.eye, opts.at, opts.up, opts.fov)
@@ -276,7 +277,7 @@ def render_file(path: Path, out: Path, opts: Options,
 class _ReferenceTarget:
     """`--reference`: the same picture from the brute-force expansion (small orders)."""
 
-    def __init__(self, traced: Traced):
+    def __init__(self, traced: Traced, poll):
         """Cut where the tracer's walk stops (--max-depth), as the tracer is: without the
         cut a graftal's expansion ran to 10 000 levels and failed after seconds."""
         from ..graph.cut import cut_of
@@ -288,10 +289,12 @@ class _ReferenceTarget:
                                f"its expansion never does: give --max-depth N (a small N) to "
                                f"end it where the tracer does at that depth")
         self.ref = Reference(traced.graph, cut=cut)
+        self.poll = poll
 
     def trace(self, origins, directions, tmin=1e-9, tmax=math.inf, any_hit=False, lod=0.0,
               cone=0.0):
-        r = self.ref.trace(origins, directions, tmin=tmin, tmax=tmax, exits=True)
+        r = self.ref.trace(origins, directions, tmin=tmin, tmax=tmax, exits=True,
+                           poll=self.poll)
         normal = np.where(r["hit"][:, None], r["normal"], 0.0)
         return Hits(r["t"], normal, r["paint"], r["material"], r["hit"], what=r["what"])
 

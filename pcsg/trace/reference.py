@@ -57,6 +57,7 @@ CLIP = " (clip)"     # the name's mark of a volume that clips a cut graftal inst
 LEAF = -1            # tree node kind of a primitive; operators use the graph's kinds
 _OPNAMES = {UNION: "union", INTERSECTION: "intersection", DIFFERENCE: "difference"}
 _CHUNK = 4096        # rays per batch (bounds the per-leaf arrays)
+_POLL = 64           # rays between polls of trace's caller
 
 
 class Leaf:
@@ -171,11 +172,13 @@ class Reference:
 
     # ---- tracing ----------------------------------------------------------------
 
-    def trace(self, origins, directions, tmin=1e-9, tmax=np.inf, exits=False) -> dict:
+    def trace(self, origins, directions, tmin=1e-9, tmax=np.inf, exits=False,
+              poll=None) -> dict:
         """First hits of the rays o + t d, t in (tmin, tmax]. With exits=True a ray
         that starts inside a solid (its first interval is clipped at tmin) reports
         where it leaves it instead (t_out and the outward normal there), if that is
-        before tmax; by default such a ray sees past the solid to the next start."""
+        before tmax; by default such a ray sees past the solid to the next start.
+        poll() is called every few rays: it may raise to stop (--timeout)."""
         O = np.ascontiguousarray(np.asarray(origins, dtype=np.float64).reshape(-1, 3))
         D = np.ascontiguousarray(np.asarray(directions, dtype=np.float64).reshape(-1, 3))
         if O.shape != D.shape:
@@ -188,7 +191,7 @@ class Reference:
                "what": np.zeros(n)}
         for a in range(0, n, _CHUNK):
             self._trace_chunk(O[a:a + _CHUNK], D[a:a + _CHUNK], float(tmin), float(tmax),
-                              bool(exits), res, a)
+                              bool(exits), res, a, poll)
         return res
 
     def _leaf_hits(self, leaf: Leaf, O, D, tmin, tmax):
@@ -220,13 +223,15 @@ class Reference:
             res[k] = (t0, (tuple(nin[r]), leaf, flat), t1, (tuple(nout[r]), leaf, flat))
         return res
 
-    def _trace_chunk(self, O, D, tmin, tmax, exits, res, offset):
+    def _trace_chunk(self, O, D, tmin, tmax, exits, res, offset, poll=None):
         nodes = self.nodes
         leaf_hits = {}
         for idx, node in enumerate(nodes):
             if isinstance(node, Leaf):
                 leaf_hits[idx] = self._leaf_hits(node, O, D, tmin, tmax)
         for k in range(len(O)):
+            if poll is not None and k % _POLL == 0:
+                poll()      # a ray's walk of every node here is Python's: seconds a chunk
             spans = [None] * len(nodes)
             for idx in range(len(nodes) - 1, -1, -1):     # children come after parents
                 node = nodes[idx]
