@@ -280,7 +280,8 @@ def test_check_warns_of_a_derivation_that_meets_its_own_state_again(capsys, tmp_
      "   move(-1,0,0) S S ∪\n   move(0,1,0) S)\n",
      "5:19: expected an operator (∪, ∩ or \\) between 'S' and 'S'"),
     # a directive without its '=' is no transformation
-    ("#sky color (1, 1, 1)\nsphere\n", "1:12: unexpected '('"),
+    ("#sky color (1, 1, 1)\nsphere\n", "1:6: a directive's setting is written NAME=VALUE: "
+     "'color=(1, 1, 1)'"),
     # in a calculation block the slip is a separator left out
     ("{a = 1; c = 1 - not (a) b = 2} sphere\n", "1:25: unexpected 'b'"),
     # a flip of a group takes no arguments, but is not given any: an operator is missing
@@ -373,7 +374,8 @@ def test_a_tiled_picture_of_nothing_says_so(capsys, tmp_path):
      "#define T move(1, 0, 0)\n", "4:22: expected an operator (∪, ∩ or \\) between 'T' and 'S' "
                                   "('T': a macro defined below, at 5:9"),
     # a macro that names itself: not below, and not replaced within itself
-    ("#define A A ∪ sphere\nA\n", "2:1: undefined name 'A' (in macro 'A''s own replacement"),
+    ("#define A A ∪ sphere\nA\n",
+     "2:1: undefined name 'A' (in the replacement of macro 'A' itself"),
 ])
 def test_a_macro_read_before_its_define_is_said_to_be_below(text, message):
     assert placed(diagnostics_of(text)[0]).startswith(message)
@@ -478,3 +480,31 @@ def test_an_output_under_dev_is_no_device_by_its_name(capsys, tmp_path):
 def test_a_rule_head_that_misspells_a_module_names_it(rules, message):
     text = "{c = 2} S\nS if(c > 0, 2, 1)\n" + rules
     assert [placed(d) for d in diagnostics_of(text)] == [message]
+
+
+@pytest.mark.parametrize("text, message", [
+    ("{c == 1} sphere\n", "1:4: '==' compares; a calculation block assigns with '='"),
+    ("{v = 3 =< 4} sphere\n", "1:8: '=<' is written '<='"),
+    ("{v = 1.2.3} sphere\n", "1:6: a number has one decimal point: '1.2.3'"),
+    ("{1 = c} sphere\n", "1:2: an assignment sets a parameter: its left side is a name"),
+    ("sphere;\n", "1:7: ';' separates the assignments of a calculation block"),
+    ("#camera eye (3,-4,2)\nsphere\n",
+     "1:9: a directive's setting is written NAME=VALUE: 'eye=(3,-4,2)'"),
+    ("#camera fov 40\nsphere\n", "1:9: a directive's setting is written NAME=VALUE: 'fov=40'"),
+    # a module's selection is the one unbracketed expression of a line
+    ("{c = 1} S\nS c = 0\n1: S → sphere\n2: S → cube\n",
+     "2:5: '=' assigns; to compare, write '==' (the line reads as the declaration of module 'S'"),
+])
+def test_a_slip_of_one_token_is_said_as_what_was_meant(text, message):
+    """Where the parser's list of what it would take there was said (QA, session 74)."""
+    assert placed(diagnostics_of(text)[0]).startswith(message)
+
+
+def test_a_bracket_this_line_leaves_open_is_pointed_at_once():
+    d = diagnostics_of("{c = 1 S\n")[0]
+    assert placed(d).startswith("1:8: unexpected 'S'")
+    assert [(note, d.source.location(span[0]).column) for span, note in d.notes] == \
+        [("the '{' opened here is not closed", 1)]
+    assert not diagnostics_of("{c = 1 S}\n")[0].notes     # closed later: a separator missing
+    d = diagnostics_of("X = (sphere ∪ cube\n")[0]
+    assert placed(d) == "1:5: unexpected end of file: '(' is never closed" and not d.notes

@@ -232,3 +232,37 @@ def lookalike(ch: str) -> str | None:
                     f"(notation §1)")
         return None
     return f"unexpected character {ch!r} (U+{ord(ch):04X}): write {instead} instead"
+
+
+def token_slips(text: str, tok_type: str, value: str, pos: int, expected, in_block: bool,
+                bracketed: bool):
+    """Slips a single token shows, said as what was meant rather than as the parser's
+    list of what it would take there."""
+    after = text[pos + len(value):pos + len(value) + 1]
+    if tok_type == "EQUAL" and in_block and text[pos - 1:pos] == "=" and "EQUAL" not in expected:
+        return "'==' compares; a calculation block assigns with '='", (pos - 1, pos + 1)
+    if tok_type == "EQUAL" and after in "<>" and after:
+        return f"'={after}' is written '{after}='", (pos, pos + 2)
+    if tok_type == "NUMBER" and value.startswith(".") and text[pos - 1:pos].isdigit():
+        m = re.search(r"[0-9.]*\Z", text[:pos])
+        return (f"a number has one decimal point: '{m.group(0)}{value}'",
+                (pos - len(m.group(0)), pos + len(value)))
+    if tok_type == "NUMBER" and in_block and "NAME" in expected and \
+            re.match(r"[ \t]*=(?!=)", text[pos + len(value):]):
+        return ("an assignment sets a parameter: its left side is a name, which starts with a "
+                "letter or '_'", (pos, pos + len(value)))
+    if value == ";" and not bracketed:
+        return ("';' separates the assignments of a calculation block { ... }; a statement "
+                "ends with its line", (pos, pos + 1))
+    line_start = text.rfind("\n", 0, pos) + 1
+    m = re.match(r"[ \t]*#[A-Za-z_]+[ \t].*?([A-Za-z_][A-Za-z0-9_]*)[ \t]*\Z",
+                 text[line_start:pos])
+    if m and "EQUAL" in expected and value.strip():
+        word = m.group(1)
+        end = text.find("\n", pos)
+        rest = text[pos:end if end >= 0 else len(text)]
+        close = rest.find(")") if rest.startswith("(") else -1
+        value_text = rest[:close + 1] if close > 0 else rest.split()[0]
+        return (f"a directive's setting is written NAME=VALUE: '{word}={value_text}'",
+                (line_start + m.start(1), pos + len(value)))
+    return None

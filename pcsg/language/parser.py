@@ -14,7 +14,7 @@ from .errors import Diagnostic, PcsgError
 from .files import line_ends, read_source_text
 from .mistakes import (HASH_COMMENT, assignment_for_comparison, csg_for_logical,
                        logical_for_csg, lookalike, missing_operator, rule_as_selection,
-                       rule_without_number, unknown_call, unknown_directive)
+                       rule_without_number, token_slips, unknown_call, unknown_directive)
 from .names import FREE, RESERVED
 from .postlex import LineJoiner, owned_names
 from .preprocess import code_of, preprocess
@@ -353,8 +353,7 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner,
         if joiner.open_brackets:
             b = joiner.open_brackets[-1]
             msg += f": '{b.value}' is never closed"
-            notes.append(((b.start_pos, b.end_pos), f"'{b.value}' opened here"))
-            pos = b.start_pos
+            pos = b.start_pos       # the error stands at the bracket: no note to say so
         elif expected:
             msg += f", expected {_expected(expected)}"
         return Diagnostic("error", msg, (pos, pos + 1), source, notes=notes, code="syntax")
@@ -381,6 +380,8 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner,
         msg = (f"a line cannot start with '{tok.value}': to continue the line before, end that "
                f"line with the operator instead")
     elif said := (unknown_directive(text, tok.start_pos)
+                  or token_slips(text, tok.type, tok.value, tok.start_pos, expected,
+                                 _in_block(joiner), bool(joiner.open_brackets))
                   or (tok.type == "ARROW" and rule_without_number(text, tok.start_pos))
                   # '->' where no arrow may stand lexes as '-' and '>'
                   or (tok.value == ">" and text[tok.start_pos - 1:tok.start_pos] == "-"
@@ -449,6 +450,10 @@ def _open_before(text: str, joiner: LineJoiner, tok: Token, expected) -> list:
         return []
     b = joiner.open_brackets[-1]
     if "\n" not in text[b.start_pos:tok.start_pos]:
+        # `{c = 1 S`: the closer this line lacks, said where no later one closes it
+        closer = {"LBRACE": "RBRACE", "LPAR": "RPAR"}.get(b.type)
+        if closer in expected and not _closed_later(text, tok.start_pos):
+            return [((b.start_pos, b.end_pos), f"the '{b.value}' opened here is not closed")]
         return []
     line = text.rfind("\n", 0, tok.start_pos) + 1
     if b.type == "LBRACE":
