@@ -267,7 +267,8 @@ def test_check_warns_of_a_derivation_that_meets_its_own_state_again(capsys, tmp_
                    "2: S → {c = c - 1} uscale(0.5) S\n", encoding="utf-8")
     assert main(["check", str(src)]) == 0
     assert ("2:1: warning: the derivation never ends: 'S' repeats with the same parameters "
-            "(c = inf): a render draws it only to pixel size") in capsys.readouterr().err
+            "(c = inf): a render refines it to pixel size where its transformations shrink "
+            "it, else to --max-depth") in capsys.readouterr().err
     src.write_text("S\nS if(pixels > 2, 2, 1)\n1: S → sphere\n"
                    "2: S → move(1, 0, 0) uscale(0.5) S ∪ sphere\n", encoding="utf-8")
     assert main(["check", str(src)]) == 0

@@ -73,8 +73,9 @@ def derivation_faults(graph: Graph, max_states: int = CHECK_STATES):
             return errors, map_faults(graph, faults)
         if graftal_nodes(graph):
             return [], map_faults(graph, faults) + _unbounded_graftal(graph)
-        repeats = [Diagnostic("warning", d.message + ": a render draws it only to pixel "
-                              "size", d.span, d.source, code=d.code)
+        repeats = [Diagnostic("warning", d.message + ": a render refines it to pixel size "
+                              "where its transformations shrink it, else to --max-depth",
+                              d.span, d.source, code=d.code)
                    for d in e.diagnostics if d.code == "repeats"]
         return [], map_faults(graph, faults) + (repeats or _runaway(graph))
     return [], map_faults(graph, faults)
@@ -693,13 +694,13 @@ def _probe(graph: Graph) -> list[Diagnostic]:
                             and (grows or not least < 1 - 1e-9) and not ended:
                         ended = _ends_from(graph, i, state, h)
                         if not ended:
-                            how = (f"that grow it in some direction (scale {most:.3g} over "
-                                   f"{repeats} cycles):" if grows else
-                                   f"that shrink it in no direction (scale {least:.3g} per "
-                                   f"cycle at least):")
+                            how = (f"that grow it in some direction (by {most:.3g} over "
+                                   f"the {repeats} cycles followed):" if grows else
+                                   f"that shrink it in no direction (each cycle scales it "
+                                   f"by {least:.3g} or more, in the {repeats} followed):")
                             reported[i] = _diag(
-                                graph, "warning", f"'{n.name}' calls itself here {repeats} "
-                                f"times in a row through transformations {how} bounding "
+                                graph, "warning", f"'{n.name}' calls itself here, instance "
+                                f"in instance, through transformations {how} bounding "
                                 f"boxes and the level of detail cannot stop it, and its "
                                 f"derivation does not end within {ENDS_LEVELS:,} levels from "
                                 f"here", edge, "non-contracting")
