@@ -130,6 +130,21 @@ def test_reference_renders_the_same_picture(tmp_path):
     assert np.abs(x - y).max() <= 2
 
 
+def test_a_long_reference_render_says_so_and_stops_at_its_timeout(tmp_path, capsys):
+    """The default Sierpinski at 80x60 ran 6 minutes without a word, and its --timeout 2
+    stopped it after 2 minutes (QA): the reference's Python walk polls every 64 rays."""
+    out = tmp_path / "r.png"
+    args = ["render", str(GRAMMARS / "sierpinski.pcsg"), "--size", "80x60", "-o", str(out),
+            "--reference", "--timeout", "1"]
+    assert main(args) == 1 and not out.exists()
+    err = capsys.readouterr().err
+    assert "--reference traces the expansion's 4,097 primitives one by one for every ray, " \
+           "in Python: at 80x60 about 4 minutes" in err
+    assert "stopped by --timeout 1 s" in err
+    assert main(args + ["-q"]) == 1
+    assert "--reference traces" not in capsys.readouterr().err
+
+
 def test_batch_with_a_broken_file(tmp_path, capsys):
     bad = tmp_path / "broken.pcsg"
     bad.write_text("{c = 1} S\n1: S → nothing\n", encoding="utf-8")
