@@ -178,6 +178,7 @@ def _make_directory(path: Path, output: str):
 def _output_directory(output: str, option: str = "-o"):
     """An output into a directory that is not there, said as such (the error named the
     temporary file beside the output), by every command that writes one."""
+    from .output import cannot_write_in
     parent = Path(output).parent
     if Path(output).is_dir():
         raise UsageError(f"{option} {output}: that is a directory; name a file in it")
@@ -185,6 +186,15 @@ def _output_directory(output: str, option: str = "-o"):
         what = (f"the directory {parent} does not exist" if not parent.exists()
                 else f"{parent} is a file, not a directory")
         raise UsageError(f"{option} {output}: {what}")
+    if _device(Path(output)):
+        return          # written into, not replaced (output.open_atomic)
+    # through a link the file it names is replaced, beside it
+    target = Path(os.path.realpath(output))
+    if target.parent != parent.resolve() and not target.parent.is_dir():
+        raise UsageError(f"{option} {output}: that is a link to {target}, whose directory "
+                         f"does not exist")
+    if problem := cannot_write_in(target.parent):
+        raise UsageError(f"{option} {output}: {problem}")
 
 
 def cmd_expand(args) -> int:
@@ -273,8 +283,17 @@ def _volume_text(name: str, v: dict) -> str:
     return f"{name}: {win}, mean projected area {areas[0]:.4g} ({lose}: {areas[1]:.4g})"
 
 
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".gif", ".svg", ".pdf", ".webp")
+
+
 def cmd_graph(args) -> int:
     from .graph.dot import to_dot
+    if args.output and Path(args.output).suffix.lower() in IMAGE_SUFFIXES:
+        # dot text under an image's name, which a viewer then refused (QA)
+        dot = Path(args.output).with_suffix(".dot")
+        raise UsageError(f"-o {args.output}: pcsg graph writes Graphviz text, not an image: "
+                         f"-o {dot}, then `dot -T{Path(args.output).suffix[1:].lower()} {dot} "
+                         f"-o {args.output}`")
     graph = _compile(args.file, args.overrides)
     _report(None, graph.warnings)
     _write(to_dot(graph), args.output, args.file)
@@ -320,7 +339,13 @@ def _threads(args) -> None:
         raise UsageError(f"--threads counts this process's threads and {cluster} renders on "
                          f"a cluster's workers, each with its own (NUMBA_NUM_THREADS where "
                          f"it starts): give one of them")
+    from numba import config
+
     from .trace.jit import set_threads
+    most = config.NUMBA_NUM_THREADS
+    if args.threads > most and not getattr(args, "quiet", False):
+        print(f"pcsg {args.command}: note: --threads {args.threads}: at most {most} here (the "
+              f"cores, or NUMBA_NUM_THREADS), so {most}", file=sys.stderr)
     set_threads(args.threads)
 
 

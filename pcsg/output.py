@@ -75,6 +75,19 @@ def write_atomic(path: Path, data: bytes) -> None:
         f.write(data)
 
 
+def cannot_write_in(directory: Path) -> str | None:
+    """Why no file can be written in `directory`, found by writing one (access() says
+    yes to root in /sys, where the write fails), or None: a render into a directory it
+    cannot write in failed only after it had rendered (QA)."""
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".pcsg.", suffix=".part", dir=directory)
+    except OSError as e:
+        return f"cannot write in {directory}: {e.strerror or e}"
+    os.close(fd)
+    os.unlink(tmp)
+    return None
+
+
 def make_directory(path: Path) -> str | None:
     """Makes the directory `path` with its parents; what stands in the way, said for an
     option's message (Python's 'Not a directory: x/y' named neither the file nor why),
@@ -82,7 +95,7 @@ def make_directory(path: Path) -> str | None:
     path = Path(path)
     try:
         path.mkdir(parents=True, exist_ok=True)
-        return None
+        return cannot_write_in(path)
     except (FileExistsError, NotADirectoryError):
         blocking = next((p for p in (path, *path.parents) if p.exists() and not p.is_dir()),
                         path)

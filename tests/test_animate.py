@@ -217,6 +217,7 @@ def test_animated_png_and_gif_hold_every_frame(capsys, tmp_path, ball):
     code, stdout, stderr = animate(capsys, ball, out, "--frames", "4", "--path=" + PATH,
                                    "--jobs", "1", "--gif", "--fps", "5")
     assert code == 0, stderr
+    assert f"animation {out / 'ball.png'} and {out / 'ball.gif'}" in stdout   # both paths whole
     with Image.open(out / "ball.png") as apng:
         assert apng.format == "PNG" and apng.is_animated and apng.n_frames == 4
         assert apng.info.get("loop") == 0 and apng.info.get("duration") == 200

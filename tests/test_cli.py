@@ -6,6 +6,7 @@ import shlex
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -233,6 +234,60 @@ def test_an_output_under_a_file_is_a_usage_error(capsys, sierpinski, tmp_path, a
     assert "Traceback" not in err
 
 
+@pytest.mark.skipif(not Path("/sys").is_dir(), reason="needs /sys, which no one writes in")
+@pytest.mark.parametrize("argv, output", [
+    (["render", "{f}", "-o", "/sys/x.png", "--size", "8x6"], "-o /sys/x.png"),
+    (["render", "{f}", "{g}", "-o", "/sys/", "--size", "8x6"], "-o /sys/"),
+    (["export", "{f}", "--pov", "/sys/x.pov", "--size", "8x6"], "--pov /sys/x.pov"),
+    (["expand", "{f}", "-o", "/sys/x.pcsg"], "-o /sys/x.pcsg"),
+    (["sweep", "{f}", "--set", "c=1..2", "-o", "/sys/", "--size", "8x6"], "-o /sys/"),
+])
+def test_an_output_where_nothing_can_be_written_is_refused_before_the_render(
+        capsys, sierpinski, tmp_path, argv, output):
+    """render found /sys/x.png unwritable after its render, exit 1 (QA: 6 s of graftals)."""
+    other = tmp_path / "t.pcsg"
+    other.write_text("sphere\n")
+    fill = {"f": str(sierpinski), "g": str(other)}
+    code, out, err = run(capsys, *[a.format(**fill) for a in argv])
+    assert code == 2 and not out
+    assert f"error: {output}: cannot write in /sys: " in err
+
+
+def test_an_output_through_a_link_to_nowhere_is_refused_before_the_render(
+        capsys, sierpinski, tmp_path):
+    link = tmp_path / "dangle.png"
+    link.symlink_to(tmp_path / "nowhere" / "x.png")
+    code, out, err = run(capsys, "render", str(sierpinski), "-o", str(link), "--size", "8x6")
+    assert code == 2 and not out
+    assert f"-o {link}: that is a link to {tmp_path / 'nowhere' / 'x.png'}, whose directory " \
+           f"does not exist" in err
+
+
+def test_graph_refuses_an_image_name_for_its_dot_text(capsys, sierpinski, tmp_path):
+    out = tmp_path / "g.png"
+    code, _, err = run(capsys, "graph", str(sierpinski), "-o", str(out))
+    assert code == 2 and not out.exists()
+    assert f"-o {out}: pcsg graph writes Graphviz text, not an image: -o " \
+           f"{out.with_suffix('.dot')}, then `dot -Tpng" in err
+    assert run(capsys, "graph", str(sierpinski), "-o", str(out.with_suffix(".dot")))[0] == 0
+
+
+def test_standard_input_is_said_to_be_no_grammar(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run(capsys, "check", "-")
+    assert code == 1 and "-: error: cannot read: No such file or directory (pcsg reads a " \
+                         "grammar from a file, not from standard input" in err
+
+
+def test_more_threads_than_there_are_is_said(capsys, sierpinski, tmp_path):
+    from numba import config
+    many = config.NUMBA_NUM_THREADS + 5
+    code, _, err = run(capsys, "render", str(sierpinski), "--set", "c=1", "--size", "8x6",
+                       "-o", str(tmp_path / "a.png"), "--threads", str(many))
+    assert code == 0
+    assert f"note: --threads {many}: at most {config.NUMBA_NUM_THREADS} here" in err
+
+
 def test_console_script_runs_without_traceback(tmp_path):
     exe = shutil.which("pcsg") or str(__import__("pathlib").Path(sys.executable).parent / "pcsg")
     bad = tmp_path / "bad.pcsg"
@@ -350,6 +405,7 @@ def test_the_command_gives_openblas_one_thread_unless_the_user_chose():
 
 YAML = """
 import sys
+from pathlib import Path
 from pcsg import cli
 cli.import_kernels()
 import numba.core.config as config
@@ -376,6 +432,7 @@ def test_numba_reads_its_yaml_config_only_where_there_is_one(tmp_path):
 
 EXTENSION = """
 import sys
+from pathlib import Path
 import numpy as np
 {setup}
 from numba import njit
@@ -823,6 +880,8 @@ def test_a_sweep_names_itself_and_the_image_that_failed(capsys, tmp_path):
     err = capsys.readouterr().err
     assert f"pcsg sweep: {src} (sel_s=3.png): --strict: runtime errors in the grammar, " \
         "nothing written:" in err and "pcsg render" not in err
+    # the faults a render warns of are what --strict fails on: errors, said so
+    assert f"{src}:2:1: error: the selection of module 'S' gives 3" in err
     assert sorted(p.name for p in out.glob("*.png")) == ["sel_s=1.png", "sel_s=2.png"]
 
 

@@ -40,8 +40,10 @@ def read_source_text(path: str | Path) -> str:
         if size is None or size > MAX_FILE_BYTES:
             raise too_large(name, size)
     except OSError as e:
-        raise PcsgError([Diagnostic("error", f"cannot read: {e.strerror or e}", None,
-                                    Source(name, ""), code="io")]) from None
+        said = f"cannot read: {e.strerror or e}"
+        if str(path) == "-" and isinstance(e, FileNotFoundError):
+            said += " (pcsg reads a grammar from a file, not from standard input: save it first)"
+        raise PcsgError([Diagnostic("error", said, None, Source(name, ""), code="io")]) from None
     return decode(data, name)
 
 

@@ -300,7 +300,7 @@ def animate(anim: Animation) -> int:
             # an earlier run's extra frames (and no GIF the user put there)
             manifest.record(anim.out_dir / f"{stem}.gif", "animation")
             manifest.flush()
-            made += f" and {stem}.gif"
+            made += f" and {anim.out_dir / f'{stem}.gif'}"
     else:
         # kept, as render keeps a picture it could not replace; but it is not this run's
         earlier = [p for p in (anim.out_dir / f"{anim.source.stem}{e}" for e in (".png", ".gif"))

@@ -219,8 +219,10 @@ def nothing_met(label, met: bool, events=None) -> list[str]:
 
 
 def strict_failure(errors: list[str]) -> RenderFailed:
+    """The runtime faults, which a render warns of, are errors under --strict: said so."""
+    said = [e.replace(": warning: ", ": error: ", 1) for e in errors]
     return RenderFailed("--strict: runtime errors in the grammar, nothing written:\n  "
-                        + "\n  ".join(errors))
+                        + "\n  ".join(said))
 
 
 def summary_line(out: Path, opts: Options, seconds: float, rays: int,
