@@ -231,3 +231,39 @@ def test_the_reference_render_of_a_graftal_is_cut_where_the_tracer_is(tmp_path, 
     assert main(["render", fern, "--reference", "--max-depth", "2", "--size", "20x15",
                  "-o", str(out), "-q"]) == 0
     assert out.exists()
+
+
+# two maps, one turned by an angle no multiple of 90 degrees, each instance a sphere: the
+# memoised walk's rounds went round five estimates without end (the corner points merged
+# into a box past MAX_POINTS, and that box turned grew again), so the graftal was walked
+# instance by instance, unbounded: 19 s at 48x36, every ray at --max-instances, and the
+# second branch never drawn (QA)
+TURNED = ("S\n1: S → uscale(0.5) sphere ∪ move(1,0,0) uscale(0.5) rotz(40) S ∪ "
+          "move(-1,0,0) uscale(0.5) S\n")
+
+
+def test_a_graftal_whose_rounds_cycle_as_corner_points_is_bounded_as_boxes():
+    from pcsg.graph.cut import cut_of
+    from pcsg.trace.reference import Reference
+    from pcsg.tracer import Traced
+    traced = pcsg.loads(TURNED)
+    assert traced.bounds_method == "memoised" and not traced.warnings
+    # the box holds every instance of the expansion 8 levels deep (a sphere's box corners
+    # mapped: the spheres' own boxes hold them)
+    ref = Reference(traced.graph, cut=cut_of(Traced(traced.graph, max_depth=8)))
+    root = traced.boxes[traced.graph.root]
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    for leaf in ref.leaves:
+        p = corners @ leaf.matrix[:3, :3].T + leaf.matrix[:3, 3]
+        assert (p >= root[:3] - 1e-9).all() and (p <= root[3:] + 1e-9).all()
+    # and cut at a depth, the graph tracer and the expansion agree ray by ray
+    cut = Traced(traced.graph, max_depth=6, average_normals=False)
+    x, y = np.meshgrid(np.linspace(root[0], root[3], 48), np.linspace(root[1], root[4], 16))
+    o = np.stack([x.ravel(), y.ravel(), np.full(x.size, 5.0)], axis=1)
+    d = np.tile([0.05, 0.03, -1.0], (len(o), 1))         # from above, a little aslant
+    got = cut.trace(o, d)
+    want = Reference(cut.graph, cut=cut_of(cut)).trace(o, d, exits=True)
+    assert got.hit.sum() > 100 and (got.hit == want["hit"]).all()
+    assert np.allclose(got.t[got.hit], want["t"][got.hit], rtol=1e-9)
+    # the cut is the depth limit's, and no walk is cut short by a buffer
+    assert [e.split(":")[0] for e in cut.describe_events(got.events)] == ["depth limit"]

@@ -398,16 +398,24 @@ def _memoised_walk(graph: Graph, faults: set | None, finish_too: bool, walker=No
         w.box(graph.root, state, h, 0)
         return {k: w.memo[k] for k in w.reentered}
 
-    for _ in range(MAX_ROUNDS):
-        new = round_()
-        if not new:
-            return ((w.boxes, {}, state_table(graph, w.memo, w.key, w.finishing)), w.deepest,
-                    True)
-        if all(k in w.estimate and _same(as_box(new[k]), as_box(w.estimate[k])) for k in new):
-            if any(_empty(as_box(v)) for v in new.values()):
-                return (*_attractor_boxes(w, round_), None), w.deepest, False
-            return (w.boxes, {k: w.estimate[k] for k in new}, None), w.deepest, False
-        w.estimate.update(new)
+    # Estimates as corner points give the tightest bounds, but their merge into a box past
+    # MAX_POINTS can make the rounds cycle instead of settle: two maps with a rotz(40)
+    # went round five estimates without end, and the graftal was drawn unbounded and cut
+    # (QA). Estimates as boxes grow monotonically to their fixed point: the second try.
+    for boxed in (False, True):
+        w.estimate = {}
+        for _ in range(MAX_ROUNDS):
+            new = round_()
+            if not new:
+                return ((w.boxes, {}, state_table(graph, w.memo, w.key, w.finishing)),
+                        w.deepest, True)
+            if all(k in w.estimate and _same(as_box(new[k]), as_box(w.estimate[k]))
+                   for k in new):
+                if any(_empty(as_box(v)) for v in new.values()):
+                    return (*_attractor_boxes(w, round_), None), w.deepest, False
+                return (w.boxes, {k: w.estimate[k] for k in new}, None), w.deepest, False
+            w.estimate.update({k: _corners(as_box(v)) if boxed and v.ndim == 2 and len(v)
+                               else v for k, v in new.items()})
     raise TooManyStates
 
 
