@@ -130,6 +130,23 @@ def test_reference_renders_the_same_picture(tmp_path):
     assert np.abs(x - y).max() <= 2
 
 
+def test_reference_empties_an_invalid_selection_as_render_does(tmp_path, capsys):
+    """--reference failed the file (as --strict does) where render draws the rest (QA)."""
+    src = tmp_path / "e.pcsg"
+    src.write_text("{c = 2; x = 1} S\nS if(c > 0, 2, if(x > 0.5, 1, 3))\n1: S → cube\n"
+                   "2: S → {c = c-1} (move(-1,0,0) uscale(0.5) {x = 0} S ∪ "
+                   "move(1,0,0) uscale(0.5) {x = 1} S)\n", encoding="utf-8")
+    a, b = tmp_path / "a.png", tmp_path / "b.png"
+    args = [str(src), "--size", "40x30", "-q", "--no-shadows", "--bounces", "0"]
+    assert main(["render", *args, "-o", str(a)]) == 0
+    assert main(["render", *args, "-o", str(b), "--reference"]) == 0
+    assert "the selection of module 'S' gives 3" in capsys.readouterr().err
+    x = np.asarray(Image.open(a)).astype(int)
+    y = np.asarray(Image.open(b)).astype(int)
+    assert np.abs(x - y).max() <= 2 and (x != x[0, 0]).any()      # the cubes drawn alike
+    assert main(["render", *args, "-o", str(b), "--reference", "--strict"]) == 1
+
+
 def test_a_long_reference_render_says_so_and_stops_at_its_timeout(tmp_path, capsys):
     """The default Sierpinski at 80x60 ran 6 minutes without a word, and its --timeout 2
     stopped it after 2 minutes (QA): the reference's Python walk polls every 64 rays."""

@@ -52,12 +52,14 @@ def nonempty(world: np.ndarray) -> np.ndarray:
     return ok
 
 
-def flatten(graph: Graph, max_primitives: int = 1_000_000, cut: Cut | None = None
-            ) -> list[Instance]:
+def flatten(graph: Graph, max_primitives: int = 1_000_000, cut: Cut | None = None,
+            faults: list | None = None) -> list[Instance]:
     """Every primitive of the derivation with its world matrix, in derivation order (cut
-    where `cut` says). Raises PcsgError when there are more than max_primitives."""
+    where `cut` says). Raises PcsgError when there are more than max_primitives. With a
+    `faults` list, an instance whose selection is invalid is empty, as the tracer makes
+    it, and its error goes into the list (else it is raised: export, stats)."""
     out: list[Instance] = []
-    for inst in instances(graph, cut):
+    for inst in instances(graph, cut, faults):
         out.append(inst)
         if len(out) > max_primitives:
             raise PcsgError([Diagnostic("error", f"the derivation has more than "
@@ -70,12 +72,13 @@ def flatten(graph: Graph, max_primitives: int = 1_000_000, cut: Cut | None = Non
 CLIP_BATCH = 4096       # cut graftal instances whose clips are found at once
 
 
-def instances(graph: Graph, cut: Cut | None = None) -> Iterator[Instance]:
+def instances(graph: Graph, cut: Cut | None = None, faults: list | None = None
+              ) -> Iterator[Instance]:
     """The primitives of the derivation one by one, in derivation order (left operand
     first), holding only the open branches: the form for streaming exports. With a cut
     (graph/cut.py), S-node instances deeper than its depth end as the tracer ends them."""
     held: list[tuple[Instance, tuple | None]] = []
-    for inst, above in _derived(graph, cut):
+    for inst, above in _derived(graph, cut, faults):
         held.append((inst, above))
         if above is None and len(held) == 1:
             yield held.pop()[0]         # no cut graftal instance waiting: straight through
@@ -97,7 +100,8 @@ def _clipped(cut: Cut | None, held: list) -> Iterator[Instance]:
         yield inst
 
 
-def _derived(graph: Graph, cut: Cut | None) -> Iterator[tuple[Instance, tuple | None]]:
+def _derived(graph: Graph, cut: Cut | None, faults: list | None = None
+             ) -> Iterator[tuple[Instance, tuple | None]]:
     """instances(), each cut graftal instance with the volumes above it (its clips to be)."""
     d = Deriver(graph)
     nodes = graph.nodes
@@ -134,8 +138,14 @@ def _derived(graph: Graph, cut: Cut | None) -> Iterator[tuple[Instance, tuple | 
                     continue
                 if level + 1 > 4 * cut.depth + 64:     # a terminating rule that recurses
                     continue
-            else:
+            elif faults is None:
                 r = d.select(i, state, h)
+            else:
+                try:
+                    r = d.select(i, state, h)
+                except PcsgError as e:
+                    faults.extend(e.diagnostics)
+                    continue
             c = n.children[r]
             stack.append((c, state, d.edge(h, i, r), m, paint, material, path, level + 1,
                           entered(above, c, m)))

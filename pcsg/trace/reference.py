@@ -108,9 +108,11 @@ def _march_many(is_julia, args, O, D, tmin, tmax, out, hit):
 class Reference:
     def __init__(self, graph: Graph, max_primitives: int = 200_000, cut: Cut | None = None):
         """The expansion of graph; with a cut (graph/cut.py), the one a tracer of graph
-        walks with that depth bound and no level of detail (lod=0)."""
+        walks with that depth bound and no level of detail (lod=0). An instance whose
+        selection is invalid is empty, as the tracer makes it; `faults` says why."""
         self.graph = graph
         self.nodes: list = []        # tree nodes in pre-order: children after parents
+        self.faults: list = []       # Diagnostics of the invalid selections met
         self.root = self._build(graph, max_primitives, cut)
 
     # ---- the expanded tree ------------------------------------------------------
@@ -122,7 +124,7 @@ class Reference:
         tree = self.nodes
         holder = [None]
         ops: dict[tuple, Op] = {}
-        for inst in flatten(graph, max_primitives, cut):
+        for inst in flatten(graph, max_primitives, cut, self.faults):
             parent, slot = holder, 0
             for j, (node, k) in enumerate(inst.path):
                 op = ops.get(inst.path[:j])
