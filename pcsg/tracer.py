@@ -55,6 +55,20 @@ def _rays(values, what: str) -> np.ndarray:
     return np.ascontiguousarray(a.reshape(-1, 3), dtype=np.float64)
 
 
+def _finite_rays(o: np.ndarray, d: np.ndarray) -> None:
+    """A ray with a non-finite coordinate or no direction was traced as a miss."""
+    bad = ~np.isfinite(o).all(axis=1)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise ValueError(f"origins: ray {k} starts at {tuple(o[k].tolist())}: give finite "
+                         f"coordinates")
+    bad = ~np.isfinite(d).all(axis=1) | ~(d != 0).any(axis=1)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise ValueError(f"directions: ray {k} has direction {tuple(d[k].tolist())}: give a "
+                         f"finite one of non-zero length")
+
+
 def _pad(boxes: np.ndarray) -> np.ndarray:
     """A copy of the boxes made conservative (trace/pad.py); the instance table's entries
     are padded as they are laid out (instance_table.tracer_rows)."""
@@ -151,9 +165,14 @@ class Traced:
             if number is None or number != number or (name == "lod" and not 0 <= number < np.inf):
                 raise ValueError(f"{name}={value!r}: give a number" +
                                  (" from 0 (no level of detail)" if name == "lod" else ""))
+        if not float(tmin) < float(tmax):
+            # tmax=-1 or tmin=5, tmax=1: an empty span, every ray a miss without a word
+            raise ValueError(f"tmin={tmin!r}, tmax={tmax!r}: the hits are sought for tmin < "
+                             f"t < tmax, so tmax must be greater than tmin")
         o, d = _rays(origins, "origins"), _rays(directions, "directions")
         if o.shape != d.shape:
             raise ValueError(f"origins {o.shape} and directions {d.shape} differ")
+        _finite_rays(o, d)
         n = len(o)
         try:
             cones = np.ascontiguousarray(np.broadcast_to(np.asarray(cone, dtype=np.float64),

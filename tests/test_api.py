@@ -21,6 +21,22 @@ def test_trace_refuses_bounds_and_footprints_that_are_no_numbers(option):
     assert obj.trace([[0, 0, -5]] * 2, [[0, 0, 1]] * 2, lod=1e-3, cone=[0.0, 0.01]).hit.all()
 
 
+@pytest.mark.parametrize("args, option, said", [
+    (([0, 0, -5], [0, 0, 1]), dict(tmax=-1), "tmin=1e-09, tmax=-1: the hits are sought for "
+                                             "tmin < t < tmax, so tmax must be greater"),
+    (([0, 0, -5], [0, 0, 1]), dict(tmin=5, tmax=1), "tmin=5, tmax=1: "),
+    (([0, 0, -5], [0, 0, 0]), {}, r"directions: ray 0 has direction \(0.0, 0.0, 0.0\)"),
+    (([[0, 0, -5], [0, 0, float("nan")]], [[0, 0, 1]] * 2), {},
+     r"origins: ray 1 starts at \(0.0, 0.0, nan\): give finite"),
+    (([0, 0, -5], [float("inf"), 0, 1]), {}, "directions: ray 0 has direction"),
+])
+def test_trace_refuses_rays_that_could_only_miss(args, option, said):
+    """Traced as misses without a word (QA of the README's claim)."""
+    obj = pcsg.loads("sphere")
+    with pytest.raises(ValueError, match=f"^{said}"):
+        obj.trace(*args, **option)
+
+
 @pytest.mark.parametrize("text, said", [(b"sphere", "got bytes (decode it first)"),
                                         (None, "got NoneType")])
 def test_loads_takes_text(text, said):

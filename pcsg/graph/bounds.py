@@ -740,15 +740,18 @@ def _bound(graph: Graph, max_depth: int | None, budget: int, poll, fuse: bool):
         # (the terrain at --bounds-budget 100 ran for minutes, and said nothing)
         problems.append(Diagnostic(
             "warning", f"the instances are too many to bound within --bounds-budget "
-            f"{budget:,} node visits even a few levels deep: nothing is bounded, so every ray "
+            f"{budget:,} node visit{'' if budget == 1 else 's'} even a few levels deep: "
+            f"nothing is bounded, so every ray "
             f"walks all the instances it meets (slow); a larger budget bounds them", None,
             graph.source, code="unbounded"))
     elif depth < max_depth:
+        # --max-depth takes 1 and more: at 0 the option to name is the budget alone
+        as_with = f", as with --max-depth {depth}" if depth else ""
         problems.append(Diagnostic(
             "warning", f"the instances below derivation depth {depth} are too many to bound "
-            f"one by one; refinement stops there, as with --max-depth {depth}: deeper "
-            f"instances are finished with their terminating rule (--bounds-budget "
-            f"{budget:,} node visits; a larger budget bounds deeper, and takes longer)", None,
+            f"one by one; refinement stops there{as_with}: deeper instances are finished with their terminating rule (--bounds-budget "
+            f"{budget:,} node visit{'' if budget == 1 else 's'}; a larger budget bounds "
+            f"deeper, and takes longer)", None,
             graph.source, code="depth-bounded"))
     return (boxes, "every instance" if complete else "unbounded", problems, table, {}, depth,
             graph, max_depth)

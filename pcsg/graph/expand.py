@@ -98,7 +98,8 @@ def redraws(graph: Graph) -> bool:
 
 class ExpansionTooLarge(Exception):
     def __init__(self, limit: int):
-        super().__init__(f"the expansion is longer than {limit:,} characters; "
+        super().__init__(f"the expansion is longer than {limit:,} "
+                         f"character{'' if limit == 1 else 's'}; "
                          f"use fewer steps or --max-chars")
 
 
