@@ -238,23 +238,39 @@ def test_the_reference_render_of_a_graftal_is_cut_where_the_tracer_is(tmp_path, 
 # into a box past MAX_POINTS, and that box turned grew again), so the graftal was walked
 # instance by instance, unbounded: 19 s at 48x36, every ray at --max-instances, and the
 # second branch never drawn (QA)
-TURNED = ("S\n1: S → uscale(0.5) sphere ∪ move(1,0,0) uscale(0.5) rotz(40) S ∪ "
-          "move(-1,0,0) uscale(0.5) S\n")
+# (QA); and boxes turned by maps that shrink them less than the turn widens them grow
+# round after round without end (uscale(0.72) rotz(45): 0.72 (cos 45 + sin 45) > 1), as
+# do those of a map that shrinks slowly (uscale(0.94)): 40 to 50 s at 64x48, unbounded
+TURNED = ["S\n1: S → uscale(0.5) sphere ∪ move(1,0,0) uscale(0.5) rotz(40) S ∪ "
+          "move(-1,0,0) uscale(0.5) S\n",
+          "S\n1: S → uscale(0.2) sphere ∪ move(0.3,0,0.1) rotz(45) uscale(0.72) S ∪ "
+          "move(0,1,0) uscale(0.3) S\n",
+          "S\n1: S → uscale(0.2) sphere ∪ move(0.3,0,0.1) uscale(0.94) S ∪ "
+          "move(0,1,0) uscale(0.3) S\n",
+          "S\n1: S → scale(0.07,0.07,1) cylinder ∪ move(0,0,1) rotz(137) roty(40) uscale(0.65) "
+          "S ∪ move(0,0,0.6) rotz(250) roty(35) uscale(0.6) S\n"]
 
 
-def test_a_graftal_whose_rounds_cycle_as_corner_points_is_bounded_as_boxes():
+@pytest.mark.parametrize("text", TURNED)
+def test_a_system_whose_rounds_do_not_settle_is_bounded_by_its_attractor(text):
     from pcsg.graph.cut import cut_of
     from pcsg.trace.reference import Reference
     from pcsg.tracer import Traced
-    traced = pcsg.loads(TURNED)
+    traced = pcsg.loads(text)
     assert traced.bounds_method == "memoised" and not traced.warnings
-    # the box holds every instance of the expansion 8 levels deep (a sphere's box corners
-    # mapped: the spheres' own boxes hold them)
+    # the box holds every instance of the expansion 8 levels deep: points on each sphere,
+    # or on each cylinder's rims
     ref = Reference(traced.graph, cut=cut_of(Traced(traced.graph, max_depth=8)))
     root = traced.boxes[traced.graph.root]
-    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
-    for leaf in ref.leaves:
-        p = corners @ leaf.matrix[:3, :3].T + leaf.matrix[:3, 3]
+    u = np.random.default_rng(1).normal(size=(200, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    rims = np.concatenate([u[:, :2] / np.linalg.norm(u[:, :2], axis=1, keepdims=True)] * 2)
+    surface = {"sphere": u,
+               "cylinder": np.column_stack([rims, np.repeat([0.0, 1.0], len(u))])}
+    drawn = [leaf for leaf in ref.leaves if leaf.name in surface]     # not the cut's boxes
+    assert len(drawn) > 100
+    for leaf in drawn:
+        p = surface[leaf.name] @ leaf.matrix[:3, :3].T + leaf.matrix[:3, 3]
         assert (p >= root[:3] - 1e-9).all() and (p <= root[3:] + 1e-9).all()
     # and cut at a depth, the graph tracer and the expansion agree ray by ray
     cut = Traced(traced.graph, max_depth=6, average_normals=False)
