@@ -132,3 +132,21 @@ def test_a_file_that_assigns_pixels_has_a_parameter_of_that_name():
     assert_agrees(traced, o, d, min_hits=20)
     assert compile_text("pixels = sphere\npixels ∪ cube", "n.pcsg").pixels == -1
     assert compile_text("1: pixels → sphere\npixels", "m.pcsg").pixels == -1
+
+
+def test_a_pixels_system_that_only_an_instance_walk_bounds_says_it_is_unbounded():
+    """rand() in its maps: the memoised walk has too many states, the instance walk knows
+    no pixel sizes, so nothing is bounded; the render was 100 times slower than without
+    `pixels`, and said nothing (QA)."""
+    text = ("{c = 6} S\nS if(c <= 0 || pixels < 4, 1, 2)\n1: S → uscale(0.5) sphere\n"
+            "2: S → cylinder ∪ {c = c-1} (move(0,0,1) rotz(360*rand()) uscale(0.6) S ∪ "
+            "move(0,0,0.7) rotz(360*rand()) uscale(0.5) S ∪ "
+            "move(0,0,0.5) rotz(360*rand()) uscale(0.5) S)\n")
+    obj = pcsg.loads(text)
+    assert obj.bounds_method == "unbounded"
+    (w,) = obj.warnings
+    assert w.code == "unbounded" and w.message.startswith("selections read `pixels`, and this "
+                                                          "system's instances differ")
+    # without `pixels`, the same system is walked and bounded
+    plain = pcsg.loads(text.replace(" || pixels < 4", ""))
+    assert plain.bounds_method == "every instance" and not plain.warnings

@@ -701,6 +701,7 @@ def _bound(graph: Graph, max_depth: int | None, budget: int, poll, fuse: bool):
     first (graph/fuse.py): that graph is the one bounded."""
     problems = []
     faults: set = set()
+    too_many = False            # the memoised walk met too many states
     try:
         with recursion_limit(20 * MAX_LEVELS):
             (boxes, hulls, states), max_depth = _memoised(graph, faults, max_depth)
@@ -719,6 +720,7 @@ def _bound(graph: Graph, max_depth: int | None, budget: int, poll, fuse: bool):
         if (found := _any_rule(graph, max_depth) or _unboundable_voids(graph, max_depth)) \
                 is not None:
             return found
+        too_many = True
     except PcsgError as e:
         problems = [Diagnostic("warning", d.message + "; that instance is empty", d.span,
                                d.source, d.notes, d.code) for d in e.diagnostics]
@@ -727,6 +729,15 @@ def _bound(graph: Graph, max_depth: int | None, budget: int, poll, fuse: bool):
     from ..trace.boxwalk import walk_boxes
     from ..trace.instance_table import empty_table
     if graph.pixels >= 0:       # the instance walk knows no pixel sizes: no boxes
+        # said, as the walk's own "nothing is bounded" is: a render 100 times slower than
+        # the same system without `pixels`, without a word (QA)
+        problems += [] if not too_many else [Diagnostic(
+            "warning", "selections read `pixels`, and this system's instances differ in "
+            "what bounds them (maps or selections that read rand() or counters), which only "
+            "a walk of every instance bounds, and that walk knows no pixel sizes: nothing is "
+            "bounded, so every ray walks all the instances it meets (slow); without `pixels` "
+            "in its selections it would be walked and bounded", None, graph.source,
+            code="unbounded")]
         n = len(graph.nodes)
         return (np.tile(-EMPTY, (n, 1)), "unbounded", problems, empty_table(), {}, max_depth,
                 graph, max_depth)
