@@ -240,3 +240,19 @@ def test_rays_a_limit_stopped_are_not_said_to_have_missed_an_empty_object(capsys
     assert "empty or out of the camera's view" not in err
     assert main(args) == 0                      # without the limit it is drawn
     assert "no ray met" not in capsys.readouterr().err
+
+
+def test_an_endless_system_too_large_to_walk_whole_is_told_to_take_a_depth():
+    """Its maps read rand(), so only the walk of every instance bounds it, and a system
+    that never ends only whole: "a larger budget bounds them" was no help (QA: over 60 s
+    at 64x48, and 3 s at --max-depth 16)."""
+    text = ("S\n1: S → scale(0.07,0.07,1) cylinder ∪ move(0,0,1) rotz(360*rand()) roty(30) "
+            "uscale(0.6) S ∪ move(0,0,0.7) rotz(360*rand()) roty(45) uscale(0.5) S\n")
+    obj = pcsg.loads(text)
+    assert obj.bounds_method == "unbounded"
+    (w,) = obj.warnings
+    assert w.message.endswith("it never ends, and is bounded only walked whole, to "
+                              "--max-depth 64: a smaller --max-depth (16, say) ends it where "
+                              "its instances can be walked")
+    cut = pcsg.loads(text, max_depth=12)
+    assert cut.bounds_method == "every instance" and not cut.warnings

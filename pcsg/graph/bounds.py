@@ -753,12 +753,17 @@ def _bound(graph: Graph, max_depth: int | None, budget: int, poll, fuse: bool):
     if not complete and not any(p.code == "non-contracting" for p in problems):
         # no box at all: every ray walks every instance it meets, thousands of times slower
         # (the terrain at --bounds-budget 100 ran for minutes, and said nothing)
+        # a system that never ends is walked whole or not at all (walk_boxes): a larger
+        # budget does not help it, a depth does (QA: 60 s and more, 3 s at --max-depth 16)
+        endless = any(r < 0 for r in terminating_rules(graph).values())
+        remedy = (f"; it never ends, and is bounded only walked whole, to --max-depth "
+                  f"{max_depth}: a smaller --max-depth (16, say) ends it where its instances "
+                  f"can be walked" if endless else "; a larger budget bounds them")
         problems.append(Diagnostic(
             "warning", f"the instances are too many to bound within --bounds-budget "
             f"{budget:,} node visit{'' if budget == 1 else 's'} even a few levels deep: "
-            f"nothing is bounded, so every ray "
-            f"walks all the instances it meets (slow); a larger budget bounds them", None,
-            graph.source, code="unbounded"))
+            f"nothing is bounded, so every ray walks all the instances it meets "
+            f"(slow){remedy}", None, graph.source, code="unbounded"))
     elif depth < max_depth:
         # --max-depth takes 1 and more: at 0 the option to name is the budget alone
         as_with = f", as with --max-depth {depth}" if depth else ""
