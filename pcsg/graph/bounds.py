@@ -769,9 +769,9 @@ def _bound(graph: Graph, max_depth: int | None, budget: int, poll, fuse: bool):
         as_with = f", as with --max-depth {depth}" if depth else ""
         problems.append(Diagnostic(
             "warning", f"the instances below derivation depth {depth} are too many to bound "
-            f"one by one; refinement stops there{as_with}: deeper instances are finished with their terminating rule (--bounds-budget "
-            f"{budget:,} node visit{'' if budget == 1 else 's'}; a larger budget bounds "
-            f"deeper, and takes longer)", None,
-            graph.source, code="depth-bounded"))
+            f"one by one; refinement stops there{as_with}: deeper instances are finished "
+            f"with their terminating rule (--bounds-budget {budget:,} node "
+            f"visit{'' if budget == 1 else 's'}; a larger budget bounds deeper, and takes "
+            f"longer)", None, graph.source, code="depth-bounded"))
     return (boxes, "every instance" if complete else "unbounded", problems, table, {}, depth,
             graph, max_depth)

@@ -64,8 +64,8 @@ class Source:
             return ""
         if used is not None:
             if any(use[0] == name for use in self.macro_uses(used)):
-                return (f" (in the replacement of macro '{name}' itself, where it is not replaced "
-                        f"again: a macro that named itself would never end)")
+                return (f" (in the replacement of macro '{name}' itself, where it is not "
+                        f"replaced again: a macro that named itself would never end)")
             if self.locate(used).offset > at:
                 return ""       # defined above its read: not what went wrong
         loc = self.location(at)

@@ -305,8 +305,8 @@ class _ReferenceTarget:
 
     def slow_notice(self, label: str, w: int, h: int) -> str | None:
         """Said before a reference render that takes minutes: its Python walk visits every
-        node of the expansion for each ray, about a microsecond a visit (QA: the default
-        Sierpinski at 80x60 ran 6 minutes without a word)."""
+        node of the expansion for each ray (REFERENCE_PIXEL_SECONDS a pixel and node; QA:
+        the default Sierpinski at 80x60 ran 6 minutes without a word)."""
         minutes = REFERENCE_PIXEL_SECONDS * len(self.ref.nodes) * w * h / 60
         if minutes < 1:
             return None
