@@ -165,12 +165,14 @@ class _Textures:
                           "conserve_energy")
         # pcsg's surface keeps 1 - reflect - transmit of its own colour (shade._bounces);
         # POV-Ray adds reflection on top of the whole finish, and scales a transmitting
-        # pigment's own light by 1 - transmit itself
+        # pigment's ambient and diffuse light by 1 - transmit itself, but not its phong
+        # highlight (QA: a glass ball's highlight 255 where pcsg's is 161)
         t = fin["transmit"]
-        own = max(1.0 - fin["reflect"] - t, 0.0) / (1.0 - t) if t < 1 else 0.0
+        kept = max(1.0 - fin["reflect"] - t, 0.0)
+        own = kept / (1.0 - t) if t < 1 else 0.0
         return ([float(c) for c in color], _num(t) if t > 0 else "",
                 f"finish {{ ambient rgb {_vec(self.ambient * own)} "
-                f"diffuse {_num(fin['diffuse'] * own)} phong {_num(fin['specular'] * own)} "
+                f"diffuse {_num(fin['diffuse'] * own)} phong {_num(fin['specular'] * kept)} "
                 f"phong_size {_num(fin['shininess'])} {reflection} }}")
 
     def interior(self, material: int) -> str:

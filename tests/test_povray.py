@@ -380,6 +380,8 @@ def test_a_mirror_keeps_what_it_does_not_reflect_of_its_own_colour(tmp_path):
     np.testing.assert_allclose(half[0], ground[0] / 2)
     # 1 - 0.3 - 0.5 of its own, of which POV-Ray's transmit 0.5 takes half itself
     np.testing.assert_allclose(glass[1], 0.7 * 0.2 / 0.5)
+    # but not of its highlight, which POV-Ray does not dim by transmit (it was 0.3 * 0.4)
+    np.testing.assert_allclose(glass[2], 0.3 * 0.2)
 
 
 @pytest.mark.parametrize("samples, grid", [(4, 2), (8, 3), (16, 4), (64, 8)])
