@@ -28,6 +28,7 @@ SUN_COLOR = np.array([1.0, 0.97, 0.92])            # the default sun's, and --li
 AMBIENT = 0.22
 AO_DISTANCE = 0.15          # default --ao-distance, a fraction of the object's box diagonal
 EPS = 1e-6
+EPS_FAR = 1e-9      # of a point's largest coordinate (trace/shading.py's EPS_FAR)
 
 
 @dataclass
@@ -51,8 +52,8 @@ class Lighting:
     ao_distance: float = 1.0        # occluders farther than this do not count
     lod: float = 0.0
     packets: bool = True            # neighbouring rays walk the graph together (trace/packet.py)
-    # a shaded point moves off its surface by EPS of unit + its largest coordinate: 1, or
-    # the object's size where smaller (with 1, `uscale(1e-12) sphere` was lit from 1e-6
+    # a shaded point moves off its surface by EPS of unit (and EPS_FAR of its largest
+    # coordinate: off_surface): 1, or the object's size where smaller (with 1, `uscale(1e-12) sphere` was lit from 1e-6
     # off it, past its light, and drawn dark)
     unit: float = 1.0
     rays: list = field(default_factory=lambda: [0])   # rays traced, for the summary
@@ -187,8 +188,8 @@ def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: 
         transmit = np.where(hits.what[h] == HIT_SHELL, 0.0, transmit)
     up = np.clip(n[:, 2:3] * 0.5 + 0.5, 0, 1)
     out = AMBIENT * base * (light.horizon * (1 - up) + light.zenith * up)
-    scale = light.unit + np.abs(p).max(axis=1, keepdims=True)
-    origin = p + n * EPS * scale
+    lift = off_surface(light.unit, p)
+    origin = p + n * lift
     # the pixel's width where it meets the surface, which the rays that leave it start with
     # (as the kernel sums it: trace/shading.py)
     dh = directions[h]
@@ -203,7 +204,7 @@ def shade(traced, light: Lighting, origins, directions, depth: int = 0, kernel: 
         spec = np.clip(np.einsum("ij,ij->i", refl, d), 0, None)[:, None] ** shin
         out += vis[:, None] * lt.color * (kd * base * ndl + ks * spec * (ndl > 0))
     if depth < light.max_bounces:
-        out = _bounces(traced, light, out, d, n, p, scale, inside, reflect, ior, transmit,
+        out = _bounces(traced, light, out, d, n, p, lift, inside, reflect, ior, transmit,
                        depth, ids[h], weight[h], spot)
     color[h] = out
     return color, hits.t, hits
@@ -310,8 +311,7 @@ def _through_glass(traced, light: Lighting, o: np.ndarray, target: np.ndarray,
         passing[active] *= through[go]
         p = origin[active] + t[:, None] * d
         dn = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])
-        scale = light.unit + np.abs(p).max(axis=1)
-        origin[active] = p + d / dn[:, None] * EPS * scale[:, None]
+        origin[active] = p + d / dn[:, None] * off_surface(light.unit, p)
     return out
 
 
@@ -373,7 +373,13 @@ def _hemisphere(k: int, n: int, shift: np.ndarray, normal: np.ndarray) -> np.nda
     return s * np.cos(a) * u + s * np.sin(a) * v + c * normal
 
 
-def _bounces(traced, light, out, d, n, p, scale, inside, reflect, ior, transmit, depth, ids,
+def off_surface(unit: float, p: np.ndarray) -> np.ndarray:
+    """(n, 1): how far each shaded point moves off its surface, as the kernel's
+    off_surface: EPS of the object's size and EPS_FAR of the point's largest coordinate."""
+    return EPS * unit + EPS_FAR * np.abs(p).max(axis=1, keepdims=True)
+
+
+def _bounces(traced, light, out, d, n, p, lift, inside, reflect, ior, transmit, depth, ids,
              weight, spot):
     """Mirror reflection and refraction, traced one level deeper: a surface keeps
     1 - kr - kt of its own colour and passes kr to its reflection, kt to its
@@ -387,14 +393,14 @@ def _bounces(traced, light, out, d, n, p, scale, inside, reflect, ior, transmit,
     out = out * (1 - np.where(want_r, kr, 0.0) - np.where(want_t, kt, 0.0))[:, None]
     if want_r.any():
         rd = d[want_r] + 2 * cos_i[want_r, None] * n[want_r]
-        c, _, _ = shade(traced, light, p[want_r] + n[want_r] * EPS * scale[want_r], rd,
+        c, _, _ = shade(traced, light, p[want_r] + n[want_r] * lift[want_r], rd,
                         depth + 1, ids=ids[want_r], weight=weight[want_r] * kr[want_r],
                         cone=spot[want_r])
         out[want_r] += kr[want_r, None] * c
     if want_t.any():
         e, ci, kk = eta[want_t, None], cos_i[want_t, None], k[want_t, None]
         td = e * d[want_t] + (e * ci - np.sqrt(np.clip(kk, 0, None))) * n[want_t]
-        c, _, _ = shade(traced, light, p[want_t] - n[want_t] * EPS * scale[want_t], td,
+        c, _, _ = shade(traced, light, p[want_t] - n[want_t] * lift[want_t], td,
                         depth + 1, ids=ids[want_t], weight=weight[want_t] * kt[want_t],
                         cone=spot[want_t])
         out[want_t] += kt[want_t, None] * c

@@ -32,10 +32,24 @@ from .walk import HIT_SHEET, HIT_SHELL, R_HIT, R_MAT, R_N, R_PAINT, R_T, R_WIDTH
 
 CHUNK = PACKET
 EPS = 1e-6
+# of a point's largest coordinate, beside EPS of the object's size: the rounding of a point
+# far from the origin is a few parts in 1e16 of it. At EPS of it, a scene 1e6 from the
+# origin moved its shaded points 1.4 units off their surfaces, past the shadows of its
+# neighbours (QA)
+EPS_FAR = 1e-9
 # a reflected or refracted ray whose colour would enter its pixel with less than this
 # weight is not traced (its share stays with the surface's own colour): with glass, every
 # bounce doubled the rays, and --bounces 20 took 4 times as long as 16 for the same picture
 MIN_WEIGHT = 1e-3
+
+
+@inline
+def off_surface(unit, p0, p1, p2):
+    """How far a shaded point at p moves off its surface: EPS of the object's size (unit,
+    Lighting.unit) and EPS_FAR of its largest coordinate (shade.off_surface's model)."""
+    return EPS * unit + EPS_FAR * max(abs(p0), abs(p1), abs(p2))
+
+
 # light rows: position (3), colour (3), radius; material rows as shade.py's table
 L_POS, L_COLOR, L_RADIUS = 0, 3, 6
 P_O, P_D, P_W, P_CONE, P_PIX = 0, 3, 6, 9, 10     # pending-ray columns
@@ -43,7 +57,7 @@ P_WIDTH = 11
 # a surface being shaded: offset point, unit normal, unit ray direction, hit point,
 # colour so far, weight, base colour; then its finish and what its bounces need
 SH_Q, SH_N, SH_U, SH_P, SH_C, SH_W, SH_B = 0, 3, 6, 9, 12, 15, 18
-(SH_KD, SH_KS, SH_SHIN, SH_REFL, SH_IOR, SH_TRANS, SH_INSIDE, SH_CONE, SH_SCALE, SH_PIX,
+(SH_KD, SH_KS, SH_SHIN, SH_REFL, SH_IOR, SH_TRANS, SH_INSIDE, SH_CONE, SH_LIFT, SH_PIX,
  SH_SEEN, SH_FACING, SH_PASS) = range(21, 34)
 SH_G = 34                   # the point on the light a surface's shadow ray aims at
 SH_WIDTH = 37
@@ -69,7 +83,7 @@ def shade_rays(flat, origins, directions, lights, horizon, zenith, materials, de
     the ambient occlusion pattern of ray i and of its bounces. With `together` the rays
     of each packet walk the graph together. Ctrl-C, or an exception from tick() (called
     every 50 ms), stops it after the chunk each worker is shading (jit.stoppable). A
-    point is moved off its surface by EPS of `unit` + its largest coordinate (Lighting.unit)."""
+    point is moved off its surface by off_surface (`unit`: Lighting.unit)."""
     stoppable(shade_share, workers, flat, origins, directions, lights, horizon, zenith,
               materials, default, shadows, shadow_samples, max_bounces, lod, max_depth,
               limits, ambient, ao_samples, ao_distance, unit, ids, together, rgb, first_t,
@@ -190,9 +204,9 @@ def surfaces(pend, top, m, res, horizon, zenith, materials, default, ambient, lo
             b = (max(res[k, R_PAINT], 0.0), max(res[k, R_PAINT + 1], 0.0),
                  max(res[k, R_PAINT + 2], 0.0))
         up = min(max(n2 * 0.5 + 0.5, 0.0), 1.0)
-        scale = unit + max(abs(p[0]), abs(p[1]), abs(p[2]))
+        lift = off_surface(unit, p[0], p[1], p[2])
         for a in range(3):
-            sh[j, SH_Q + a] = p[a] + nrm[a] * EPS * scale
+            sh[j, SH_Q + a] = p[a] + nrm[a] * lift
             sh[j, SH_N + a] = nrm[a]
             sh[j, SH_U + a] = u[a]
             sh[j, SH_P + a] = p[a]
@@ -206,7 +220,7 @@ def surfaces(pend, top, m, res, horizon, zenith, materials, default, ambient, lo
         elif res[k, R_HIT] == HIT_SHELL:
             sh[j, SH_TRANS] = 0.0           # nothing passes through a shell (walk.HIT_SHELL)
         sh[j, SH_INSIDE] = 1.0 if inside else 0.0
-        sh[j, SH_SCALE] = scale
+        sh[j, SH_LIFT] = lift
         sh[j, SH_PIX] = i
     return hits
 
@@ -381,10 +395,10 @@ def through_glass(flat, n, slot, lod, max_depth, S, P, together, nearest, ev, oc
             d0, d1, d2 = P.D[i, 0], P.D[i, 1], P.D[i, 2]
             p0, p1, p2 = P.O[i, 0] + t * d0, P.O[i, 1] + t * d1, P.O[i, 2] + t * d2
             dn = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-            scale = unit + max(abs(p0), abs(p1), abs(p2))
-            o0 = p0 + d0 / dn * EPS * scale
-            o1 = p1 + d1 / dn * EPS * scale
-            o2 = p2 + d2 / dn * EPS * scale
+            lift = off_surface(unit, p0, p1, p2) / dn
+            o0 = p0 + d0 * lift
+            o1 = p1 + d1 * lift
+            o2 = p2 + d2 * lift
             slot[kept] = j
             P.O[kept, 0], P.O[kept, 1], P.O[kept, 2] = o0, o1, o2
             P.D[kept, 0] = sh[j, SH_G] - o0
@@ -425,7 +439,7 @@ def bounce(pend, count, depths, top, depth, max_bounces, hits, sh, rgb):
             if kt * w > MIN_WEIGHT:
                 keep -= kt
                 a = eta * cos_i - math.sqrt(max(kk, 0.0))
-                e = EPS * sh[j, SH_SCALE]
+                e = sh[j, SH_LIFT]
                 _push(pend, top + 1, nt, sh[j, SH_P] - n0 * e, sh[j, SH_P + 1] - n1 * e,
                       sh[j, SH_P + 2] - n2 * e, eta * u0 + a * n0, eta * u1 + a * n1,
                       eta * u2 + a * n2, w0 * kt, w1 * kt, w2 * kt, sh[j, SH_CONE],
