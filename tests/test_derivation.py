@@ -62,6 +62,12 @@ class TestCounts:
         assert d.message == ("the selection of module 'S' gives 3, which names rule 3, but 'S' "
                              "has rules 1..2 (with c = 3)")
         assert (d.location.line, d.location.column) == (2, 1)
+        # a rule number too large to read whole is said as a number (it was 301 digits)
+        g = compile_text("{c = 1e300} S\nS c\n1: S → sphere\n2: S → cube")
+        with pytest.raises(PcsgError) as e:
+            count_primitives(g)
+        assert e.value.diagnostics[0].message.startswith(
+            "the selection of module 'S' gives 1e+300, which names rule 1e+300, but")
 
 
 class TestExpand:

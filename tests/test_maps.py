@@ -53,3 +53,15 @@ def test_other_maps_take_the_general_way():
                     np.diag([0.5, 0.5, 0.75]), turn, shear):
         assert not exact_scaling(layout(forward, (0.0, 0.0, 0.0)))
     assert exact_scaling(layout(np.diag([0.5, 0.5, 1.0]), (0.5, -0.5, 0.0)))
+
+
+def test_a_turn_too_large_for_its_radians_is_the_same_turn_less_whole_turns():
+    """rotz(1e308): its radians overflowed, and the turn emptied its operand as if its axis
+    were zero (QA). 1e308 is 296 more than a whole number of turns."""
+    import pcsg
+    turned, same = pcsg.loads("rotz(1e308) cube"), pcsg.loads("rotz(296) cube")
+    assert not turned.warnings
+    o = np.array([[x, -5.0, 0.3] for x in np.linspace(-1.5, 1.5, 31)])
+    d = np.tile([0.0, 1.0, 0.0], (31, 1))
+    a, b = turned.trace(o, d), same.trace(o, d)
+    assert a.hit.sum() > 20 and np.array_equal(a.t, b.t)

@@ -29,6 +29,10 @@ def _rotation(m, deg, ax, ay, az):
         return
     ax, ay, az = ax / n, ay / n, az / n
     a = deg * math.pi / 180.0
+    if math.isinf(a) and not math.isinf(deg):
+        # rotz(1e308): its radians overflowed, and the turn emptied its operand as if its
+        # axis were zero (QA); the same turn, less whole turns, as any angle is taken
+        a = (deg % 360.0) * math.pi / 180.0
     c, s = math.cos(a), math.sin(a)
     t = 1.0 - c
     m[0, 0] = t * ax * ax + c
