@@ -116,11 +116,13 @@ class Deriver:
         node = self.g.nodes[node_id]
         reads = names_in(self.g.expr_ast[node.exprs[0]])     # as written, not as folded
         values = ", ".join(f"{k} = {readable(v)}" for k, v in state.items(self.g) if k in reads)
-        rule = vm.round_half_away(x) if math.isfinite(x) else x
-        # rule 1e300 as such, not as its 301 digits (QA)
-        named = f"{int(rule)}" if abs(rule) < 1e15 else readable(rule)
-        what = "is not a finite number" if not math.isfinite(x) else \
-            f"names rule {named}, but '{node.name}' has rules 1..{len(node.children)}"
+        if math.isfinite(x):
+            rule = vm.round_half_away(x)
+            # rule 1e300 as such, not as its 301 digits (QA)
+            named = f"{int(rule)}" if abs(rule) < 1e15 else readable(rule)
+            what = f"names rule {named}, but '{node.name}' has rules 1..{len(node.children)}"
+        else:
+            what = "is not a finite number"
         return Diagnostic("error", f"the selection of module '{node.name}' gives {readable(x)}, "
                                    f"which {what} (with {values or 'no parameters read'})",
                           node.span, self.g.source, code="selection")

@@ -12,8 +12,8 @@ import numpy as np
 
 from ..scene import MATERIAL_DEFAULTS
 from ..trace.jit import threads
-from ..trace.shading import (AO_STREAM, GOLDEN, LIGHT_STREAM, M_TRANSMIT, MAX_CROSSINGS,
-                             MIN_WEIGHT)
+from ..trace.shading import (AO_STREAM, EPS, EPS_FAR, GOLDEN, LIGHT_STREAM, M_TRANSMIT,
+                             MAX_CROSSINGS, MIN_WEIGHT)
 from ..trace.walk import HIT_SHEET, HIT_SHELL
 from ..trace.vm import hash_to_unit_array, splitmix64_array
 from ..tracer import Hits
@@ -27,8 +27,6 @@ DEFAULT_ZENITH = np.array([0.32, 0.52, 0.84])
 SUN_COLOR = np.array([1.0, 0.97, 0.92])            # the default sun's, and --light's
 AMBIENT = 0.22
 AO_DISTANCE = 0.15          # default --ao-distance, a fraction of the object's box diagonal
-EPS = 1e-6
-EPS_FAR = 1e-9      # of a point's largest coordinate (trace/shading.py's EPS_FAR)
 
 
 @dataclass
@@ -52,9 +50,9 @@ class Lighting:
     ao_distance: float = 1.0        # occluders farther than this do not count
     lod: float = 0.0
     packets: bool = True            # neighbouring rays walk the graph together (trace/packet.py)
-    # a shaded point moves off its surface by EPS of unit (and EPS_FAR of its largest
-    # coordinate: off_surface): 1, or the object's size where smaller (with 1, `uscale(1e-12) sphere` was lit from 1e-6
-    # off it, past its light, and drawn dark)
+    # a shaded point moves off its surface by EPS of unit and EPS_FAR of its largest
+    # coordinate (off_surface); unit is 1, or the object's size where smaller (with 1,
+    # `uscale(1e-12) sphere` was lit from 1e-6 off it, past its light, and drawn dark)
     unit: float = 1.0
     rays: list = field(default_factory=lambda: [0])   # rays traced, for the summary
 
