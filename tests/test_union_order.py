@@ -1,4 +1,4 @@
-"""The order in which both walks visit a union's operands (nodes.pops_before): the
+"""The order in which both walks visit a union's operands (nodes.sort_visits): the
 cheap ones (a primitive, or a run of C-, T-, paint and material nodes down to one, not a
 fractal) first, then the nearest box first. The terrain's camera rays enter its box before the sea's,
 and a quarter of them walked the patches under the water down to a hit behind the sea's
@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 
 import pcsg
-from pcsg.trace.nodes import EV_VISITS, cheap_operand, pops_before
+from pcsg.trace.nodes import EV_VISITS, SORT_FEW, cheap_operand
 
 from .conftest import GRAMMARS
+from .oracle import assert_agrees, camera_rays
 
 SEA = "material(sea) move(0, 0, sealevel) plane"
 
@@ -55,6 +56,46 @@ def test_cheap_operands_come_first_and_the_nearest_among_them():
     # the Python functions: the jitted ones would compile for this Flat's types
     cheap = [bool(cheap_operand.py_func(f, union, k)) for k in range(5)]
     assert cheap == [False, True, True, False, True]
-    before = pops_before.py_func
-    assert before(True, 5.0, False, 1.0) and not before(False, 1.0, True, 5.0)
-    assert before(True, 1.0, True, 1.0) and not before(True, 2.0, True, 1.0)
+
+
+def _many_operands(rng, n):
+    """A flat union of n operands, cheap and not, of different paints: many overlap,
+    and groups of them coincide."""
+    parts = []
+    for k in range(n):
+        x, y, z = rng.uniform(-2, 2, 3) if k % 5 else (0.0, 0.0, 0.0)
+        paint = f"paint({k / n:.3f}, {(k % 7) / 7:.3f}, 0.5)"
+        body = ("S" if k % 3 == 0 else "cube" if k % 4 == 0 else "sphere")
+        parts.append(f"{paint} move({x:.3f}, {y:.3f}, {z:.3f}) uscale(0.6) {body}")
+    return pcsg.loads(" ∪\n".join(parts) + "\nS 1\n1: S → rotz(20) cube\n")
+
+
+@pytest.mark.parametrize("n", [SORT_FEW - 3, SORT_FEW + 1, 120])
+def test_a_union_of_many_operands_agrees_with_the_reference(n):
+    """Past SORT_FEW operands met at once the walks sort them by a heap, not by
+    insertion: the same surfaces, and the same ones among coincident operands."""
+    obj = _many_operands(np.random.default_rng(n), n)
+    for view in [(1, -1, 0.5), (-0.3, 0.2, -1)]:
+        o, d = camera_rays(obj.bounds, 24, view, spread=0.2)
+        single = assert_agrees(obj, o, d, min_hits=150)
+        packed = obj.trace(o, d, packets=True)
+        alone = obj.trace(o, d, packets=False)
+        for h in (packed, alone):
+            assert np.array_equal(h.t, single.t) and np.array_equal(h.normal, single.normal)
+            assert np.array_equal(h.paint, single.paint, equal_nan=True)
+
+
+@pytest.mark.parametrize("packets", [True, False])
+@pytest.mark.parametrize("n", [3, SORT_FEW + 5, 200])
+def test_of_coincident_operands_the_first_keeps_the_surface(n, packets):
+    """As a union merges: among operands whose surfaces coincide the earliest listed
+    shows, however many there are and whichever way they are sorted."""
+    spheres = " ∪ ".join(f"paint({k / n:.4f}, 0.25, 0.5) sphere" for k in range(n))
+    # the cubes under them are met too, and sorted with them
+    obj = pcsg.loads(f"move(0, 0, -3) cube ∪ {spheres} ∪ move(0, 0, -6) cube")
+    xy = np.array([(x, y) for x in np.linspace(-0.6, 0.6, 16) for y in np.linspace(-0.6, 0.6, 16)])
+    o = np.c_[xy, np.full(len(xy), 5.0)]
+    h = obj.trace(o, np.tile([0.0, 0.0, -1.0], (len(o), 1)), packets=packets)
+    assert h.hit.all()
+    assert np.allclose(h.t, 5.0 - np.sqrt(1.0 - (xy ** 2).sum(axis=1)), rtol=0, atol=1e-9)
+    assert np.array_equal(np.unique(h.paint, axis=0), [[0.0, 0.25, 0.5]])

@@ -32,8 +32,8 @@ from .deferred import defer_step
 from .nodes import (BOXED, CUT, DCALC, DPAINT, DX, EV_DEPTH, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_VISITS, F_WIDTH, I_WIDTH, INSIDE, INV, LEVEL, M0, MAT,
                     N_EVENTS, NAVG, NODE, OX, PAINT, PHASE, RAY_WIDTH, SLOT, T0, T1, axis_aligned,
-                    cheap_operand, child_hash, copy_frame, culprit, map_matrix, map_ray,
-                    map_ray_scaled, note, pick_rule, pops_before, powers_of_two, set_inverse,
+                    child_hash, copy_frame, culprit, map_matrix, map_ray,
+                    map_ray_scaled, note, pick_rule, powers_of_two, set_inverse, sort_visits,
                     transform_map)
 from .normals import world_size
 from .windows import (instance_slot, operand_entry, operand_slot, packet_box, slabs, state_slot,
@@ -62,9 +62,10 @@ Packet = namedtuple("Packet", [
     "R",                # ray blocks: row block * PACKET + k is ray k in that block's frame
                         # (nodes.py's ray columns only: OX, DX, INV)
     "act", "win", "n",  # per frame: its rays, their windows [t0, t1], how many
-    "tact", "twin", "tn", "tkey", "tfar", "tk", "th", "tphase", "order",  # a union's
-                        # children being sorted: rays, windows, count, key (the nearest
-                        # window start), the farthest window start, number, hash, PHASE
+    "tact", "twin", "tn", "tkey", "tfar", "th", "tphase", "order",  # a union's
+                        # children being sorted, by operand number: rays, windows, count,
+                        # key (the nearest window start), the farthest window start, hash,
+                        # PHASE; and the numbers of those some ray meets (enlist)
     "stamp",            # per frame: `epoch` when split pushed it (trace)
     "best", "hit", "visits", "dnorm",   # per ray (visits: see trace)
     "count",            # [selections the packet made, the most visits of one ray alone]
@@ -85,7 +86,7 @@ def make_packet(flat):
         np.zeros((FRAMES, PACKET), dtype=np.int64), np.empty((FRAMES, PACKET, 2)),
         np.zeros(FRAMES, dtype=np.int64),
         np.zeros((c, PACKET), dtype=np.int64), np.empty((c, PACKET, 2)),
-        np.zeros(c, dtype=np.int64), np.empty(c), np.empty(c), np.zeros(c, dtype=np.int64),
+        np.zeros(c, dtype=np.int64), np.empty(c), np.empty(c),
         np.zeros(c, dtype=np.uint64), np.zeros(c, dtype=np.int64), np.zeros(c, dtype=np.int64),
         np.full(FRAMES, -1, dtype=np.int64),
         np.empty(PACKET), np.zeros(PACKET, dtype=np.bool_), np.zeros(PACKET, dtype=np.int64),
@@ -505,17 +506,18 @@ def split(flat, node, P, g, blk, has_table):
     """A union's children that some of frame g's rays enter, pushed at g, g+1, ...
     (nearest entry on top): returns how many."""
     F, I, H, act, win = P.F, P.I, P.H, P.act, P.win
-    tact, twin, tn, tk, th, order = P.tact, P.twin, P.tn, P.tk, P.th, P.order
+    tact, twin, tn, th, order = P.tact, P.twin, P.tn, P.th, P.order
     used = -1
     if flat.child_count[node] <= QUAD:
         used = split_quad(flat, node, P, g, blk, has_table)
     if used < 0:
         used = split_each(flat, node, P, g, blk, has_table)
+    sort_visits(flat, node, order, used, P.tkey)
     for j in range(used - 1, -1, -1):      # the source frame g is overwritten last
         d = g + j
         u = order[j]
         copy_frame(F, I, H, g, d)
-        I[d, NODE] = flat.children[flat.child_start[node] + tk[u]]
+        I[d, NODE] = flat.children[flat.child_start[node] + u]
         I[d, PHASE] = P.tphase[u]
         F[d, T0] = P.tfar[u]
         H[d] = th[u]
@@ -563,37 +565,27 @@ def split_each(flat, node, P, g, blk, has_table):
                 e0, e1 = volume_window(flat, c, slot, R, blk + ray)
             e0 = max(e0, win[g, j, 0])
             e1 = min(e1, win[g, j, 1])
-            keep_ray(tact, twin, used, q, ray, e0, e1)
+            keep_ray(tact, twin, k, q, ray, e0, e1)
             near = min(near, e0 if e0 <= e1 else np.inf)
             far = max(far, e0 if e0 <= e1 else -np.inf)
             q += e0 <= e1
         if q > 0:
-            P.tphase[used] = phase
-            enlist(flat, node, P, g, used, k, q, near, far, used)
+            P.tphase[k] = phase
+            enlist(flat, node, P, g, k, q, near, far, used)
             used += 1
     return used
 
 
 @inline
-def enlist(flat, node, P, g, u, k, q, near, far, used):
-    """Child k of the union, met by the q rays of row u of P.tact / P.twin (the nearest
-    entry at `near`, the farthest at `far`; its PHASE in P.tphase[u] already), into
-    P.order, which holds the `used` children listed before it: in the reverse order of
-    their visits (nodes.pops_before: cheap operands first, then the nearest entry; on a
-    tie the earlier operand), so that the last pops first."""
-    P.tn[u] = q
-    P.tfar[u] = far
-    P.tk[u] = k
-    P.th[u] = child_hash(flat, P.H[g], node, k)
-    order, tkey = P.order, P.tkey
-    ck = cheap_operand(flat, node, k)
-    j = used
-    while j > 0 and pops_before(cheap_operand(flat, node, P.tk[order[j - 1]]),
-                                tkey[order[j - 1]], ck, near):
-        order[j] = order[j - 1]
-        j -= 1
-    tkey[u] = near
-    order[j] = u
+def enlist(flat, node, P, g, k, q, near, far, used):
+    """Child k of the union, met by the q rays of row k of P.tact / P.twin (the nearest
+    entry at `near`, the farthest at `far`; its PHASE in P.tphase[k] already), into
+    P.order after the `used` children listed before it (split sorts them)."""
+    P.tn[k] = q
+    P.tfar[k] = far
+    P.th[k] = child_hash(flat, P.H[g], node, k)
+    P.tkey[k] = near
+    P.order[used] = k
 
 
 @inline
@@ -647,6 +639,6 @@ def split_quad(flat, node, P, g, blk, has_table):
         for j in range(q):
             near = min(near, twin[k, j, 0])
             far = max(far, twin[k, j, 0])
-        enlist(flat, node, P, g, k, k, q, near, far, used)
+        enlist(flat, node, P, g, k, q, near, far, used)
         used += 1
     return used

@@ -1,7 +1,7 @@
 """The per-ray walks over the cyclic graph (njit, explicit stacks, no recursion).
 
 `walk` finds the nearest surface: union children are visited nearest box
-first, the cheap ones before the others (nodes.pops_before), and anything beyond the best
+first, the cheap ones before the others (nodes.sort_visits), and anything beyond the best
 hit so far is skipped (Bekaert & Willems §3.1). At an ∩ or \\ node it asks `intervals` for that subtree's sorted interval
 list along the ray (Roth 1982), so both work on recursive operands too.
 """
@@ -15,9 +15,9 @@ from . import vm
 from .jit import copy_into, inline, kernel
 from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
                     EV_SINGULAR, EV_STACK, EV_VISITS, INSIDE, DPAINT, LEVEL, MAT, NODE, OX, PAINT,
-                    PHASE, SLOT, T0, T1, axis_aligned, cheap_operand, child_hash,
+                    PHASE, SLOT, T0, T1, axis_aligned, child_hash,
                     copy_frame, culprit, enter_paint, enter_transform, note, pick_rule,
-                    pops_before, cached_calc)
+                    sort_visits, cached_calc)
 from .normals import (average_box_normal, footprint_scale, world_diameter, world_normal,
                       world_size)
 from .windows import (entry_window, instance_slot, operand_entry, node_window, instance_window,
@@ -491,7 +491,7 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                     note(ev, EV_STACK, node, I[f, LEVEL])
                     break
                 # nearest box first, cheap operands before the others: sort the children
-                # that the window meets
+                # that the window meets; keys, hashes and phases by operand number
                 m = 0
                 for k in range(n):
                     c = flat.children[flat.child_start[node] + k]
@@ -503,33 +503,22 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                     e0 = max(e0, t0)
                     e1 = min(e1, t1)
                     if e0 <= e1:
-                        hk = child_hash(flat, H[f], node, k)
-                        ck = cheap_operand(flat, node, k)
-                        j = m
-                        # in the reverse order of their visits (pops_before): the last
-                        # pops first
-                        while j > 0 and pops_before(cheap_operand(flat, node, order[j - 1]),
-                                                    keys[j - 1, 0], ck, e0):
-                            keys[j, 0] = keys[j - 1, 0]
-                            keys[j, 1] = keys[j - 1, 1]
-                            order[j] = order[j - 1]
-                            hashes[j] = hashes[j - 1]
-                            phases[j] = phases[j - 1]
-                            j -= 1
-                        keys[j, 0] = e0
-                        keys[j, 1] = e1
-                        order[j] = k
-                        hashes[j] = hk
-                        phases[j] = BOXED if has_table and es >= 0 else INSIDE
+                        keys[k, 0] = e0
+                        keys[k, 1] = e1
+                        hashes[k] = child_hash(flat, H[f], node, k)
+                        phases[k] = BOXED if has_table and es >= 0 else INSIDE
+                        order[m] = k
                         m += 1
+                sort_visits(flat, node, order, m, keys[:, 0])
                 for j in range(m - 1, -1, -1):     # the source frame f is overwritten last
                     g = sp + j
+                    k = order[j]
                     copy_frame(F, I, H, f, g)
-                    I[g, NODE] = flat.children[flat.child_start[node] + order[j]]
-                    I[g, PHASE] = phases[j]
-                    H[g] = hashes[j]
-                    F[g, T0] = keys[j, 0]
-                    F[g, T1] = keys[j, 1]
+                    I[g, NODE] = flat.children[flat.child_start[node] + k]
+                    I[g, PHASE] = phases[k]
+                    H[g] = hashes[k]
+                    F[g, T0] = keys[k, 0]
+                    F[g, T1] = keys[k, 1]
                 sp += m
                 break
             if kind == INTERSECTION or kind == DIFFERENCE:
