@@ -20,6 +20,11 @@ DIRECTIVES = {
 MATERIAL_DEFAULTS = {"color": (0.8, 0.8, 0.8), "diffuse": 0.7, "specular": 0.3, "shininess": 40.0,
                      "reflect": 0.0, "ior": 1.0, "transmit": 0.0}
 DEFAULT_UP = (0.0, 0.0, 1.0)                # #camera's up where it gives none
+# the narrowest view: a pixel of it 480 rows high spans 4e-14 of the distance to what it
+# frames, 300 times a double's rounding there; at 1e-11 degrees the rays' origins round
+# coarser than a pixel, and --fov 1e-320 put the framed eye at infinity ("the object's box
+# is too large to frame")
+MIN_FOV = 1e-9
 ONCE = ("camera", "sky", "occlusion")       # at most one per file
 MAX_AO_SAMPLES = 1024
 # (directive, key) -> (test of the value, what the error asks for)
@@ -27,7 +32,8 @@ RANGES = {
     ("occlusion", "samples"): (lambda v: 0 <= v <= MAX_AO_SAMPLES and v == int(v),
                                f"a whole number of rays from 0 (off) to {MAX_AO_SAMPLES}"),
     ("occlusion", "distance"): (lambda v: 0 < v < float("inf"), "a positive distance"),
-    ("camera", "fov"): (lambda v: 0 < v < 180, "an angle in degrees between 0 and 180"),
+    ("camera", "fov"): (lambda v: MIN_FOV <= v < 180,
+                        f"an angle in degrees from {MIN_FOV:g} to under 180"),
 }
 # lights and finishes: a negative or non-finite one drew black, white or glowing spheres
 _AMOUNT = (lambda v: 0 <= v < math.inf, "a finite number, 0 or more")

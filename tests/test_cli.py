@@ -568,7 +568,11 @@ def test_an_up_of_zero_is_no_direction(capsys, tmp_path):
                           (["--eye", "1e154,0,0", "--at", "0,0,0", "--up", "0,0,1"],
                            "--eye 1e+154,0,0 is too far from --at 0,0,0 (at most 1e+150)"),
                           (["--eye", "nan,0,0"], "--eye nan,0,0: give finite coordinates"),
-                          (["--at", "1,inf,0"], "--at 1,inf,0: give finite coordinates")):
+                          (["--at", "1,inf,0"], "--at 1,inf,0: give finite coordinates"),
+                          # framed, this eye was at infinity: "the object's box is too
+                          # large to frame"
+                          (["--fov", "1e-320"], "--fov 9.99989e-321: the vertical field of "
+                                                "view is from 1e-09 to under 180 degrees")):
         assert main(["render", str(path), *options, "-o", str(tmp_path / "c.png")]) == 2
         assert said in capsys.readouterr().err
 

@@ -172,7 +172,7 @@ def test_export_errors_are_clean(tmp_path, capsys):
     assert main(["export", str(SIERPINSKI), "--pov", pov, "--eye", "1,2,3", "--at", "1,2,3"]) == 2
     assert "--eye and --at are the same point 1,2,3" in capsys.readouterr().err
     assert main(["export", str(SIERPINSKI), "--pov", pov, "--fov", "180"]) == 2
-    assert "--fov 180.0: the vertical field of view" in capsys.readouterr().err
+    assert "--fov 180: the vertical field of view" in capsys.readouterr().err
     assert not (tmp_path / "x.pov").exists()
 
 

@@ -15,7 +15,7 @@ from ..graph.model import Graph
 from ..graph import boxcache
 from ..trace.nodes import (EV_INTERVALS, EV_NONFINITE, EV_SELECTION, EV_SINGULAR, EV_STACK,
                            EV_VISITS, no_events)
-from ..scene import FARTHEST, MAX_AO_SAMPLES, camera_degenerate
+from ..scene import FARTHEST, MAX_AO_SAMPLES, MIN_FOV, camera_degenerate
 from ..limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, bounces_problem,
                       shadow_samples_problem, size_problem, walk_limits_problem)
 from ..memory import freeing_blocks
@@ -110,8 +110,9 @@ def view_problem(eye, at, up, fov, light) -> str | None:
         return f"--up {_given(up)} is parallel to the view from --eye to --at: give another up"
     if what == "far":
         return f"--eye {_given(eye)} is too far from --at {_given(at)} (at most {FARTHEST:g})"
-    if fov is not None and not 0 < fov < 180:
-        return f"--fov {fov}: the vertical field of view is between 0 and 180 degrees"
+    if fov is not None and not MIN_FOV <= fov < 180:
+        return (f"--fov {fov:g}: the vertical field of view is from {MIN_FOV:g} to under 180 "
+                f"degrees")
     return None
 
 
