@@ -1,7 +1,7 @@
 """What an output directory already holds, so that a rerun of an interrupted batch,
 sweep or animation renders only what is missing.
 
-A manifest beside the PNGs records, per file, a key (a hash of the pcsg version, the
+A manifest beside the PNGs records, per file, a key (a hash of pcsg's own sources, the
 grammar's text and every option that changes pixels) and the hash of the bytes
 written. A file counts as done only when both still match and Pillow reads it in
 full, so a truncated or edited PNG, an edited grammar or a changed option renders
@@ -10,6 +10,7 @@ in it)."""
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import json
 import time
@@ -25,10 +26,20 @@ SAVE_EVERY = 1.0                # seconds between the manifest's writes while re
 def output_key(source: str, opts) -> str:
     """The key of what a render of the grammar text `source` with options `opts` writes
     (an animation frame's t and camera are in its options)."""
-    from . import __version__
     fields = {k: v for k, v in dataclasses.asdict(opts).items() if k not in NOT_PIXELS}
-    blob = json.dumps([__version__, source, fields], sort_keys=True, default=str)
+    blob = json.dumps([code_digest(), source, fields], sort_keys=True, default=str)
     return hashlib.sha256(blob.encode("utf-8")).hexdigest()
+
+
+@functools.cache
+def code_digest(package: Path = Path(__file__).resolve().parent) -> str:
+    """A hash of every source file of pcsg: frames an older pcsg rendered are rendered
+    again after an upgrade or a change, where its version number, which no commit moves,
+    kept them (the gallery's animation needed --force)."""
+    h = hashlib.sha256()
+    for path in sorted(package.rglob("*.py")):
+        h.update(path.relative_to(package).as_posix().encode() + b"\0" + path.read_bytes())
+    return h.hexdigest()
 
 
 def _sha(path: Path) -> str | None:

@@ -41,3 +41,26 @@ def test_a_long_legal_name_is_written_atomically(tmp_path):
         write_atomic(target, b"again")          # over the earlier one
         assert target.read_bytes() == b"again"
     assert sorted(len(p.name) for p in tmp_path.iterdir()) == [240, 250, 255]
+
+
+def test_a_frame_of_another_pcsg_is_rendered_again(tmp_path, monkeypatch):
+    """The key held pcsg's version number, which no change moves: frames an older pcsg
+    rendered were reused. It holds a hash of pcsg's sources, every module's."""
+    import shutil
+    from pathlib import Path
+    from pcsg.render.job import Options
+    here = Path(resume.__file__).resolve().parent
+    copy = tmp_path / "pcsg"
+    shutil.copytree(here, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    digest = resume.code_digest.__wrapped__
+    before = digest(copy)
+    assert before == resume.code_digest() == digest(here)
+    shade = copy / "render" / "shade.py"
+    shade.write_text(shade.read_text() + "\n# another version\n")
+    assert digest(copy) != before
+    shade.unlink()
+    assert digest(copy) != before
+    # and the key of a frame follows it
+    key = resume.output_key("sphere\n", Options())
+    monkeypatch.setattr(resume, "code_digest", lambda: "another pcsg")
+    assert resume.output_key("sphere\n", Options()) != key
