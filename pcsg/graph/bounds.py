@@ -345,17 +345,26 @@ class _Walker:
 
 
 def _memoised(graph: Graph, faults: set | None = None, max_depth: int | None = None,
-              voids: frozenset = frozenset(), any_rule: bool = False
+              voids: frozenset = frozenset(), any_rule: bool = False, said: list | None = None
               ) -> tuple[tuple[np.ndarray, dict, StateTable | None], int]:
     """_memoised_walk's boxes, and the depth bound they hold: `max_depth`, or with None
     the derivation's own depth where it ends within DEEPEST_DEFAULT levels (else
     MAX_DEPTH); where the derivation reaches that bound, walked again with the
     terminating rules' geometry in every S-node's bound (pcsg.loads(..., max_depth=1) of
     40 halvings of a cube, a line in full, drew nothing where its two cut cubes stand:
-    their boxes were the line's)."""
+    their boxes were the line's). A derivation that ends deeper than DEEPEST_DEFAULT is
+    said in `said`."""
     found, deepest, ends = _memoised_walk(graph, faults, False, voids=voids,
                                           any_rule=any_rule)
     if max_depth is None:
+        if ends and deepest > DEEPEST_DEFAULT and said is not None:
+            # a chain of 3,000 modules drew nothing, its instances at 64 "finished with
+            # their terminating rule", which only led on
+            said.append(Diagnostic(
+                "warning", f"the derivation ends {deepest:,} levels down, deeper than the "
+                f"{DEEPEST_DEFAULT:,} a render follows without --max-depth: it is cut at "
+                f"{MAX_DEPTH}; --max-depth {deepest + 1} draws it whole", None, graph.source,
+                code="deep-derivation"))
         ends = ends and deepest <= DEEPEST_DEFAULT
         max_depth = max(MAX_DEPTH, deepest + 1) if ends else MAX_DEPTH
     # a state that recurs in a module with a terminating rule (Sierpinski at c=1e16,
@@ -661,9 +670,10 @@ def _memoised_bound(graph: Graph, max_depth: int | None, problems: list,
     try:
         with recursion_limit(20 * MAX_LEVELS):
             (boxes, hulls, states), depth = _memoised(graph, faults, max_depth, voids,
-                                                      any_rule)
+                                                      any_rule, said := [])
     except (TooManyStates, PcsgError):
         return None
+    problems = problems + said
     if not any_rule:
         problems = problems + fault_warnings(graph, graph, [(k, 0, f) for k, f
                                                             in sorted(faults)], counted=False)
@@ -704,7 +714,8 @@ def _bound(graph: Graph, max_depth: int | None, budget: int, poll, fuse: bool):
     too_many = False            # the memoised walk met too many states
     try:
         with recursion_limit(20 * MAX_LEVELS):
-            (boxes, hulls, states), max_depth = _memoised(graph, faults, max_depth)
+            (boxes, hulls, states), max_depth = _memoised(graph, faults, max_depth,
+                                                          said=problems)
         problems += fault_warnings(graph, graph, [(k, 0, f) for k, f in sorted(faults)],
                                    counted=False)
         return boxes, MEMOISED, problems, states, hulls, max_depth, graph, max_depth
