@@ -8,6 +8,7 @@ import pytest
 
 import pcsg
 from pcsg.trace.nodes import EV_VISITS, SORT_FEW, cheap_operand
+from pcsg.trace.packet import FRAMES
 
 from .conftest import GRAMMARS
 from .oracle import assert_agrees, camera_rays
@@ -70,10 +71,12 @@ def _many_operands(rng, n):
     return pcsg.loads(" ∪\n".join(parts) + "\nS 1\n1: S → rotz(20) cube\n")
 
 
-@pytest.mark.parametrize("n", [SORT_FEW - 3, SORT_FEW + 1, 120])
+@pytest.mark.parametrize("n", [SORT_FEW - 3, SORT_FEW + 1, FRAMES - 8, FRAMES + 8])
 def test_a_union_of_many_operands_agrees_with_the_reference(n):
     """Past SORT_FEW operands met at once the walks sort them by a heap, not by
-    insertion: the same surfaces, and the same ones among coincident operands."""
+    insertion: the same surfaces, and the same ones among coincident operands. A packet
+    splits a union of fewer than FRAMES operands, whose rows it holds; past them its
+    rays go on alone."""
     obj = _many_operands(np.random.default_rng(n), n)
     for view in [(1, -1, 0.5), (-0.3, 0.2, -1)]:
         o, d = camera_rays(obj.bounds, 24, view, spread=0.2)

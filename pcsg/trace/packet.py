@@ -77,7 +77,9 @@ Packet = namedtuple("Packet", [
 
 @cached_jit(error_model="numpy")
 def make_packet(flat):
-    c = max(flat.max_children, QUAD)
+    # split takes a union of at most FRAMES operands (its rays go on alone past that): rows
+    # for more were 6 kB an operand a thread, 820 MB for a union of 120,000
+    c = min(max(flat.max_children, QUAD), FRAMES)
     return Packet(
         np.empty((FRAMES, F_WIDTH)), np.zeros((FRAMES, I_WIDTH), dtype=np.int64),
         np.zeros(FRAMES, dtype=np.uint64), np.zeros(FRAMES, dtype=np.int64),
