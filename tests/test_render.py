@@ -480,6 +480,25 @@ def test_a_render_of_many_samples_is_checked_after_each_samples_pass():
     assert len(calls) == 1
 
 
+def test_a_tiny_scene_casts_its_shadows_as_a_large_one(tmp_path):
+    """A light far from a scene stands REACH times its size away, but that size had a
+    floor of 1e-12: at 1e-20 the light stood 1e-8 away, its shadow rays began 1e-17 off
+    the surface, past the balls, and the slab under them had no shadow (QA: 35 pixels of
+    64x48 far from the picture at scale 1)."""
+    pictures = {}
+    for size in ("1", "1e-20", "1e-100", "1e40"):
+        src = tmp_path / f"balls_{size}.pcsg"
+        src.write_text(f"uscale({size}) (move(0,0,1.5) uscale(0.5) sphere ∪ "
+                       f"move(0.6,0,1) uscale(0.3) sphere ∪ scale(2,2,0.1) cube)\n")
+        out = tmp_path / f"balls_{size}.png"
+        assert main(["render", str(src), "-o", str(out), "--size", "64x48", "-q"]) == 0
+        pictures[size] = np.asarray(Image.open(out).convert("RGB"), float)
+    one = pictures.pop("1")
+    for size, picture in pictures.items():
+        apart = np.abs(picture - one).sum(axis=2) > 40
+        assert apart.sum() <= 4, (size, apart.sum())
+
+
 def test_an_object_smaller_than_1e_9_is_framed_and_drawn_as_a_larger_one(tmp_path):
     """The camera rays started at t = 1e-9, so an object smaller than that was drawn as
     nothing or as a dark speck, and the framing gave every object a radius of 1e-9 at
