@@ -3,6 +3,7 @@ of each frame at any job count, resuming without re-rendering finished frames.""
 import json
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -245,6 +246,30 @@ def test_animate_has_no_tiles(capsys, tmp_path, ball):
     with pytest.raises(SystemExit):
         main(["animate", "--help"])
     assert "--tiles" not in capsys.readouterr().out
+
+
+def test_a_t_that_nothing_reads_is_a_still_animation(capsys, tmp_path):
+    """`{t = 0} sphere` rendered the same frame again and again, without a word; a t read
+    only through a macro or another parameter counts, and a moving camera needs none."""
+    src = tmp_path / "unread.pcsg"
+    src.write_text("{t = 0} sphere\n", encoding="utf-8")
+    out = tmp_path / "a"
+    code, _, stderr = animate(capsys, src, out, "--frames", "2", "--jobs", "1")
+    assert code == 2 and "assigns t in its axiom but reads it nowhere" in stderr
+    assert not out.exists()
+    code, _, stderr = animate(capsys, src, out, "--frames", "2", "--jobs", "1", "--size",
+                              "24x18", "--path=3,3,3 3,4,3")
+    assert code == 0, stderr
+    for text in ("#define T t\n{t = 0} move(T, 0, 0) sphere\n",
+                 "{t = 0; c = 1 - t} paint(c, 0.5, 0.5) sphere\n"):
+        src.write_text(text, encoding="utf-8")
+        moved = tmp_path / "b"
+        code, _, stderr = animate(capsys, src, moved, "--frames", "2", "--jobs", "1",
+                                  "--size", "24x18")
+        assert code == 0, stderr
+        first, last = sorted(moved.glob("*.png"))[:2]
+        assert first.read_bytes() != last.read_bytes()
+        shutil.rmtree(moved)
 
 
 def test_camera_only_when_the_file_has_no_t(capsys, tmp_path):

@@ -165,18 +165,7 @@ def _diag(graph, severity, message, span, code, notes=()):
 
 def _first_var(node, name):
     """The first read of `name` in an arithmetic AST, for its position."""
-    stack = [node]
-    while stack:
-        n = stack.pop()
-        if isinstance(n, ast.Var) and n.name == name:
-            return n
-        if isinstance(n, ast.Call):
-            stack.extend(reversed(n.args))
-        elif isinstance(n, ast.Unary):
-            stack.append(n.operand)
-        elif isinstance(n, ast.Binary):
-            stack.extend([n.right, n.left])
-    return node
+    return next(iter(ast.reads_of(node, name)), node)
 
 
 def definite_assignment(graph: Graph) -> list[Diagnostic]:

@@ -48,6 +48,25 @@ class Binary:
     span: Span
 
 
+def arithmetic_nodes(node):
+    """The nodes of an arithmetic AST, each before its operands, left to right."""
+    stack = [node]
+    while stack:
+        n = stack.pop()
+        yield n
+        if isinstance(n, Call):
+            stack.extend(reversed(n.args))
+        elif isinstance(n, Unary):
+            stack.append(n.operand)
+        elif isinstance(n, Binary):
+            stack.extend([n.right, n.left])
+
+
+def reads_of(node, name):
+    """The reads of the name `name` in an arithmetic AST, in order."""
+    return [n for n in arithmetic_nodes(node) if isinstance(n, Var) and n.name == name]
+
+
 # ---- CSG expressions ----------------------------------------------------
 
 @dataclass(eq=False)

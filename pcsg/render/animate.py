@@ -23,6 +23,7 @@ import numpy as np
 
 from ..interrupt import (STOPS, TERMINATIONS, Terminated, release_compiler_lock,
                          take_unless_ignored, tell)
+from ..language.ast import reads_of
 from ..language.errors import PcsgError, labelled
 from .job import Options, RenderFailed, render_file, traced_for
 from .path import bezier
@@ -85,10 +86,16 @@ def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
         raise BadAnimation(f"--set {TIME}: animate sets {TIME} itself, from 0 to 1")
     graph = compile_file(anim.source, o.overrides)
     timed = _assigns_t(anim.source, o.overrides)
-    if not timed and not _moves(anim.eye_path) and not _moves(anim.at_path):
+    still_camera = not _moves(anim.eye_path) and not _moves(anim.at_path)
+    if not timed and still_camera:
         raise BadAnimation(f"{anim.source} assigns no {TIME} in its axiom and no --path or "
                            f"--at-path moves the camera (a path of one point stays there): "
                            f"every frame would be the same")
+    if still_camera and not any(reads_of(e, TIME) for e in graph.expr_ast):
+        # `{t = 0} sphere` rendered the same frame again and again, without a word
+        raise BadAnimation(f"{anim.source} assigns {TIME} in its axiom but reads it nowhere, "
+                           f"and no --path or --at-path moves the camera: every frame would "
+                           f"be the same")
     traced = traced_for(graph, o)
     w, h = o.size
     try:
