@@ -184,7 +184,10 @@ def test_axiom_parameter_is_a_constant_argument():
     ("mandelbulb(8, 2)", "'mandelbulb' takes 1 argument (power), got 2"),
     ("julia(1, 2)", "'julia' takes 4 arguments (cx, cy, cz, cw), got 2"),
     ("mandelbulb(1.5)", "mandelbulb's power must be between 2 and 32, got 1.5"),
-    ("julia(9, 0, 0, 0)", "julia's constant c must have components between -4 and 4"),
+    ("julia(9, 0, 0, 0)", "julia's constant c must have components between -4 and 4, got "
+                          "cx = 9"),
+    ("julia(0.2, 0, -4.0001, 0)", "julia's constant c must have components between -4 and 4, "
+                                  "got cz = -4.0001"),
     ("{c = 2} S\nS 1\n1: S → {c = c + 1} mandelbulb(c)", "must be constants"),
     ("cube ∩ mandelbulb(8)", "'mandelbulb' is a fractal (traced to its first surface only) but "
                              "the right operand of '∩' derives it"),

@@ -55,8 +55,10 @@ def check_arguments(name: str, args) -> str | None:
         if not 2.0 <= args[0] <= 32.0:
             return f"mandelbulb's power must be between 2 and 32, got {args[0]:g}"
         return None
-    if not all(math.isfinite(a) and abs(a) <= 4.0 for a in args):
-        return "julia's constant c must have components between -4 and 4"
+    for k, a in enumerate(args):
+        if not (math.isfinite(a) and abs(a) <= 4.0):
+            return (f"julia's constant c must have components between -4 and 4, got "
+                    f"{('cx', 'cy', 'cz', 'cw')[k]} = {a:g}")
     return None
 
 
