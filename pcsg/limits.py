@@ -50,8 +50,18 @@ def bounces_problem(bounces: int) -> str | None:
     return None
 
 
+def cli_option(name: str) -> str:
+    """A limit as the command line gives it, before its value: `--max-depth `."""
+    return "--" + name.replace("_", "-") + " "
+
+
+def api_argument(name: str) -> str:
+    """A limit as the Python API takes it, before its value: `max_depth=`."""
+    return name + "="
+
+
 def walk_limits_problem(max_depth, stack_depth, interval_rows, max_instances, bounds_budget,
-                        option=lambda name: "--" + name.replace("_", "-") + " ") -> str | None:
+                        option=cli_option) -> str | None:
     """The message for a limit of the walks out of range, naming it as `option` does (the
     command line's `--max-depth N`; the Python API's `max_depth=N`)."""
     checks = [("max_depth", max_depth, 1, 10_000, "1 to 10000", True),

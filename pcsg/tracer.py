@@ -3,6 +3,8 @@ for Python users, and what the renderer builds on."""
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -21,7 +23,7 @@ from .trace.pad import pad_boxes
 from .trace.nodes import (EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
                           EV_SINGULAR, EV_STACK, EV_VISITS, N_EVENTS, add_events,
                           no_events)
-from .limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_INSTANCES, real_number,
+from .limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_INSTANCES, api_argument, real_number,
                      walk_limits_problem)
 from .trace.walk import R_HIT, R_MAT, R_N, R_PAINT, R_T, R_WIDTH
 
@@ -46,8 +48,12 @@ class Hits:
 
 def _rays(values, what: str) -> np.ndarray:
     """(N, 3) float64, C-contiguous: a (3, 2) array was read as two rays of garbage."""
+    if np.ma.is_masked(values):
+        # np.asarray drops the mask: the masked rays were traced from their hidden values
+        raise ValueError(f"{what} has masked entries: fill them or leave those rays out")
     a = np.asarray(values)
-    if a.size == 0 and a.dtype.kind in "iuf":
+    # no rays: [] or (0, 3), not (0, 5) nor (5, 0), which were taken as none
+    if a.shape in ((0,), (0, 3)) and a.dtype.kind in "iuf":
         return np.empty((0, 3))
     if a.dtype.kind not in "iuf" or not (a.shape == (3,) or (a.ndim == 2 and a.shape[1] == 3)):
         raise ValueError(f"{what} must be real numbers of shape (N, 3), or (3,) for one ray; "
@@ -95,7 +101,7 @@ class Traced:
         # the command line's checks (render/job.py), as a ValueError: max_instances=-1 made
         # every ray a silent miss
         if problem := walk_limits_problem(max_depth, stack_depth, interval_rows, max_instances,
-                                          bounds_budget, lambda name: f"{name}="):
+                                          bounds_budget, api_argument):
             raise ValueError(problem)
         # the same object with fewer frames per ray (graph/regroup.py), and where it is
         # bounded instance by instance its runs of maps written out as one (graph/fuse.py);
@@ -142,8 +148,9 @@ class Traced:
 
     @property
     def bounds(self) -> np.ndarray:
-        """The root's hyper-bounding box (xmin, ymin, zmin, xmax, ymax, zmax)."""
-        return self.boxes[self.graph.root]
+        """The root's hyper-bounding box (xmin, ymin, zmin, xmax, ymax, zmax): a copy, so
+        that an edit of it does not move the box the renderer frames."""
+        return self.boxes[self.graph.root].copy()
 
     def trace(self, origins, directions, tmin: float = 1e-9, tmax: float = np.inf,
               any_hit: bool = False, lod: float = 0.0, packets: bool = True,
@@ -165,6 +172,11 @@ class Traced:
             if number is None or number != number or (name == "lod" and not 0 <= number < np.inf):
                 raise ValueError(f"{name}={value!r}: give a number" +
                                  (" from 0 (no level of detail)" if name == "lod" else ""))
+        for name, value in (("any_hit", any_hit), ("packets", packets)):
+            # any_hit="False" was true: a shadow ray's walk, without a word
+            if not (isinstance(value, (bool, np.bool_)) or
+                    (isinstance(value, (int, np.integer)) and value in (0, 1))):
+                raise ValueError(f"{name}={value!r}: give True or False")
         if not float(tmin) < float(tmax):
             # tmax=-1 or tmin=5, tmax=1: an empty span, every ray a miss without a word
             raise ValueError(f"tmin={tmin!r}, tmax={tmax!r}: the hits are sought for tmin < "
@@ -175,8 +187,10 @@ class Traced:
         _finite_rays(o, d)
         n = len(o)
         try:
-            cones = np.ascontiguousarray(np.broadcast_to(np.asarray(cone, dtype=np.float64),
-                                                         (n,)))
+            # as the other numbers, not a string nor a bool ('1' and True were taken)
+            given = np.asarray(cone)
+            cones = np.ascontiguousarray(np.broadcast_to(given.astype(np.float64), (n,))) \
+                if given.dtype.kind in "iuf" else None
         except (TypeError, ValueError):
             cones = None
         if cones is None or not (np.all(np.isfinite(cones)) and np.all(cones >= 0)):
@@ -200,8 +214,11 @@ class Traced:
         # graftal normals average the boxes along each ray's own path: no packets there
         return bool(wanted) and self.flat.normal_decay == 0.0
 
-    def describe_events(self, events: np.ndarray, kinds=None) -> list[str]:
-        """One line per kind of thing that happened (of `kinds`: all), naming where."""
+    def describe_events(self, events: np.ndarray, kinds=None, option=api_argument
+                        ) -> list[str]:
+        """One line per kind of thing that happened, naming where; `kinds`, event numbers
+        (trace.nodes.EV_*), limits them. The limits to raise are named as `option` names
+        them: `max_depth=` (the command line passes its `--max-depth `)."""
         g = self.graph
         shape = (2 * N_EVENTS, len(g.nodes))
         if not isinstance(events, np.ndarray) or events.shape != shape:
@@ -209,6 +226,14 @@ class Traced:
             got = events.shape if isinstance(events, np.ndarray) else type(events).__name__
             raise ValueError(f"events: give an array a trace counted (Hits.events, or "
                              f"Traced.events), of shape {shape}; got {got}")
+        if kinds is not None and not (isinstance(kinds, (list, tuple, set, frozenset)) and
+                                      all(k in range(N_EVENTS) for k in kinds)):
+            # kinds="depth" was "'in <string>' requires string as left operand"
+            raise ValueError(f"kinds={kinds!r}: give event numbers from 0 to {N_EVENTS - 1} "
+                             f"(pcsg.trace.nodes.EV_*) in a list, or None for all")
+        at = {name: option(name) for name in ("max_depth", "stack_depth", "interval_rows",
+                                              "max_instances")}
+        bare = {name: said.rstrip(" =") for name, said in at.items()}
 
         def where(kind):
             nodes = np.nonzero(events[kind])[0]
@@ -234,8 +259,9 @@ class Traced:
         texts = {
             EV_LOD: "level of detail: instances smaller than a pixel were finished " + ends
                     + " ({w}; {n:,} ray visits)",
-            EV_DEPTH: ("depth limit: instances at --max-depth {d} were finished " + ends
-                       + " ({w}; {n:,} ray visits); raise --max-depth to refine further"
+            EV_DEPTH: (f"depth limit: instances at {at['max_depth']}{{d}} were finished "
+                       + ends + f" ({{w}}; {{n:,}} ray visits); raise {bare['max_depth']} to "
+                       f"refine further"
                        if self.max_depth == self.asked_depth else
                        "depth limit: instances at depth {d}, where the bounds stop, were "
                        "finished " + ends + " ({w}; {n:,} ray visits)"),
@@ -246,16 +272,18 @@ class Traced:
             EV_NONFINITE: "instances were empty because of a non-finite argument ({w}; {n:,} "
                           "ray visits)",
             EV_STACK: "walk stack full {n:,} times ({w}); the rays lost what lay beyond; "
-                      "raise --stack-depth (now {s})",
+                      f"raise {bare['stack_depth']} (now {{s}})",
             EV_INTERVALS: "interval lists full {n:,} times ({w}): an ∩ or \\ subtree has "
-                          "too many pieces along one ray; raise --interval-rows (now {r})",
-            EV_VISITS: "{n:,} rays stopped after entering --max-instances {v:,} instances "
+                          f"too many pieces along one ray; raise {bare['interval_rows']} (now "
+                          "{r})",
+            EV_VISITS: f"{{n:,}} rays stopped after entering {at['max_instances']}{{v:,}} "
+                       "instances "
                        "({w}), the rest of their walk taken as empty: a cycle that neither "
                        "ends nor contracts, or instances that overlap deeply (parts that keep "
                        "one size at every level, or sizes carried in parameters: `scale(len, "
                        "len, len)` with `{{len = len * 0.7}}`)? a uscale(0.7) on the "
                        "recursion shrinks an instance's parts and boxes with it; raise "
-                       "--max-instances to go on",
+                       f"{bare['max_instances']} to go on",
         }
         for kind, text in texts.items():
             if kinds is not None and kind not in kinds:
@@ -275,8 +303,11 @@ def load(path: str | Path, max_depth: int | None = None, stack_depth: int | None
     Keyword arguments override initial parameters, like --set (`params`, a dict, too: for
     parameters named like an argument here, `file` or `max_depth`); the others are the
     render options of the same names (max_depth None: as --max-depth's default)."""
-    if not isinstance(path, (str, Path)):
+    if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"load takes a .pcsg file's path, got {type(path).__name__}")
+    path = os.fspath(path)
+    if not isinstance(path, str):
+        raise TypeError(f"load takes a .pcsg file's path as str, got {type(path).__name__}")
     return Traced(compile_file(path, _parameters(params, overrides)), max_depth, stack_depth,
                   interval_rows, max_instances, bounds_budget)
 
@@ -296,6 +327,9 @@ def loads(text: str, file: str = "<string>", max_depth: int | None = None,
 def _parameters(params: dict | None, overrides: dict) -> dict[str, float]:
     """The initial parameters given, as numbers: `c="abc"` failed inside with "could not
     convert string to float", and `c="3"` was taken."""
+    if params is not None and not isinstance(params, Mapping):
+        raise TypeError(f"params={params!r}: give a dict of parameter names and numbers, such "
+                        f"as {{'c': 2}}")
     given = {**(params or {}), **overrides}
     out = {}
     for name, value in given.items():

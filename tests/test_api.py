@@ -6,11 +6,15 @@ import pytest
 
 import pcsg
 
+from .conftest import GRAMMARS
+
 
 @pytest.mark.parametrize("option", [dict(tmin=float("nan")), dict(tmax=float("nan")),
                                     dict(lod=-1.0), dict(lod=float("nan")), dict(tmin="1"),
                                     dict(cone=-1.0), dict(cone=float("inf")),
-                                    dict(cone=[0.0, 0.0]), dict(cone="wide")])
+                                    dict(cone=[0.0, 0.0]), dict(cone="wide"), dict(cone="1"),
+                                    dict(cone=True), dict(any_hit="False"),
+                                    dict(packets="no"), dict(any_hit=2)])
 def test_trace_refuses_bounds_and_footprints_that_are_no_numbers(option):
     # tmin or tmax nan made every ray miss; a negative lod was taken as 0
     obj = pcsg.loads("sphere")
@@ -29,6 +33,11 @@ def test_trace_refuses_bounds_and_footprints_that_are_no_numbers(option):
     (([[0, 0, -5], [0, 0, float("nan")]], [[0, 0, 1]] * 2), {},
      r"origins: ray 1 starts at \(0.0, 0.0, nan\): give finite"),
     (([0, 0, -5], [float("inf"), 0, 1]), {}, "directions: ray 0 has direction"),
+    # no rays of the wrong shape were taken as none
+    ((np.empty((0, 5)), np.empty((0, 5))), {}, r"origins must be real numbers of shape"),
+    ((np.empty((5, 0)), np.empty((5, 0))), {}, r"origins must be real numbers of shape"),
+    ((np.ma.masked_array([[0, 0, -5]], mask=[[0, 0, 1]]), [[0, 0, 1]]), {},
+     "origins has masked entries"),
 ])
 def test_trace_refuses_rays_that_could_only_miss(args, option, said):
     """Traced as misses without a word (QA of the README's claim)."""
@@ -98,3 +107,64 @@ def test_describe_events_says_what_it_takes(events):
     with pytest.raises(ValueError, match=r"events: give an array a trace counted"):
         obj.describe_events(events)
     assert obj.describe_events(obj.trace([[0, -5, 0]], [[0, 1, 0]]).events) == []
+
+
+def test_no_rays_are_no_hits():
+    obj = pcsg.loads("sphere")
+    for none in ([], np.empty((0, 3))):
+        assert len(obj.trace(none, none).t) == 0
+
+
+def test_params_is_a_mapping():
+    for params in ([("c", 2)], "c=2"):
+        with pytest.raises(TypeError, match=r"^params=.*: give a dict of parameter names"):
+            pcsg.loads("{c = 1} uscale(c) sphere", params=params)
+
+
+def test_describe_events_names_the_apis_arguments_and_takes_event_numbers():
+    """Its lines told the API's user to raise --max-instances and --max-depth."""
+    from pcsg.trace.nodes import EV_DEPTH, EV_VISITS
+    obj = pcsg.load(GRAMMARS / "sierpinski.pcsg", c=6, max_instances=1)
+    h = obj.trace([[0.1, -5, 0.3]], [[0, 1, 0]])
+    (line,) = obj.describe_events(h.events)
+    assert "after entering max_instances=1 instances" in line
+    assert line.endswith("raise max_instances to go on") and "--" not in line
+    deep = pcsg.load(GRAMMARS / "sierpinski.pcsg", c=6, max_depth=2)
+    h = deep.trace([[0.1, -5, 0.3]], [[0, 1, 0]])
+    (line,) = deep.describe_events(h.events, kinds=[EV_DEPTH])
+    assert "instances at max_depth=2 were finished" in line and "raise max_depth to" in line
+    assert deep.describe_events(h.events, kinds=[EV_VISITS]) == []
+    for kinds in ("depth", 5, [99]):
+        with pytest.raises(ValueError, match=r"^kinds=.*: give event numbers from 0 to 7"):
+            deep.describe_events(h.events, kinds=kinds)
+
+
+def test_bounds_is_a_copy():
+    obj = pcsg.loads("sphere")
+    obj.bounds[:] = 0
+    assert obj.bounds.tolist() == [-1, -1, -1, 1, 1, 1]
+
+
+def test_a_path_like_is_a_path(tmp_path):
+    src = tmp_path / "ball.pcsg"
+    src.write_text("sphere\n", encoding="utf-8")
+
+    class Named:
+        def __fspath__(self):
+            return str(src)
+    assert pcsg.load(Named()).bounds.tolist() == [-1, -1, -1, 1, 1, 1]
+
+
+def test_a_copied_object_traces_with_the_same_kernels():
+    """A pickled or copied object's instance keys were a contiguous array, where the
+    original's are a view of the table's rows: another type to numba, every kernel compiled
+    again for it (3.5 minutes, QA)."""
+    import copy
+    import pickle
+    import numba
+    obj = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=4)
+    o, d = np.array([[0.3, 0.4, 2.0]]), np.array([[0.01, 0.02, -1.0]])
+    for other in (pickle.loads(pickle.dumps(obj)), copy.deepcopy(obj)):
+        assert [numba.typeof(a) for a in other.flat] == [numba.typeof(a) for a in obj.flat]
+        assert np.shares_memory(other.flat.inst_keys, other.flat.inst_boxes)
+        assert np.array_equal(other.trace(o, d).t, obj.trace(o, d).t)

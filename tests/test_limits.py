@@ -8,6 +8,7 @@ import pytest
 import pcsg
 from pcsg.cli import main
 from pcsg.graph import bounds
+from pcsg.limits import cli_option
 from pcsg.trace.nodes import EV_INTERVALS, EV_STACK, EV_VISITS
 from tests.conftest import GRAMMARS, SIERPINSKI
 
@@ -34,6 +35,8 @@ def test_a_full_walk_stack_is_reported_with_the_option_that_raises_it():
     assert h.hit[0] and h.t[0] > full.t[0]        # it lost the far balls, nothing else
     (line,) = small.describe_events(h.events)
     assert line.startswith("walk stack full 1 times (union at row.pcsg:5:15, depth up to ")
+    assert line.endswith("raise stack_depth (now 16)")
+    (line,) = small.describe_events(h.events, option=cli_option)     # render's
     assert line.endswith("raise --stack-depth (now 16)")
 
 
@@ -45,6 +48,8 @@ def test_full_interval_lists_are_reported_with_the_option_that_raises_it():
     assert h.events[EV_INTERVALS].sum() > 0 and h.t[0] == pytest.approx(4.0)
     (line,) = small.describe_events(h.events)
     assert "primitive at row.pcsg:4:10, depth up to 41" in line
+    assert line.endswith("raise interval_rows (now 16)")
+    (line,) = small.describe_events(h.events, option=cli_option)
     assert line.endswith("raise --interval-rows (now 16)")
 
 
@@ -102,10 +107,13 @@ def test_a_ray_stops_after_its_budget_of_instances():
     # unbounded boxes prune nothing: both rays run out, the second keeps the hit it found
     assert h.events[EV_VISITS].sum() == 2
     assert list(h.hit) == [False, True] and h.t[1] == pytest.approx(4.0)
-    line = obj.describe_events(h.events)[-1]
+    line = obj.describe_events(h.events, option=cli_option)[-1]
     assert line.startswith("2 rays stopped after entering --max-instances 2,000 instances "
                            "('S' at endless.pcsg:3:1, depth up to ")
     assert line.endswith("raise --max-instances to go on")
+    line = obj.describe_events(h.events)[-1]
+    assert line.startswith("2 rays stopped after entering max_instances=2,000 instances ")
+    assert line.endswith("raise max_instances to go on")
 
 
 def test_rays_walked_together_stop_after_the_same_budget_as_alone():
@@ -190,7 +198,7 @@ def test_event_counts_are_said_as_ray_visits(tmp_path):
                     "<string>:1:1, depth up to 0; 50 ray visits)")
     deep = pcsg.loads(SIERPINSKI, max_depth=1)
     deep.trace(np.array([[3.0, -4.0, 2.0]]), np.array([[-3.0, 4.0, -2.0]]))
-    (line,) = deep.describe_events(deep.events)
+    (line,) = deep.describe_events(deep.events, option=cli_option)
     assert line.startswith("depth limit: instances at --max-depth 1 were finished with their "
                            "terminating rule ('S' at ")
     assert "depth up to" not in line and line.endswith("raise --max-depth to refine further")

@@ -91,6 +91,18 @@ Flat = namedtuple("Flat", [
 ])
 
 
+def _flat_again(fields):
+    """A pickled or copied Flat: inst_keys a view of the rows again (row_fields), not the
+    contiguous array pickle makes of it, which is another type to numba: every kernel
+    compiled again for the copy, minutes without a word (QA: pickle.loads(pickle.dumps(
+    pcsg.loads("sphere"))).trace(...) took 3.5 minutes)."""
+    flat = Flat(*fields)
+    return flat._replace(inst_keys=row_fields(flat.inst_boxes, flat.inst_used)["inst_keys"])
+
+
+Flat.__reduce__ = lambda self: (_flat_again, (tuple(self),))
+
+
 def flatten_graph(graph: Graph, boxes: np.ndarray, table: dict | None = None,
                   normal_decay: float = NORMAL_DECAY, spheres=None, states=None,
                   native_args: bool = False, runs: bool = True) -> Flat:

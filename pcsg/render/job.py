@@ -17,7 +17,7 @@ from ..trace.nodes import (EV_INTERVALS, EV_NONFINITE, EV_SELECTION, EV_SINGULAR
                            EV_VISITS, no_events)
 from ..scene import FARTHEST, MAX_AO_SAMPLES, MIN_FOV, camera_degenerate
 from ..limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, bounces_problem,
-                      shadow_samples_problem, size_problem, walk_limits_problem)
+                      cli_option, shadow_samples_problem, size_problem, walk_limits_problem)
 from ..memory import freeing_blocks
 from ..timings import Timings
 from ..tracer import Hits, Traced
@@ -141,8 +141,10 @@ class Scene:
         errors = []
         if strict:
             errors = static + ([] if events is None else
-                               self.traced.describe_events(events, RUNTIME_ERRORS))
-        notes = [] if events is None else self.traced.describe_events(events)
+                               self.traced.describe_events(events, RUNTIME_ERRORS,
+                                                           cli_option))
+        notes = [] if events is None else self.traced.describe_events(events,
+                                                                      option=cli_option)
         return notes, errors
 
 
