@@ -94,8 +94,8 @@ def parser() -> argparse.ArgumentParser:
     w.add_argument("file", metavar="FILE")
     w.add_argument("--set", dest="overrides", metavar="NAME=A..B[..STEP]", action="append",
                    type=sweep_set, default=[],
-                   help="the parameter to sweep (integers, B included); more --set NAME=VALUE "
-                        "fix other parameters")
+                   help="the parameter to sweep (integers, B included where the steps reach "
+                        "it); more --set NAME=VALUE fix other parameters")
     w.add_argument("-o", "--output", metavar="DIR", default=".",
                    help="the directory for FILE_NAME=VALUE.png (default: here)")
     w.add_argument("--no-color", action="store_true", help=argparse.SUPPRESS)
@@ -219,7 +219,7 @@ def render_options() -> argparse.ArgumentParser:
 def cluster_arguments(r: argparse.ArgumentParser, tiles: bool = True):
     """--workers, --scheduler, --tiles, --force: for any command that renders a batch
     through pcsg.distributed.batch.run_jobs (animate sends whole frames: no --tiles)."""
-    c = r.add_argument_group("across processes and machines (needs pip install 'pcsg[dask]')")
+    c = r.add_argument_group("across processes and machines (needs Dask: pip install '/path/to/pcsg[dask]')")
     c.add_argument("--workers", type=int, metavar="N",
                    help="render on a local Dask cluster of N worker processes")
     c.add_argument("--scheduler", metavar="ADDRESS", type=_scheduler,

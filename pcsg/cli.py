@@ -562,6 +562,10 @@ def cmd_animate(args) -> int:
                          f"give fewer --frames or a smaller --size")
     source = Path(args.file)
     out = Path(args.output) if args.output else Path(f"{source.stem}_frames")
+    if not out.exists() and out.suffix.lower() in (".png", ".gif"):
+        # it made a directory of that name, where sweep and render refuse one
+        raise UsageError(f"-o {args.output}: animate writes its frames and the animation "
+                         f"into a directory; name it, e.g. -o {out.with_suffix('')}/")
     anim = Animation(source, out, args.frames, opts, args.path, args.at_path, args.fps,
                      args.gif, args.jobs, force=args.force, threads=args.threads)
     if _distributed(args):

@@ -238,6 +238,15 @@ def test_animated_png_and_gif_hold_every_frame(capsys, tmp_path, ball):
     assert (out / "ball.gif").read_bytes() == b"GIF89a, the user's"
 
 
+def test_an_output_named_as_an_image_is_refused(capsys, tmp_path, ball):
+    # it made a directory named an8.png, where sweep and render refuse such a name
+    for name in ("an8.png", "an8.GIF"):
+        code, _, stderr = animate(capsys, ball, tmp_path / name, "--frames", "2")
+        assert code == 2 and "animate writes its frames and the animation into a " \
+            f"directory; name it, e.g. -o {tmp_path / 'an8'}/" in stderr
+        assert not (tmp_path / name).exists()
+
+
 def test_animate_has_no_tiles(capsys, tmp_path, ball):
     # its help listed --tiles, which it then refused: it sends whole frames to the workers
     with pytest.raises(SystemExit) as e:

@@ -126,6 +126,10 @@ def test_stats_text_and_json(capsys, sierpinski):
     data = json.loads(out)
     assert data["primitives"] == 4 ** 8 and data["modules"] == {"S": 2}
     assert data["node_kinds"]["select"] == 1 and data["parameters"] == ["c"]
+    # counted, and counted by its size: endless is there, false (it was left out)
+    assert data["endless"] is False
+    code, out, err = run(capsys, "stats", str(sierpinski), "--json", "--set", "c=9999")
+    assert json.loads(out)["endless"] is False
 
 
 def test_set_errors(capsys, sierpinski):
@@ -882,8 +886,8 @@ def test_a_sweep_names_itself_and_the_image_that_failed(capsys, tmp_path):
     assert main(["sweep", str(src), "--set", "s=1..3", "--strict", "--size", "24x18",
                  "--shadow-samples", "1", "-o", str(out), "-q"]) == 1
     err = capsys.readouterr().err
-    assert f"pcsg sweep: {src} (sel_s=3.png): --strict: runtime errors in the grammar, " \
-        "nothing written:" in err and "pcsg render" not in err
+    assert f"pcsg sweep: {src} (sel_s=3.png): --strict: runtime errors in the grammar or " \
+        "limits of the walk, nothing written:" in err and "pcsg render" not in err
     # the faults a render warns of are what --strict fails on: errors, said so
     assert f"{src}:2:1: error: the selection of module 'S' gives 3" in err
     assert sorted(p.name for p in out.glob("*.png")) == ["sel_s=1.png", "sel_s=2.png"]

@@ -13,7 +13,12 @@ STAMP="$VENV/.pcsg-installed"
 WANT="$(cat "$ROOT/pyproject.toml" | "$PY" -c 'import hashlib,sys; print(hashlib.sha256(sys.stdin.buffer.read()).hexdigest())')"
 if [ ! -x "$VENV/bin/python" ] || [ "$(cat "$STAMP" 2>/dev/null)" != "$WANT" ]; then
   echo "setting up $VENV (once) ..." >&2
-  "$PY" -m venv "$VENV"
+  if ! "$PY" -m venv "$VENV"; then
+    echo "'$PY -m venv' failed: on Debian and Ubuntu install python3-venv (apt-get install" \
+         "python3-venv), or give another Python 3.11+ as PYTHON=..." >&2
+    rm -rf "$VENV"
+    exit 1
+  fi
   "$VENV/bin/python" -m pip install --quiet --upgrade pip >&2
   "$VENV/bin/python" -m pip install --quiet -e "$ROOT[test,dask]" >&2
   echo "$WANT" > "$STAMP"

@@ -1,4 +1,4 @@
-"""Renders spread over a Dask cluster (the optional `pcsg[dask]` extra), or done here.
+"""Renders spread over a Dask cluster (the optional `dask` extra), or done here.
 
 units.py is what a worker runs and knows nothing of Dask; cluster.py is the only module
 that imports it, and only when --workers or --scheduler asks for a cluster. batch.py

@@ -8,8 +8,9 @@ import signal
 import socket
 import struct
 
-INSTALL_HINT = ("--workers and --scheduler need Dask: pip install 'pcsg[dask]' "
-                "(in this repository: bash tools/test.sh sets up .venv with it)")
+# pcsg is installed from its checkout: 'pcsg' on PyPI is another project
+INSTALL_HINT = ("--workers and --scheduler need Dask: pip install '/path/to/pcsg[dask]', the "
+                "path of pcsg's checkout (in it: bash tools/test.sh sets up .venv with Dask)")
 RETRIES = 2             # a task that raised runs again, elsewhere if need be
 LOCAL = "this process"
 PROBE_WAIT = 10.0       # seconds for a --scheduler to open with its handshake

@@ -179,6 +179,7 @@ def graph_stats(graph: Graph, count: bool = True) -> dict:
     from .volumes import bounding_volumes, graftal_nodes, report
     graftal = bool(graftal_nodes(graph))
     if count:
+        out["endless"] = False      # always there: `d["endless"]` was a KeyError if counted
         try:
             by_kind = count_by_primitive(graph)
             total = sum(by_kind.values())

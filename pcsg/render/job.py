@@ -224,7 +224,9 @@ def nothing_met(label, met: bool, events=None) -> list[str]:
 def strict_failure(errors: list[str]) -> RenderFailed:
     """The runtime faults, which a render warns of, are errors under --strict: said so."""
     said = [e.replace(": warning: ", ": error: ", 1) for e in errors]
-    return RenderFailed("--strict: runtime errors in the grammar, nothing written:\n  "
+    # a ray stopped by --max-instances or a full stack is no error in the grammar
+    return RenderFailed("--strict: runtime errors in the grammar or limits of the walk, "
+                        "nothing written:\n  "
                         + "\n  ".join(said))
 
 
