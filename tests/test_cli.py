@@ -820,7 +820,7 @@ def test_check_reports_a_selection_the_derivation_makes_invalid(capsys, tmp_path
     path.write_text(text, encoding="utf-8")
     assert main(["check", str(path)]) == 1
     err = capsys.readouterr().err
-    assert "s.pcsg:2:1: error: the selection of module 'S' " + message in err
+    assert "s.pcsg:2:3: error: the selection of module 'S' " + message in err
 
 
 def test_check_does_not_derive_a_graftal_to_the_end(capsys):
@@ -889,7 +889,7 @@ def test_a_sweep_names_itself_and_the_image_that_failed(capsys, tmp_path):
     assert f"pcsg sweep: {src} (sel_s=3.png): --strict: runtime errors in the grammar or " \
         "limits of the walk, nothing written:" in err and "pcsg render" not in err
     # the faults a render warns of are what --strict fails on: errors, said so
-    assert f"{src}:2:1: error: the selection of module 'S' gives 3" in err
+    assert f"{src}:2:3: error: the selection of module 'S' gives 3" in err
     assert sorted(p.name for p in out.glob("*.png")) == ["sel_s=1.png", "sel_s=2.png"]
 
 

@@ -61,7 +61,14 @@ class TestCounts:
         d = e.value.diagnostics[0]
         assert d.message == ("the selection of module 'S' gives 3, which names rule 3, but 'S' "
                              "has rules 1..2 (with c = 3)")
-        assert (d.location.line, d.location.column) == (2, 1)
+        assert (d.location.line, d.location.column) == (2, 3)      # at the selection
+        # one written by a macro names the macro (it pointed at the module, without a note)
+        g = compile_text("#define SEL c + 5\n{c = 1} S\nS SEL\n1: S → cube\n2: S → sphere\n")
+        with pytest.raises(PcsgError) as e:
+            count_primitives(g)
+        text = e.value.diagnostics[0].format(show_source=False)
+        assert "3:3: error: the selection of module 'S' gives 6" in text
+        assert "note: in macro 'SEL' defined at <string>:1:9" in text
         # a rule number too large to read whole is said as a number (it was 301 digits)
         g = compile_text("{c = 1e300} S\nS c\n1: S → sphere\n2: S → cube")
         with pytest.raises(PcsgError) as e:
@@ -178,7 +185,7 @@ def test_a_count_too_long_to_write_is_given_by_its_size(capsys):
     from pcsg.cli import main
     assert main(["stats", str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=9999", "--json"]) == 0
     r = json.loads(capsys.readouterr().out)
-    assert r["primitives"] is None and r["count_digits"] == 6020 and "endless" not in r
+    assert r["primitives"] is None and r["count_digits"] == 6020 and r["endless"] is False
     assert r["not_counted"].startswith("about 9.95e6019 primitives, a number of 6,020 digits")
     assert main(["stats", str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=9999"]) == 0
     assert "primitives   not written: about 9.95e6019" in capsys.readouterr().out

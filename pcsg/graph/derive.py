@@ -123,9 +123,10 @@ class Deriver:
             what = f"names rule {named}, but '{node.name}' has rules 1..{len(node.children)}"
         else:
             what = "is not a finite number"
+        # at the selection as written, so that one from a macro names the macro too
         return Diagnostic("error", f"the selection of module '{node.name}' gives {readable(x)}, "
                                    f"which {what} (with {values or 'no parameters read'})",
-                          node.span, self.g.source, code="selection")
+                          self.g.expr_ast[node.exprs[0]].span, self.g.source, code="selection")
 
     def calc(self, node_id: int, state: State, h: int) -> State:
         """The block as one program of the machine (flat.calc_programs: assignment i
