@@ -156,6 +156,9 @@ class _Builder:
                 first = self.source.locate(declared[d.name].name_span[0])
                 self.error(d.name_span, f"module '{d.name}' is declared twice (first at {first})",
                            "duplicate")
+            elif self._reserved(d.name, d.name_span, "a module"):
+                # `if 1` was told to write rules for 'if', which then were refused
+                self.ruleless.add(d.name)
             elif d.name not in by_module:
                 self.error(d.name_span, f"'{d.name}' is declared as a module but has no rules "
                                         f"(write them as '1: {d.name} → ...')", "no-rules")
