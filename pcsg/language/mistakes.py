@@ -83,6 +83,24 @@ def unknown_directive(text: str, pos: int):
     return f"unknown directive '#{word}'{hint} (known: {known})", (start, line_start + m.end(0))
 
 
+def directive_continued(text: str, pos: int):
+    """`#camera eye=(3,-4,2)` and `  at=(0,0,0)` on the next line: a newline ends the
+    directive, and the key's line read as a named expression `at = ...`, its numbers
+    unexpected operands. `pos` is the token the parse stopped at."""
+    from ..scene import DIRECTIVES         # not at import: scene imports the graph's model
+    line_start = text.rfind("\n", 0, pos) + 1
+    m = re.match(r"[ \t]*([A-Za-z_][A-Za-z0-9_]*)[ \t]*=(?!=)", text[line_start:])
+    if m is None or line_start == 0:
+        return None
+    above = text.rfind("\n", 0, line_start - 1) + 1
+    d = re.match(r"[ \t]*#([A-Za-z_][A-Za-z0-9_]*)", text[above:line_start])
+    if d is None or m.group(1) not in DIRECTIVES.get(d.group(1), ()):
+        return None
+    return (f"'{m.group(1)}=' continues '#{d.group(1)}' from the line above, but a newline "
+            f"ends a directive: write all its keys on the line of '#{d.group(1)}'",
+            (line_start + m.start(1), line_start + m.end(0)))
+
+
 def rule_without_number(text: str, pos: int):
     """`S → sphere`: a rule is `N: S → ...`. `pos` is the arrow's (the '-' of '->')."""
     line_start = text.rfind("\n", 0, pos) + 1

@@ -13,8 +13,9 @@ from . import ast
 from .errors import Diagnostic, PcsgError
 from .files import line_ends, read_source_text
 from .mistakes import (HASH_COMMENT, assignment_for_comparison, csg_for_logical,
-                       logical_for_csg, lookalike, missing_operator, rule_as_selection,
-                       rule_without_number, token_slips, unknown_call, unknown_directive)
+                       directive_continued, logical_for_csg, lookalike, missing_operator,
+                       rule_as_selection, rule_without_number, token_slips, unknown_call,
+                       unknown_directive)
 from .names import FREE, RESERVED
 from .postlex import LineJoiner, owned_names
 from .preprocess import code_of, preprocess
@@ -380,6 +381,7 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner,
         msg = (f"a line cannot start with '{tok.value}': to continue the line before, end that "
                f"line with the operator instead")
     elif said := (unknown_directive(text, tok.start_pos)
+                  or directive_continued(text, tok.start_pos)
                   or token_slips(text, tok.type, tok.value, tok.start_pos, expected,
                                  _in_block(joiner), bool(joiner.open_brackets))
                   or (tok.type == "ARROW" and rule_without_number(text, tok.start_pos))
