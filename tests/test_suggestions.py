@@ -26,6 +26,7 @@ def placed(d) -> str:
 @pytest.mark.parametrize("name, known, want", [
     ("spher", ["sphere", "cube"], "sphere"),            # a letter left out
     ("Sphere", ["sphere", "cube"], "sphere"),           # case
+    ("Cub", ["sphere", "cube"], "cube"),                # case and a letter left out
     ("tetrahedon", ["tetrahedron", "cone"], "tetrahedron"),
     ("fvo", ["eye", "at", "fov"], "fov"),               # two letters swapped
     ("cc", ["c", "d"], "c"),                            # one added

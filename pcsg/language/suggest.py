@@ -33,7 +33,8 @@ def closest(name: str, known: Iterable[str]) -> str | None:
     for meant in (alias,) if isinstance(alias, str) else alias:
         if meant in known:
             return meant
-    slips = [k for k in known if _one_slip(name, k)]
+    # a slip in either case: `Cub` is `cube`'s (it was no suggestion, `Cube` was)
+    slips = [k for k in known if _one_slip(name, k) or _one_slip(name.lower(), k.lower())]
     if slips:
         return slips[0]
     near = difflib.get_close_matches(name, known, n=1, cutoff=0.75)
