@@ -8,8 +8,10 @@ import sys
 from . import __version__
 from .distributed.sweep import sweep_set
 from .overrides import set_value
-from .limits import (BOUNDS_BUDGET, DEEPEST_DEFAULT, INTERVAL_ROWS, MAX_DEPTH, MAX_FRAMES,
-                     MAX_INSTANCES)
+from .limits import (BOUNDS_BUDGET, DEEPEST_DEFAULT, INTERVAL_ROWS, MAX_BOUNCES, MAX_DEPTH,
+                     MAX_DEPTH_ASKED, MAX_FRAMES, MAX_INSTANCES, MAX_INTERVAL_ROWS,
+                     MAX_SAMPLES, MAX_SHADOW_SAMPLES, MAX_STACK_DEPTH)
+from .scene import DEFAULT_FOV, MIN_FOV
 
 
 # a token such as -3,2,1 or -.5: a value, never an option. argparse reads only -3 or -0.5
@@ -154,7 +156,9 @@ def view_arguments(r: argparse.ArgumentParser):
     r.add_argument("--eye", type=_vec, metavar="X,Y,Z", help="camera position")
     r.add_argument("--at", type=_vec, metavar="X,Y,Z", help="point looked at")
     r.add_argument("--up", type=_vec, metavar="X,Y,Z", help="up direction (default 0,0,1)")
-    r.add_argument("--fov", type=float, metavar="DEG", help="vertical field of view")
+    r.add_argument("--fov", type=float, metavar="DEG",
+                   help=f"vertical field of view, {MIN_FOV:g} to under 180 (default: the "
+                        f"file's #camera fov, else {DEFAULT_FOV:g})")
     r.add_argument("--light", type=_vec, metavar="X,Y,Z",
                    help="one point light at X,Y,Z instead of the file's #light lines (default: "
                         "those, else a sun above and to the left of the camera)")
@@ -166,20 +170,23 @@ def render_options() -> argparse.ArgumentParser:
     r.add_argument("--size", type=_size, default=(640, 480), metavar="WxH",
                    help="image size (default 640x480)")
     r.add_argument("--samples", type=int, default=1, metavar="N",
-                   help="stratified jittered samples per pixel (default 1, with adaptive "
-                        "oversampling where neighbouring pixels differ)")
+                   help=f"stratified jittered samples per pixel, 1 to {MAX_SAMPLES} (default 1, "
+                        f"with adaptive oversampling where neighbouring pixels differ)")
     view_arguments(r)
     r.add_argument("--alpha", action="store_true", help="transparent background")
     r.add_argument("--max-depth", type=int, metavar="N",
-                   help=f"derivation levels a ray may descend (default: the derivation's "
+                   help=f"derivation levels a ray may descend, 1 to {MAX_DEPTH_ASKED:,} "
+                        f"(default: the derivation's "
                         f"own depth where it ends within {DEEPEST_DEFAULT:,} levels and is "
                         f"bounded by its states, not instance by instance; else {MAX_DEPTH})")
     r.add_argument("--stack-depth", type=int, metavar="N",
-                   help="frames of a ray's walk (default: from --max-depth and the widest "
-                        "union); raise it when a render reports a full walk stack")
+                   help=f"frames of a ray's walk, 16 to {MAX_STACK_DEPTH:,} (default: from "
+                        f"--max-depth and the widest union); raise it when a render reports a "
+                        f"full walk stack")
     r.add_argument("--interval-rows", type=int, default=INTERVAL_ROWS, metavar="N",
-                   help=f"interval-list rows per worker for ∩ and \\ subtrees (default "
-                        f"{INTERVAL_ROWS}); raise it when a render reports full interval lists")
+                   help=f"interval-list rows per worker for ∩ and \\ subtrees, 16 to "
+                        f"{MAX_INTERVAL_ROWS:,} (default {INTERVAL_ROWS}); raise it when a "
+                        f"render reports full interval lists")
     r.add_argument("--max-instances", type=int, default=MAX_INSTANCES, metavar="N",
                    help=f"S-node instances one ray may enter (default {MAX_INSTANCES:,}); "
                         "bounds systems that neither end nor contract")
@@ -189,7 +196,8 @@ def render_options() -> argparse.ArgumentParser:
                         "stop at the deepest derivation depth whose instances fit")
     r.add_argument("--no-shadows", action="store_true", help="skip shadow rays")
     r.add_argument("--shadow-samples", type=int, default=8, metavar="N",
-                   help="shadow rays per area light (default 8; 1: lights are points)")
+                   help=f"shadow rays per area light, 1 to {MAX_SHADOW_SAMPLES} (default 8; 1: "
+                        f"lights are points)")
     r.add_argument("--no-adaptive", action="store_true",
                    help="exactly --samples rays per pixel, no adaptive oversampling")
     r.add_argument("--strict", action="store_true",
@@ -199,7 +207,7 @@ def render_options() -> argparse.ArgumentParser:
     r.add_argument("--timeout", type=float, metavar="SECONDS",
                    help="stop an image's render after this long, writing nothing")
     r.add_argument("--bounces", type=int, default=3, metavar="N",
-                   help="reflection and refraction depth (default 3; 0: off)")
+                   help=f"reflection and refraction depth, 0 (off) to {MAX_BOUNCES} (default 3)")
     r.add_argument("--ao", type=int, metavar="N",
                    help="ambient occlusion: N hemisphere rays per shading point (default: "
                         "the file's #occlusion, else 0: off)")

@@ -17,7 +17,10 @@ BOUNDS_BUDGET = 400_000_000     # node visits of the bounding walk (--bounds-bud
                                 # million): past it the boxes stop at the deepest derivation
                                 # depth whose instances fit (trace/boxwalk.py)
 MAX_BOUNCES = 32                # --bounces at most: reflection and refraction depth
+MAX_SAMPLES = 1024              # --samples at most
+MAX_SHADOW_SAMPLES = 256        # --shadow-samples at most
 MAX_STACK_DEPTH = 100_000       # --stack-depth at most: ~40 MB of frames per worker
+MAX_DEPTH_ASKED = 10_000        # --max-depth at most
 MAX_INTERVAL_ROWS = 1_000_000   # --interval-rows at most: 128 MB per worker
 GIF_FPS = 50                   # animate --gif: frame delays of whole hundredths, 2 at least
 MAX_FRAMES = 10_000             # animate --frames at most: 17 minutes at 10 fps (100,000
@@ -38,8 +41,8 @@ def size_problem(size: tuple[int, int]) -> str | None:
 
 def shadow_samples_problem(samples: int) -> str | None:
     """The usage message for a --shadow-samples out of range (render, animate and export)."""
-    if not 1 <= samples <= 256:
-        return f"--shadow-samples {samples}: use 1 to 256"
+    if not 1 <= samples <= MAX_SHADOW_SAMPLES:
+        return f"--shadow-samples {samples}: use 1 to {MAX_SHADOW_SAMPLES}"
     return None
 
 
@@ -64,7 +67,7 @@ def walk_limits_problem(max_depth, stack_depth, interval_rows, max_instances, bo
                         option=cli_option) -> str | None:
     """The message for a limit of the walks out of range, naming it as `option` does (the
     command line's `--max-depth N`; the Python API's `max_depth=N`)."""
-    checks = [("max_depth", max_depth, 1, 10_000, "1 to 10000", True),
+    checks = [("max_depth", max_depth, 1, MAX_DEPTH_ASKED, f"1 to {MAX_DEPTH_ASKED}", True),
               ("stack_depth", stack_depth, 16, MAX_STACK_DEPTH, f"16 to {MAX_STACK_DEPTH}", True),
               ("interval_rows", interval_rows, 16, MAX_INTERVAL_ROWS,
                f"16 to {MAX_INTERVAL_ROWS}", False),

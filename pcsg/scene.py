@@ -20,6 +20,7 @@ DIRECTIVES = {
 MATERIAL_DEFAULTS = {"color": (0.8, 0.8, 0.8), "diffuse": 0.7, "specular": 0.3, "shininess": 40.0,
                      "reflect": 0.0, "ior": 1.0, "transmit": 0.0}
 DEFAULT_UP = (0.0, 0.0, 1.0)                # #camera's up where it gives none
+DEFAULT_FOV = 40.0          # the #camera line of notation §8 shows fov=40, as it shows up=(0,0,1)
 # the narrowest view: a pixel of it 480 rows high spans 4e-14 of the distance to what it
 # frames, 300 times a double's rounding there; at 1e-11 degrees the rays' origins round
 # coarser than a pixel, and --fov 1e-320 put the framed eye at infinity ("the object's box

@@ -9,10 +9,9 @@ import numpy as np
 
 from ..trace.dispatch import cached_jit
 from ..graph.model import CALC, MATERIAL, PAINT, UNION
-from ..scene import DEFAULT_UP, FARTHEST, camera_degenerate
+from ..scene import DEFAULT_FOV, DEFAULT_UP, FARTHEST, camera_degenerate
 
 DEFAULT_DIRECTION = np.array([1.0, -1.6, 0.9])      # from the front right, a little above
-DEFAULT_FOV = 40.0          # the #camera line of notation §8 shows fov=40, as it shows up=(0,0,1)
 
 
 

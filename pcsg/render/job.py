@@ -16,8 +16,9 @@ from ..graph import boxcache
 from ..trace.nodes import (EV_INTERVALS, EV_NONFINITE, EV_SELECTION, EV_SINGULAR, EV_STACK,
                            EV_VISITS, no_events)
 from ..scene import FARTHEST, MAX_AO_SAMPLES, MIN_FOV, camera_degenerate
-from ..limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, bounces_problem,
-                      cli_option, shadow_samples_problem, size_problem, walk_limits_problem)
+from ..limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_DEPTH, MAX_INSTANCES, MAX_SAMPLES,
+                      bounces_problem, cli_option, shadow_samples_problem, size_problem,
+                      walk_limits_problem)
 from ..memory import freeing_blocks
 from ..timings import Timings
 from ..tracer import Hits, Traced
@@ -75,8 +76,8 @@ def check_options(o: Options) -> str | None:
         need = w * h * BYTES_PER_PIXEL / 2 ** 30
         return (f"--size {w}x{h} is {w * h:,} pixels (about {need:.0f} GiB of memory); "
                 f"pcsg renders up to {MAX_PIXELS:,}")
-    if not 1 <= o.samples <= 1024:
-        return f"--samples {o.samples}: use 1 to 1024"
+    if not 1 <= o.samples <= MAX_SAMPLES:
+        return f"--samples {o.samples}: use 1 to {MAX_SAMPLES}"
     if o.timeout is not None and not o.timeout > 0:
         return f"--timeout {o.timeout}: give a positive number of seconds"
     if problem := shadow_samples_problem(o.shadow_samples):
