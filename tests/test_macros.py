@@ -148,3 +148,18 @@ def test_a_long_chain_of_macros_takes_memory_in_proportion():
     uses = source.macro_uses(source.expanded.rindex("sphere"))
     assert len(uses) == n and uses[0][0] == "A0" and uses[-1][0] == f"A{n - 1}"
     assert peak < 20e6, f"{peak / 1e6:.0f} MB"
+
+
+def test_an_operator_that_ends_a_macro_is_named_where_the_parse_stops():
+    """`\\` at the end of a line is the difference (notation §2), so this D is `sphere \\`:
+    the parse stopped at the '∪' after its use, naming neither D nor its operator. An
+    operator of the file's own, not from a macro, gets no such note."""
+    with pytest.raises(PcsgError) as e:
+        compile_text("#define D sphere \\\n  cube\nD ∪ cone\n", "d.pcsg")
+    text = e.value.diagnostics[0].format(show_source=False)
+    assert "d.pcsg:3:3: error: unexpected '∪', expected an operand" in text
+    assert "d.pcsg:3:1: note: the '\\' before it ends the text of macro 'D' (defined at " \
+        "d.pcsg:1:9)" in text
+    with pytest.raises(PcsgError) as e:
+        compile_text("sphere \\ ∪ cone\n", "d.pcsg")
+    assert "note" not in e.value.diagnostics[0].format(show_source=False)

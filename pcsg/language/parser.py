@@ -408,6 +408,7 @@ def _syntax_error(e: UnexpectedInput, source: Source, joiner: LineJoiner,
     else:
         msg = f"unexpected {_describe(tok)}, expected {_expected(expected)}"
     notes += (_open_in_macro(source, joiner, tok.start_pos)
+              or _operator_from_macro(source, text, tok.start_pos)
               or _open_before(text, joiner, tok, expected))
     return Diagnostic("error", msg + _macro_below(source, tok, word), span, source, notes=notes,
                       code="syntax")
@@ -499,6 +500,22 @@ def _open_in_macro(source: Source, joiner: LineJoiner, pos: int) -> list:
     name, _use, defined = uses[0]
     return [((b.start_pos, b.end_pos), f"the '{b.value}' that macro '{name}' (defined at "
                                        f"{source.location(defined)}) opens is still open here")]
+
+
+def _operator_from_macro(source: Source, text: str, pos: int) -> list:
+    """A note where the CSG operator just before `pos` ends a macro's text that `pos` is
+    not in: `#define D sphere \\` (a '\\' at the end of a line is the difference, never a
+    continuation) then `D ∪ cone` stopped at '∪', with nothing pointing at the macro."""
+    before = text[:pos].rstrip(" \t")
+    if not before or before[-1] not in "∪|∩&\\∖":
+        return []
+    at = len(before) - 1
+    uses = source.macro_uses(at)
+    if not uses or source.macro_uses(pos)[-1:] == uses[-1:]:
+        return []
+    name, _use, defined = uses[0]
+    return [((at, at + 1), f"the '{before[-1]}' before it ends the text of macro '{name}' "
+                           f"(defined at {source.location(defined)})")]
 
 
 def _word_before(text: str, pos: int):
