@@ -667,10 +667,11 @@ def _memoised_bound(graph: Graph, max_depth: int | None, problems: list,
     `any_rule` no fault is said: its instances include some the selections never pick,
     and the tracer's own walk reports the faults of those they do."""
     faults = set() if faults is None else faults
+    said: list = []
     try:
         with recursion_limit(20 * MAX_LEVELS):
             (boxes, hulls, states), depth = _memoised(graph, faults, max_depth, voids,
-                                                      any_rule, said := [])
+                                                      any_rule, said)
     except (TooManyStates, PcsgError):
         return None
     problems = problems + said
