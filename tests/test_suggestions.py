@@ -325,6 +325,9 @@ def test_the_slip_hints_hold_back_where_the_slip_is_another(text, first):
     ("flipxz() sphere\n", "1:1: 'flipxz' takes no arguments"),
     # a bracket of modules is a group: the operator between them is what is missing
     ("S\n1: S → flipxy (S T)\nT 1\n1: T → cube\n", "2:18: expected an operator"),
+    # a primitive with a number after it: no module's declaration, since it is reserved
+    ("sphere 1\n", "1:8: 'sphere' is a primitive, a reserved name, so 'sphere ...' declares "
+     "no module; as an axiom it needs an operator"),
     # a prefix macro used above its #define: said beside the slip it makes
     ("Y sphere\n#define Y move(1,0,0)\n", "1:3: expected an operator (∪, ∩ or \\) between "
      "'Y' and 'sphere' (a macro defined below, at 2:9"),

@@ -161,9 +161,11 @@ def axiom_slip(text: str, name: str, name_end: int):
         return (f"expected an operator (∪, ∩ or \\) between '{name}' and '{m.group(0)}'",
                 (i, i + m.end()))
     if name in PRIMITIVES:
-        return (f"a line that starts '{name}' and goes on so declares a module '{name}' "
-                f"with a selection; an axiom needs an operator (∪, ∩ or \\) after its "
-                f"operand", (i, i + 1))
+        # `sphere 1`: read as module sphere's declaration, which a primitive's name,
+        # reserved, cannot make; said as the axiom it was likely meant to be
+        return (f"'{name}' is a primitive, a reserved name, so '{name} ...' declares no "
+                f"module; as an axiom it needs an operator (∪, ∩ or \\) after its operand",
+                (i, i + 1))
     return None
 
 
