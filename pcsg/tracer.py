@@ -250,6 +250,15 @@ class Traced:
             return ", ".join(names), int(events[kind].sum())
 
         lines = []
+        # without a level of detail (the API's lod=0) a graftal at the depth limit is a
+        # dust of boxes that rays miss, and a deeper limit is a finer dust
+        depth_nodes = np.nonzero(events[EV_DEPTH])[0]
+        dust = option is api_argument and bool((self.flat.term_rule[depth_nodes] < 0).any())
+        refine = f"; raise {bare['max_depth']} to refine further"
+        if dust:
+            refine = ("; where no rule ends (a graftal), a trace with lod=0 meets a dust of "
+                      "boxes, the finer the deeper: give lod=, a pixel's angle in radians, "
+                      "to finish them at pixel size" + refine.replace(";", "; else", 1))
         # a graftal's node has no rule that ends: its instances are their bounding volume
         ends = ("with their terminating rule, or as their bounding volume where none ends"
                 if (self.flat.term_rule[self.flat.kind == SELECT] < 0).any() else
@@ -260,8 +269,7 @@ class Traced:
             EV_LOD: "level of detail: instances smaller than a pixel were finished " + ends
                     + " ({w}; {n:,} ray visits)",
             EV_DEPTH: (f"depth limit: instances at {at['max_depth']}{{d}} were finished "
-                       + ends + f" ({{w}}; {{n:,}} ray visits); raise {bare['max_depth']} to "
-                       f"refine further"
+                       + ends + " ({w}; {n:,} ray visits)" + refine
                        if self.max_depth == self.asked_depth else
                        "depth limit: instances at depth {d}, where the bounds stop, were "
                        "finished " + ends + " ({w}; {n:,} ray visits)"),
