@@ -211,7 +211,7 @@ def cmd_expand(args) -> int:
     _report(None, graph.warnings)
     notes: list[str] = []
     try:
-        text = expand_file(graph, args.steps, args.max_chars, notes)
+        text = expand_file(graph, args.steps, args.max_chars, notes, args.overrides)
     except ExpansionTooLarge as e:
         raise UsageError(str(e)) from None
     _write(text, args.output, args.file)

@@ -931,6 +931,21 @@ def test_expand_takes_at_most_the_levels_a_derivation_may_have(capsys, tmp_path)
     assert word.count("move(1, 0, 0)") == 10000
 
 
+def test_expands_header_names_the_values_set(capsys, tmp_path):
+    """The file's comments are copied as written: after `--set c=2` the Sierpinski's
+    still told of "order 6 gives 4^6 = 4096 tetrahedra", and nothing said c was 2."""
+    src = tmp_path / "rod.pcsg"
+    src.write_text("// c rods of length 6\n{c = 6; r = 0.1} S\nS if(c > 0, 1, 2)\n"
+                   "1: S → scale(r, r, 1) cylinder ∪ move(0, 0, 2) {c = c - 1} S\n"
+                   "2: S → sphere\n", encoding="utf-8")
+    code, out, _ = run(capsys, "expand", str(src), "--set", "c=2", "--set", "r=.5")
+    assert code == 0 and out.splitlines()[:2] == [
+        f"// {src} --set c=2 --set r=0.5 after 1 derivation step; its comments are as the "
+        f"file wrote them", "// c rods of length 6"]
+    code, out, _ = run(capsys, "expand", str(src))
+    assert out.splitlines()[0] == f"// {src} after 1 derivation step"
+
+
 def test_expand_says_pixels_were_taken_as_infinite_and_stats_lists_no_pixels(capsys, tmp_path):
     forest = str(GRAMMARS / "pixel_forest.pcsg")
     code, _, err = run(capsys, "expand", forest, "-n", "1", "-o", str(tmp_path / "w.pcsg"))

@@ -134,15 +134,17 @@ def _axiom_head(graph: Graph, d: Deriver) -> str:
 
 
 def expand_file(graph: Graph, steps: int, max_chars: int = 50_000_000,
-                notes: list[str] | None = None) -> str:
+                notes: list[str] | None = None, overrides=()) -> str:
     """The whole file with its axiom replaced by the expansion: a file `pcsg check` accepts.
     Macros are shown expanded, since the axiom is printed from the expanded text. Appends
     to `notes` what the user must know of it: where modules are left that draw `rand()`,
-    the file derives other primitives below them (redrawn)."""
-    return _deep(_expand_file, graph, steps, max_chars, notes)
+    the file derives other primitives below them (redrawn). `overrides`, the (name, value)
+    pairs the graph was compiled with, are named in the header."""
+    return _deep(_expand_file, graph, steps, max_chars, notes, overrides)
 
 
-def _expand_file(graph: Graph, steps: int, max_chars: int, notes: list[str] | None) -> str:
+def _expand_file(graph: Graph, steps: int, max_chars: int, notes: list[str] | None,
+                 overrides) -> str:
     axiom, p = _expand(graph, steps, max_chars)
     if notes is not None and p.modules_left and redraws(graph):
         notes.append(REDRAWN)
@@ -160,8 +162,12 @@ def _expand_file(graph: Graph, steps: int, max_chars: int, notes: list[str] | No
             axiom = f"{{{head}}} ({axiom})"
     text = graph.source.expanded
     start, end = graph.axiom_span
-    header = (f"// {one_line(graph.source.file)} after {steps} derivation "
-              f"step{'s' if steps != 1 else ''}\n")
+    # the file's comments are copied as written: the values they tell of ("order 6
+    # gives 4096 tetrahedra") may be the ones --set replaced
+    given = "".join(f" --set {name}={format_value(value)}" for name, value in overrides)
+    header = (f"// {one_line(graph.source.file)}{given} after {steps} derivation "
+              f"step{'s' if steps != 1 else ''}"
+              f"{'; its comments are as the file wrote them' if given else ''}\n")
     shown = _without_defines(text, graph.source.defines)
     before, after = _unreached_cut(text, shown, graph.source.file, p.left, (start, end))
     return (header + before + axiom + after.rstrip("\n") + "\n").replace(_GONE, "")
