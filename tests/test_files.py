@@ -213,3 +213,29 @@ def test_an_endless_device_or_pipe_is_refused_at_the_size_limit():
                        timeout=120)
     assert p.returncode == 0, p.stderr
     assert "/dev/zero: error: file is more than 8,388,608 bytes" in p.stdout, p.stdout
+
+
+@pytest.mark.parametrize("command", ["sweep", "animate"])
+def test_a_grammar_from_a_pipe_is_read_once(tmp_path, command):
+    """sweep and animate read their file twice, checked and then rendered: from a pipe
+    the second read was empty, and the images failed as "cannot set 'c': it is not an
+    initial parameter" and "no axiom". Each image is the render of the same file read
+    from disk (a camera and light of its own: animate's frames keep those of t = 1)."""
+    text = ("#camera eye=(0, -6, 3) at=(0, 0, 0) fov=40\n#light at=(3, -2, 8)\n"
+            "{t = 1; c = 1 + t} uscale(c / 3) sphere ∪ move(0, 0, -1) plane\n")
+    src = tmp_path / "stdin.pcsg"
+    src.write_text(text, encoding="utf-8")
+    tiny = ["--size", "16x12", "--shadow-samples", "1", "-q"]
+    args = ["sweep", "/dev/stdin", "--set", "c=1..2"] if command == "sweep" else \
+        ["animate", "/dev/stdin", "--frames", "2"]
+    r = subprocess.run([sys.executable, "-m", "pcsg", *args, *tiny, "-o", str(tmp_path / "o")],
+                       input=text, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    made = sorted((tmp_path / "o").glob("*_*.png"))
+    assert [p.name for p in made] == (["stdin_c=1.png", "stdin_c=2.png"] if command == "sweep"
+                                      else ["frame_0000.png", "frame_0001.png"])
+    for value, png in zip(("1", "2") if command == "sweep" else ("0", "1"), made):
+        again = tmp_path / f"again_{value}.png"
+        main(["render", str(src), "--set", f"{'c' if command == 'sweep' else 't'}={value}",
+              *tiny, "-o", str(again)])
+        assert again.read_bytes() == png.read_bytes()

@@ -4,12 +4,16 @@ from __future__ import annotations
 
 import glob
 import os
+import stat
 from pathlib import Path
 
 from .errors import Diagnostic, PcsgError
 from .source import Source
 
 MAX_FILE_BYTES = 8 * 1024 * 1024     # lark parses ~100k tokens/s; a PCSG system is short
+# what a pipe or device gave, by its (device, inode): it can be read once, and sweep and
+# animate read their file twice (checked, then rendered), the second time empty: "no axiom"
+_STREAMS: dict[tuple[int, int], bytes] = {}
 
 
 def pcsg_files(directory: str | Path) -> list[str]:
@@ -28,8 +32,13 @@ def read_source_text(path: str | Path) -> str:
             what = ("is a directory, not a .pcsg file" if pcsg_files(p) else
                     "is a directory with no .pcsg file in it")
             raise PcsgError([Diagnostic("error", what, None, Source(name, ""), code="io")])
-        size = p.stat().st_size
-        if size <= MAX_FILE_BYTES:
+        st = p.stat()
+        size, stream = st.st_size, (st.st_dev, st.st_ino)
+        if stat.S_ISREG(st.st_mode):
+            stream = None
+        if stream in _STREAMS:
+            data = _STREAMS[stream]
+        elif size <= MAX_FILE_BYTES:
             # at most one byte past the limit, whatever the size said: a device or a pipe
             # (/dev/zero, <(...)) has size 0, and /dev/zero was read until the system's
             # memory ran out
@@ -37,6 +46,8 @@ def read_source_text(path: str | Path) -> str:
                 data = f.read(MAX_FILE_BYTES + 1)
             if len(data) > MAX_FILE_BYTES:
                 size = None
+            elif stream is not None:
+                _STREAMS[stream] = data
         if size is None or size > MAX_FILE_BYTES:
             raise too_large(name, size)
     except OSError as e:

@@ -66,6 +66,7 @@ class FrameJob:
     png: Path
     opts: Options
     key: str
+    text: str           # the file's, read once: a pipe's second read was empty
 
 
 def _moves(path) -> bool:
@@ -126,7 +127,7 @@ def plan(anim: Animation) -> tuple[list[FrameJob], bool]:
                                  up=_floats(still.up), fov=float(still.fov), light=sun,
                                  quiet=True)
         png = anim.out_dir / f"frame_{i:0{digits}d}.png"
-        jobs.append(FrameJob(i, t, anim.source, png, fo, output_key(text, fo)))
+        jobs.append(FrameJob(i, t, anim.source, png, fo, output_key(text, fo), text))
     return jobs, timed
 
 
@@ -198,7 +199,7 @@ def _render_job(job: FrameJob, in_worker: bool = True):
         return job.index, None, [], "interrupted"
     _busy = True
     try:
-        summary, notes = render_file(job.source, job.png, job.opts)
+        summary, notes = render_file(job.source, job.png, job.opts, text=job.text)
         return job.index, summary, notes, None
     except PcsgError as e:
         return job.index, None, [], "\n".join(d.format() for d in e.diagnostics)
@@ -330,11 +331,10 @@ def animate(anim: Animation) -> int:
 def _run_on_cluster(todo, runner, manifest, report):
     """Each frame a task on the cluster's workers, its grammar text sent along (no shared
     file system needed); the PNG comes back and is written here as it arrives."""
-    from ..language.files import read_source_text
     from ..output import write_atomic
     from ..distributed.units import Unit, render_unit
     by_png = {job.png: job for job in todo}
-    units = [Unit(read_source_text(job.source), str(job.source), job.opts) for job in todo]
+    units = [Unit(job.text, str(job.source), job.opts) for job in todo]
     pngs = {id(u): job.png for u, job in zip(units, todo)}
     for unit, outcome, worker, crash in runner.run(render_unit, units):
         job = by_png[pngs[id(unit)]]

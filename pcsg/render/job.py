@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..compiler import compile_file
+from ..compiler import compile_file, compile_text
 from ..graph.model import Graph
 from ..graph import boxcache
 from ..trace.nodes import (EV_INTERVALS, EV_NONFINITE, EV_SELECTION, EV_SINGULAR, EV_STACK,
@@ -242,12 +242,12 @@ def summary_line(out: Path, opts: Options, seconds: float, rays: int,
             f"{', compiling the kernels included' if compiled else ''}")
 
 
-def render_file(path: Path, out: Path, opts: Options,
-                timings: Timings | None = None) -> tuple[str, list[str]]:
+def render_file(path: Path, out: Path, opts: Options, timings: Timings | None = None,
+                text: str | None = None) -> tuple[str, list[str]]:
     """Render `path` to `out` (written atomically); returns the summary line and notes,
     and fills `timings` with its phases (--timings). Raises RenderFailed, having written
     nothing, past --timeout or, with --strict, when instances were empty because of
-    runtime errors."""
+    runtime errors. `text`, where given, is the file's, read before (a pipe's is gone)."""
     clock = timings or Timings()
     deadline = None if opts.timeout is None else time.perf_counter() + opts.timeout
     compiling = not opts.reference and not kernelcache.cached()
@@ -255,7 +255,8 @@ def render_file(path: Path, out: Path, opts: Options,
     if notice:
         print(notice, file=sys.stderr, flush=True)
     with clock.phase("compile", "parse, checks"):
-        graph = compile_file(path, opts.overrides)
+        graph = compile_file(path, opts.overrides) if text is None else \
+            compile_text(text, str(path), opts.overrides)
     poll, progress = bounds_poll(Path(path).name, opts, deadline)
     kept = boxcache.hits
     with clock.phase("bounds", "hyper-bounding boxes, instance table"), freeing_blocks():
