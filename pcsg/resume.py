@@ -9,10 +9,12 @@ again. The PNG itself stays byte for byte what a plain render writes (no text ch
 in it)."""
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import hashlib
 import json
+import os
 import time
 from pathlib import Path
 
@@ -68,13 +70,21 @@ class Manifest:
         self.problem = (f"{self.path} is not a file: the list of images made goes there; "
                         f"move it away" if self.path.exists() and not self.path.is_file()
                         else None)
+        self.entries = self._read()
+        # what this run changed, merged into the file as it is at each save: two sweeps
+        # into one directory each wrote the entries they had read, and the last to save
+        # dropped the other's (its images were rendered again)
+        self._recorded: dict[str, dict] = {}
+        self._dropped: set[str] = set()
+        self._saved, self._unsaved = time.monotonic(), False
+
+    def _read(self) -> dict[str, dict]:
         try:
             entries = json.loads(self.path.read_text(encoding="utf-8"))
         except (OSError, ValueError):
             entries = {}                # none yet, or unreadable: everything renders
-        self.entries = {str(k): v for k, v in entries.items() if isinstance(v, dict)} \
+        return {str(k): v for k, v in entries.items() if isinstance(v, dict)} \
             if isinstance(entries, dict) else {}
-        self._saved, self._unsaved = time.monotonic(), False
 
     def complete(self, out: Path, key: str) -> bool:
         entry = self.entries.get(Path(out).name)
@@ -87,7 +97,9 @@ class Manifest:
         frame took 137 ms a frame at 20,000 entries, and a long animation's parent fell
         behind its workers. A record a kill loses (one that came within the second, with
         none after it) only renders its file again."""
-        self.entries[Path(out).name] = {"key": key, "sha256": _sha(out)}
+        name = Path(out).name
+        self.entries[name] = self._recorded[name] = {"key": key, "sha256": _sha(out)}
+        self._dropped.discard(name)
         self._unsaved = True
         if time.monotonic() - self._saved >= SAVE_EVERY:
             self.save()
@@ -104,11 +116,38 @@ class Manifest:
         stale = sorted(name for name in self.entries if name not in keep and mine(name))
         for name in stale:
             del self.entries[name]
+            self._recorded.pop(name, None)
+            self._dropped.add(name)
         if stale:
             self.save()
         return stale
 
     def save(self):
+        """This run's records and drops over the file as another run may have left it,
+        the read and the write one step under a lock of the directory where there is
+        flock (POSIX)."""
         self._saved, self._unsaved = time.monotonic(), False
-        write_atomic(self.path, json.dumps(self.entries, indent=1, sort_keys=True)
-                     .encode("utf-8"))
+        with _locked(self.path.parent):
+            entries = self._read()
+            for name in self._dropped:
+                entries.pop(name, None)
+            entries.update(self._recorded)
+            write_atomic(self.path, json.dumps(entries, indent=1, sort_keys=True)
+                         .encode("utf-8"))
+        self.entries = entries
+        self._recorded, self._dropped = {}, set()
+
+
+@contextlib.contextmanager
+def _locked(directory: Path):
+    try:
+        import fcntl
+        fd = os.open(directory, os.O_RDONLY)
+    except (ImportError, OSError):      # no flock (Windows), or a directory we cannot open
+        yield
+        return
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)

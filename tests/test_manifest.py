@@ -64,3 +64,25 @@ def test_a_frame_of_another_pcsg_is_rendered_again(tmp_path, monkeypatch):
     key = resume.output_key("sphere\n", Options())
     monkeypatch.setattr(resume, "code_digest", lambda: "another pcsg")
     assert resume.output_key("sphere\n", Options()) != key
+
+
+def test_two_runs_into_one_directory_keep_each_others_records(tmp_path):
+    """Each run wrote the entries it had read at its start with its own: of two sweeps
+    into one directory the last to save dropped the other's, whose images were then
+    rendered again (QA: 5 of 10 entries left, 3 times of 3)."""
+    first, second = Manifest(tmp_path), Manifest(tmp_path)
+    for m, names in ((first, "abc"), (second, "xyz")):
+        for n in names:
+            (tmp_path / f"{n}.png").write_bytes(n.encode())
+            m.record(tmp_path / f"{n}.png", f"key-{n}")
+    first.flush()
+    second.flush()
+    assert sorted(Manifest(tmp_path).entries) == [f"{n}.png" for n in "abcxyz"]
+    # what one drops (a shorter animation's frames) goes, the other's stays
+    assert first.forget_others({"a.png", "x.png"}, mine=lambda n: n in ("b.png", "c.png")) \
+        == ["b.png", "c.png"]
+    second.record(tmp_path / "z.png", "key-z2")
+    second.flush()
+    back = Manifest(tmp_path).entries
+    assert sorted(back) == ["a.png", "x.png", "y.png", "z.png"]
+    assert back["z.png"]["key"] == "key-z2" and back["a.png"]["key"] == "key-a"
