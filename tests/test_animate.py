@@ -473,3 +473,17 @@ def test_a_failed_frame_writes_no_animation_and_names_the_earlier_one(capsys, tm
     (out / "late.png").unlink()
     code, stdout, _ = animate(capsys, source, out, "--frames", "2", "-j", "1", "--strict")
     assert code == 1 and "; no animation written; failed: frame_0001.png" in stdout
+
+
+def test_a_file_named_as_a_frame_is_refused(capsys, tmp_path):
+    """frame_0000.pcsg's animation, frame_0000.png, was written over its first frame."""
+    src = tmp_path / "frame_0000.pcsg"
+    src.write_text(BALL, encoding="utf-8")
+    code, _, err = animate(capsys, src, tmp_path, "--frames", "2")
+    assert code == 2 and "its animation would be named frame_0000.png, as a frame is" in err
+    assert not list(tmp_path.glob("*.png"))
+    named = tmp_path / "frame_one.pcsg"          # not a frame's name: animated
+    named.write_text(BALL, encoding="utf-8")
+    assert animate(capsys, named, tmp_path / "o", "--frames", "2")[0] == 0
+    assert sorted(p.name for p in (tmp_path / "o").glob("*.png")) == [
+        "frame_0000.png", "frame_0001.png", "frame_one.png"]

@@ -33,6 +33,9 @@ from ..output import make_directory
 TIME = "t"
 
 
+FRAME_NAME = re.compile(r"frame_[0-9]+\.png")
+
+
 class BadAnimation(Exception):
     """An animation that cannot be made as asked (a usage error)."""
 
@@ -258,12 +261,17 @@ def animate(anim: Animation) -> int:
     Ctrl-C keeps every finished frame (written whole, and in the manifest)."""
     if anim.out_dir.exists() and not anim.out_dir.is_dir():
         raise BadAnimation(f"-o {anim.out_dir}: {anim.out_dir} is a file, not a directory")
+    if FRAME_NAME.fullmatch(f"{anim.source.stem}.png"):
+        # frame_0000.pcsg: its animation, frame_0000.png, was written over its first frame,
+        # which every later run then rendered again
+        raise BadAnimation(f"{anim.source}: its animation would be named "
+                           f"{anim.source.stem}.png, as a frame is; rename the file")
     jobs, timed = plan(anim)
     if problem := make_directory(anim.out_dir):
         raise BadAnimation(f"-o {anim.out_dir}: {problem}")
     manifest = Manifest(anim.out_dir)
     gif = {f"{anim.source.stem}.gif"} if anim.gif else set()
-    ours = re.compile(rf"frame_[0-9]+\.png|{re.escape(anim.source.stem)}\.gif")
+    ours = re.compile(rf"{FRAME_NAME.pattern}|{re.escape(anim.source.stem)}\.gif")
     for name in manifest.forget_others({j.png.name for j in jobs} | gif, ours.fullmatch):
         # frames of a longer earlier run, and the GIF of an earlier run where this one
         # writes none (kept till it is written again: a frame may fail)
