@@ -207,6 +207,8 @@ def cmd_expand(args) -> int:
         raise UsageError(f"-n {args.steps}: expand takes at most {MAX_LEVELS} steps")
     if args.max_chars < 1:
         raise UsageError(f"--max-chars {args.max_chars}: give 1 or more")
+    if args.output:
+        _named_as_another_kind(args.output, "-o", "a grammar", ".pcsg")
     graph = _compile(args.file, args.overrides)
     _report(None, graph.warnings)
     notes: list[str] = []
@@ -283,17 +285,37 @@ def _volume_text(name: str, v: dict) -> str:
     return f"{name}: {win}, mean projected area {areas[0]:.4g} ({lose}: {areas[1]:.4g})"
 
 
-IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".gif", ".svg", ".pdf", ".webp")
+# what a file's name says it holds, by its suffix
+KINDS = {**dict.fromkeys((".png", ".gif", ".jpg", ".jpeg", ".bmp", ".tga", ".ppm", ".exr",
+                          ".hdr", ".tif", ".tiff", ".svg", ".pdf", ".webp"), "an image"),
+         ".pcsg": "a grammar", ".npy": "an array", ".pov": "a POV-Ray scene",
+         ".dot": "Graphviz text", ".gv": "Graphviz text"}
+
+
+def _named_as_another_kind(output: str, option: str, writes: str, suffix: str) -> None:
+    """The kind an output's name says it holds where the command writes another: text
+    under an image's name, which a viewer then refused, or over a grammar (`graph -o
+    other.pcsg`, `export --pov s.pcsg` replaced it with exit 0). Refused with `writes`,
+    what the command writes, and a name of `suffix`."""
+    out = Path(output)
+    kind = KINDS.get(out.suffix.lower())
+    if kind is None or kind == writes or _device(out):
+        return
+    raise UsageError(f"{option} {output}: the file is {writes}, not {kind}; name it "
+                     f"{out.with_suffix(suffix).name}")
 
 
 def cmd_graph(args) -> int:
     from .graph.dot import to_dot
-    if args.output and Path(args.output).suffix.lower() in IMAGE_SUFFIXES:
-        # dot text under an image's name, which a viewer then refused (QA)
-        dot = Path(args.output).with_suffix(".dot")
+    out = Path(args.output or "")
+    if args.output and KINDS.get(out.suffix.lower()) == "an image" and not _device(out):
+        dot = out.with_suffix(".dot")
         raise UsageError(f"-o {args.output}: pcsg graph writes Graphviz text, not an image: "
-                         f"-o {dot}, then `dot -T{Path(args.output).suffix[1:].lower()} {dot} "
+                         f"-o {dot}, then `dot -T{out.suffix[1:].lower()} {dot} "
                          f"-o {args.output}`")
+    if args.output:
+        _not_an_input(args.output, "-o", [args.file])      # said as that, first
+        _named_as_another_kind(args.output, "-o", "Graphviz text", ".dot")
     graph = _compile(args.file, args.overrides)
     _report(None, graph.warnings)
     _write(to_dot(graph), args.output, args.file)
@@ -587,10 +609,6 @@ def cmd_animate(args) -> int:
     return EXIT_ERRORS if failed else EXIT_OK
 
 
-# what the names of files that are no POV-Ray scene end in
-NOT_A_SCENE = {**dict.fromkeys((".png", ".gif", ".jpg", ".jpeg", ".bmp", ".tga", ".ppm",
-                                ".exr", ".hdr", ".tif", ".tiff"), "an image"),
-               ".pcsg": "a grammar", ".npy": "an array"}
 
 
 def cmd_export(args) -> int:
@@ -602,11 +620,7 @@ def cmd_export(args) -> int:
     out = Path(args.pov)
     _output_directory(args.pov, "--pov")
     _not_an_input(args.pov, "--pov", [args.file])
-    if out.suffix.lower() in NOT_A_SCENE and not _device(out):
-        # POV-Ray's text went into out.png (or over another grammar) without a word
-        raise UsageError(f"--pov {args.pov}: the scene is POV-Ray text, not "
-                         f"{NOT_A_SCENE[out.suffix.lower()]}; name the file "
-                         f"{out.with_suffix('.pov').name}")
+    _named_as_another_kind(args.pov, "--pov", "a POV-Ray scene", ".pov")
     for problem in (bounces_problem(args.bounces), size_problem(args.size),
                     shadow_samples_problem(args.shadow_samples),
                     view_problem(args.eye, args.at, args.up, args.fov, args.light)):

@@ -968,11 +968,20 @@ def test_expand_says_pixels_were_taken_as_infinite_and_stats_lists_no_pixels(cap
     (["export", "{f}", "--pov", "{f}"], "--pov {f}: that is {f}, which this command reads"),
     (["graph", "{f}", "-o", "{f}"], "-o {f}: that is {f}, which this command reads"),
     (["expand", "{f}", "-o", "{f}"], "-o {f}: that is {f}, which this command reads"),
-    # POV-Ray's text went into an image's name, or over another grammar, with exit 0
+    # POV-Ray's text went into an image's name, or over another grammar, with exit 0; so
+    # did graph's dot text over a grammar, and expand's grammar into an image's name
     (["export", "{f}", "--pov", "{d}/x.PNG"],
-     "--pov {d}/x.PNG: the scene is POV-Ray text, not an image; name the file x.pov"),
+     "--pov {d}/x.PNG: the file is a POV-Ray scene, not an image; name it x.pov"),
     (["export", "{f}", "--pov", "{d}/x.pcsg"],
-     "--pov {d}/x.pcsg: the scene is POV-Ray text, not a grammar; name the file x.pov"),
+     "--pov {d}/x.pcsg: the file is a POV-Ray scene, not a grammar; name it x.pov"),
+    (["graph", "{f}", "-o", "{d}/x.pcsg"],
+     "-o {d}/x.pcsg: the file is Graphviz text, not a grammar; name it x.dot"),
+    (["graph", "{f}", "-o", "{d}/x.pov"],
+     "-o {d}/x.pov: the file is Graphviz text, not a POV-Ray scene; name it x.dot"),
+    (["expand", "{f}", "-o", "{d}/x.png"],
+     "-o {d}/x.png: the file is a grammar, not an image; name it x.pcsg"),
+    (["expand", "{f}", "-o", "{d}/x.dot"],
+     "-o {d}/x.dot: the file is a grammar, not Graphviz text; name it x.pcsg"),
 ])
 def test_an_output_over_an_input_or_the_image_is_refused(capsys, sierpinski, tmp_path, argv,
                                                          said):
