@@ -611,6 +611,15 @@ def cmd_animate(args) -> int:
 
 
 
+def _povray_input(scene) -> str:
+    """POV-Ray's +I option as a shell takes it: a name with a space in POV-Ray's own quotes
+    (it splits `+Iout file.pov` at the space, even quoted by the shell), the whole in the
+    shell's where it needs them."""
+    import shlex
+    name = str(scene)
+    return shlex.quote(f'+I"{name}"' if any(c.isspace() for c in name) else f"+I{name}")
+
+
 def cmd_export(args) -> int:
     from .povray import export_pov
     from .render.camera import CameraError, make_camera
@@ -663,7 +672,7 @@ def cmd_export(args) -> int:
     scene, size = (("/dev/stdin", "") if _device(out) else
                    (out, f", {out.stat().st_size / 1e6:.1f} MB"))
     print(f"{out}: {_many(count, 'primitive')}{size}, {time.perf_counter() - start:.1f} s; "
-          f"render with: povray +I{scene} +W{w} +H{h}")
+          f"render with: povray {_povray_input(scene)} +W{w} +H{h}")
     if empty:
         also = (f"; {dropped:,} more went with the ∩ or \\ that lost an operand"
                 if dropped else "")

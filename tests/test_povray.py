@@ -412,3 +412,19 @@ def test_a_paint_not_finite_is_named_and_a_line_break_in_the_name_stays_in_the_c
                             f"+O{tmp_path / 'pov.png'}", "+W32", "+H24", "-D", "-GA"],
                            capture_output=True, timeout=300)
         assert r.returncode == 0, r.stderr[-400:]
+
+
+@pytest.mark.skipif(POVRAY is None, reason="POV-Ray is not installed (apt-get install povray)")
+def test_the_command_it_says_renders_a_scene_whose_name_has_spaces(tmp_path, capsys):
+    """`render with: povray +Idir with space/out file.pov` did not run, and POV-Ray splits
+    +I at a space even where the shell kept it whole: it takes its own quotes."""
+    where = tmp_path / "dir with space"
+    where.mkdir()
+    assert main(["export", str(SIERPINSKI), "--set", "c=1", "--size", "32x24", "--pov",
+                 str(where / "out file.pov")]) == 0
+    said = capsys.readouterr().out.split("render with: ")[1].strip()
+    assert said == f"povray '+I\"{where}/out file.pov\"' +W32 +H24"
+    r = subprocess.run(f"{said} -D -GA +O{tmp_path}/pov.png", shell=True, cwd=tmp_path,
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert Image.open(tmp_path / "pov.png").size == (32, 24)
