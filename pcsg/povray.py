@@ -490,8 +490,12 @@ class _BodyWriter:
             b.kind if len(b.present) > 1 else None, "union")
         if len(b.lines) == 1 and word == "union":
             self._emit(b.lines[0], b.count)
-        else:
-            self._emit(f"{word} {{\n" + "\n".join(b.lines) + "\n}", b.count)
+            return
+        # where operands of a ∩ share a face, POV-Ray shows the last one's texture there
+        # and pcsg the first's: written last first (each line is an operand; the order of
+        # an intersection's operands changes nothing else)
+        lines = b.lines[::-1] if word == "intersection" else b.lines
+        self._emit(f"{word} {{\n" + "\n".join(lines) + "\n}", b.count)
 
     def close(self):
         while self.open:
