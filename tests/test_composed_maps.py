@@ -109,3 +109,30 @@ def test_a_bad_map_in_a_run_is_reported_where_it_is(bad, kind):
         assert h.hit.any()              # the instances where x > 0
         lines = [x for x in traced.describe_events(h.events) if kind in x]
         assert len(lines) == 1 and "at t.pcsg:3:31" in lines[0], lines
+
+
+def test_the_constant_maps_found_as_one_stack_are_those_found_one_by_one():
+    """flat.fixed_maps tests and inverts every constant map as one stack, and the fixed
+    chains' inverses are taken once at the end: the same bits as a map at a time, and
+    the singular, non-finite and computed maps left to the walk as before."""
+    text = ("{a = 2} (move(1, 2, 3) uscale(0.5) rotz(30) scale(1, 2, 3) sphere ∪ "
+            "scale(0, 1, 1) cube ∪ move(1/0, 0, 0) cube ∪ uscale(a) cube ∪ "
+            "flipxy mirror(1, 1, 0) xshear(0.3, 0.2) cone ∪ "
+            "matrix(1,2,3,4, 5,6,7,8, 9,10,11,12) cube ∪ rot(45, 1, 1, 0) cylinder)")
+    g = compile_text(text, "maps.pcsg")
+    ids, maps = flat_module.fixed_maps(g)
+    one_by_one = {i: flat_module.fixed_matrix(g, i) for i in range(len(g.nodes))}
+    assert ids.tolist() == [i for i, m in one_by_one.items() if m is not None]
+    assert len(ids) == 9        # not scale(0, ...), move(1/0, ...), uscale(a) nor matrix(...)
+    for i, m in zip(ids.tolist(), maps):
+        assert m.tobytes() == one_by_one[i][:3].tobytes()
+    fixed, fixed_map = flat_module._fixed_nodes(g)
+    for i in ids.tolist():
+        inverse = np.linalg.inv(one_by_one[i][:3, :3])
+        assert fixed[i] == 1 and fixed_map[i, 12:21].tobytes() == inverse.ravel().tobytes()
+    # composed where a fixed map's child is one: the inverse of the product, in bits
+    flat = pcsg.loads(text).flat
+    assert (flat.fixed[flat.kind == TRANSFORM] == 1).sum() >= 5
+    for i in np.flatnonzero((flat.kind == TRANSFORM) & (flat.fixed == 1)):
+        lin = flat.fixed_map[i, :9].reshape(3, 3)
+        assert flat.fixed_map[i, 12:21].tobytes() == np.linalg.inv(lin).ravel().tobytes()
