@@ -398,7 +398,7 @@ def _depth_output(depth: str, files: list[str]):
     """--depth FILE.npy, checked as -o is: `--depth same.png` replaced the picture with
     an array, and `--depth s.pcsg` the grammar."""
     path = Path(depth)
-    if path.suffix.lower() != ".npy":
+    if path.suffix.lower() != ".npy" and not _device(path):    # /dev/stdout: as -o
         raise UsageError(f"--depth {depth}: the depths are written as a NumPy array; name "
                          f"the file {path.with_suffix('.npy').name}")
     _output_directory(depth, "--depth")
@@ -509,6 +509,10 @@ def _outputs(files: list[str], output: str | None) -> list[Path]:
         if out.suffix.lower() == ".png":
             raise UsageError(f"-o {output}: that is a link to {target}, which is no .png: "
                              f"pcsg writes PNG images")
+        if output == "-":
+            # "name the file -.png, or -/ for a directory"
+            raise UsageError("-o -: pcsg writes PNG images to files; to a pipe, give "
+                             "-o /dev/stdout")
         name = out.with_suffix(".png").name
         raise UsageError(f"-o {output}: pcsg writes PNG images; name the file {name}"
                          + ("" if out.suffix else f", or {output}/ for a directory"))

@@ -239,3 +239,22 @@ def test_a_grammar_from_a_pipe_is_read_once(tmp_path, command):
         main(["render", str(src), "--set", f"{'c' if command == 'sweep' else 't'}={value}",
               *tiny, "-o", str(again)])
         assert again.read_bytes() == png.read_bytes()
+
+
+def test_depths_to_standard_output_and_an_image_named_dash(tmp_path):
+    """--depth /dev/stdout was told to name the file stdout.npy (-o /dev/stdout is written
+    into), and `-o -` to name it -.png."""
+    src = tmp_path / "s.pcsg"
+    src.write_text(SPHERE, encoding="utf-8")
+    r = subprocess.run([sys.executable, "-m", "pcsg", "render", str(src), "--size", "8x6",
+                        "-o", str(tmp_path / "s.png"), "--depth", "/dev/stdout"],
+                       capture_output=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    (tmp_path / "d.npy").write_bytes(r.stdout)
+    import numpy as np
+    depths = np.load(tmp_path / "d.npy")
+    assert depths.shape == (6, 8) and np.isfinite(depths).sum() > 10
+    r = subprocess.run([sys.executable, "-m", "pcsg", "render", str(src), "-o", "-"],
+                       capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert r.returncode == 2 and "-o -: pcsg writes PNG images to files; to a pipe, give " \
+        "-o /dev/stdout" in r.stderr and not (tmp_path / "-.png").exists()
