@@ -830,9 +830,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "export" and args.pov == "-":    # it wrote a file named "-"
         args.pov = "/dev/stdout"
     image = args.pov if args.command == "export" else args.output
+    # the depths too: `--depth /dev/stdout` had the summary line after the array
+    outputs = [image, getattr(args, "depth", None)] if args.command == "render" else [image]
     saved = sys.stdout
-    sys.stdout = status_stream(args.command in ("render", "export") and bool(image)
-                               and is_stdout(image))
+    sys.stdout = status_stream(args.command in ("render", "export") and
+                               any(bool(o) and is_stdout(o) for o in outputs))
     try:
         return _run(args)
     finally:
