@@ -365,7 +365,7 @@ def _threads(args) -> None:
 
     from .trace.jit import set_threads
     most = config.NUMBA_NUM_THREADS
-    if args.threads > most and not getattr(args, "quiet", False):
+    if args.threads > most:     # a note, as the level of detail's: -q hides progress only
         print(f"pcsg {args.command}: note: --threads {args.threads}: at most {most} here (the "
               f"cores, or NUMBA_NUM_THREADS), so {most}", file=sys.stderr)
     set_threads(args.threads)

@@ -286,10 +286,11 @@ def test_standard_input_is_said_to_be_no_grammar(capsys, tmp_path, monkeypatch):
 def test_more_threads_than_there_are_is_said(capsys, sierpinski, tmp_path):
     from numba import config
     many = config.NUMBA_NUM_THREADS + 5
-    code, _, err = run(capsys, "render", str(sierpinski), "--set", "c=1", "--size", "8x6",
-                       "-o", str(tmp_path / "a.png"), "--threads", str(many))
-    assert code == 0
-    assert f"note: --threads {many}: at most {config.NUMBA_NUM_THREADS} here" in err
+    for quiet in ([], ["-q"]):      # -q hid it, and no other note
+        code, _, err = run(capsys, "render", str(sierpinski), "--set", "c=1", "--size", "8x6",
+                           "-o", str(tmp_path / "a.png"), "--threads", str(many), *quiet)
+        assert code == 0
+        assert f"note: --threads {many}: at most {config.NUMBA_NUM_THREADS} here" in err
 
 
 def test_console_script_runs_without_traceback(tmp_path):
