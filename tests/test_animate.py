@@ -118,11 +118,13 @@ def test_jobs_are_at_most_the_cores(capsys, tmp_path, ball):
     """--jobs 1000 started a process per frame on two cores (17 s against 2.6 s)."""
     from pcsg.render.animate import cores
     code = main(["animate", str(ball), "-o", str(tmp_path / "a"), "--size", "32x24",
-                 "--shadow-samples", "1", "--frames", "4", "--path=" + PATH, "--jobs", "1000"])
+                 "--shadow-samples", "1", "--frames", "4", "--path=" + PATH, "--jobs", "1000",
+                 "-q"])
     stdout, stderr = capsys.readouterr()
     n = min(4, cores())
     assert code == 0, stderr
-    assert f"--jobs 1000: {cores()} cores here, so {n} worker process" in stderr
+    # a note, which -q keeps (it hid it, and no other note)
+    assert f"note: --jobs 1000: {cores()} cores here, so {n} worker process" in stderr
     assert f"rendered with {n} job" in stdout
 
 

@@ -278,10 +278,10 @@ def animate(anim: Animation) -> int:
         (anim.out_dir / name).unlink(missing_ok=True)
     todo = [j for j in jobs if anim.force or not manifest.complete(j.png, j.key)]
     workers = max(1, min(anim.jobs or cores(), len(todo), cores()))
-    if anim.jobs and anim.jobs > cores() and anim.cluster is None and not anim.opts.quiet:
+    if anim.jobs and anim.jobs > cores() and anim.cluster is None:   # a note: -q keeps it
         # each worker imports numba and loads the kernels: --jobs 1000 started a process
         # per frame on two cores, 17 s for what 2 took in 2.6
-        print(f"pcsg animate: --jobs {anim.jobs}: {cores()} cores here, so {workers} worker "
+        print(f"pcsg animate: note: --jobs {anim.jobs}: {cores()} cores here, so {workers} worker "
               f"process{'es' if workers > 1 else ''}", file=sys.stderr)
     report = _Reporter(anim, todo, timed, len(jobs))
     if report.done and not anim.opts.quiet:
