@@ -15,7 +15,7 @@ Semantics (the contract the tracer is compared on)
 - Every interval end carries (t, unit world normal, paint, material, primitive).
 - union: the sorted union, intervals that touch or overlap merged (closed sets);
   degenerate intervals [t, t] (flat triangles, grazing hits) are kept.
-- intersection: max of starts, min of ends; only pieces longer than SLIVER
+- intersection: max of starts, min of ends; only pieces thicker than a sliver (walk.thick)
   (1e-9 relative) are kept (regularised: solids that only touch give nothing,
   and coincident surfaces that rounding separates leave no sliver).
 - difference (n-ary, first child minus all the others): the first child
@@ -51,7 +51,7 @@ from ..graph.cut import Cut
 from ..graph.flatten import flatten, leaf_inverse
 from ..graph.model import DIFFERENCE, INTERSECTION, UNION, Graph
 from . import fractals, primitives
-from .walk import HIT_SHEET, HIT_SHELL, HIT_SOLID
+from .walk import HIT_SHEET, HIT_SHELL, HIT_SOLID, thick
 
 CLIP = " (clip)"     # the name's mark of a volume that clips a cut graftal instance
 LEAF = -1            # tree node kind of a primitive; operators use the graph's kinds
@@ -312,11 +312,8 @@ def union(lists):
     return out
 
 
-SLIVER = 1e-9   # relative: thinner pieces are coincident surfaces up to rounding
-
-
 def intersection(a, b):
-    """The regularised intersection: pieces thicker than SLIVER only (the graph tracer
+    """The regularised intersection: pieces thicker than a sliver only (the graph tracer
     drops the same slivers, which coincident surfaces leave where rounding differs)."""
     out = []
     i = j = 0
@@ -324,7 +321,7 @@ def intersection(a, b):
         x, y = a[i], b[j]
         s, se = (x[0], x[1]) if x[0] >= y[0] else (y[0], y[1])
         e, ee = (x[2], x[3]) if x[2] <= y[2] else (y[2], y[3])
-        if e - s > SLIVER * max(1.0, abs(s)):
+        if thick.py_func(s, e):         # the walk's test, in Python
             out.append((s, se, e, ee))
         if x[2] <= y[2]:
             i += 1

@@ -187,9 +187,20 @@ def combine(iv, a0, na, b0, nb, out0, op):
         iv[row, IN_MAT + end] = iv[src, IN_MAT + side]
         if end == 1:
             # ∩ and \ drop slivers: coincident surfaces that rounding pulled apart
-            if op == 0 or t - iv[row, IT_IN] > SLIVER * max(1.0, abs(iv[row, IT_IN])):
+            if op == 0 or thick(iv[row, IT_IN], t):
                 n += 1
     return n
+
+
+@kernel
+def thick(s, e):
+    """Whether a piece of an ∩ or \\ from s to e is more than a sliver: coincident surfaces
+    that rounding pulled apart are a few roundings of their t apart, at any scale. With a
+    floor of SLIVER below t = 1, a solid of a scene 1e-9 across was a sliver, and drawn
+    as nothing. The reference drops the same pieces (trace/reference.py)."""
+    if e == np.inf:
+        return s < e
+    return e - s > SLIVER * max(abs(s), abs(e))
 
 
 @kernel
