@@ -41,6 +41,10 @@ from ..caches import cache_dir
 from . import vm
 
 MIN_ROWS = 24           # shorter blocks cost little more on the machine than a call
+# the most blocks and rows one callback compiles, the longest blocks first: its compile grew
+# faster than its rows (2,000 modules' arguments, 75 s and 2.8 GB; one axiom block of 3,000
+# assignments, 22 s), and the terrain's 22 blocks are 1,312 rows
+MAX_BLOCKS, MAX_ROWS = 64, 4096
 # the one C callback of a system's blocks: run_blocks(params row, constants, hash, block)
 SIGNATURE = "void(CPointer(float64), CPointer(float64), uint64, int64)"
 
@@ -219,12 +223,18 @@ def native_blocks(code: np.ndarray, blocks: dict[int, tuple[int, int]],
 def compile_blocks(code: np.ndarray,
                    blocks: dict[int, tuple[int, int]]) -> dict[int, tuple[int, int]]:
     """{node: (address of the callback, number of its block in it)} for the blocks
-    {node: (start, end)} that can be compiled; the others stay on the machine."""
-    sources = {}
-    for node, (start, end) in blocks.items():
+    {node: (start, end)} that can be compiled, within MAX_BLOCKS and MAX_ROWS; the
+    others stay on the machine."""
+    sources, rows = {}, 0
+    # the longest first: they gain the most a call; the rest are left to the machine
+    for node in sorted(blocks, key=lambda node: (blocks[node][0] - blocks[node][1], node)):
+        start, end = blocks[node]
+        if len(sources) == MAX_BLOCKS or rows + end - start > MAX_ROWS:
+            continue
         src = block_source(code, start, end, f"block_{node}")
         if src is not None:
             sources[node] = src
+            rows += end - start
     if not sources:
         return {}
     nodes = sorted(sources)
