@@ -16,7 +16,7 @@ from .graph.flat import NORMAL_DECAY, flatten_graph
 from .graph.regroup import regroup
 from .graph.states import StateTable
 from .graph.volumes import bounding_volumes
-from .graph.model import KIND_NAMES, SELECT, Graph
+from .graph.model import DIFFERENCE, INTERSECTION, KIND_NAMES, SELECT, UNION, Graph
 from .trace.jit import threads
 from .trace.kernel import CHUNK, trace_rays
 from .trace.instance_table import tracer_rows
@@ -24,8 +24,8 @@ from .trace.pad import pad_boxes
 from .trace.nodes import (EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE, EV_SELECTION,
                           EV_SINGULAR, EV_STACK, EV_VISITS, N_EVENTS, add_events,
                           no_events)
-from .limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_INSTANCES, api_argument, real_number,
-                     walk_limits_problem)
+from .limits import (BOUNDS_BUDGET, INTERVAL_ROWS, MAX_INSTANCES, MAX_STACK_DEPTH,
+                     api_argument, real_number, walk_limits_problem)
 from .trace.walk import R_HIT, R_MAT, R_N, R_PAINT, R_T, R_WIDTH
 
 BATCH = 1 << 16             # rays per kernel call: bounds the per-chunk event arrays
@@ -92,6 +92,31 @@ def _pad_spheres(spheres: np.ndarray) -> np.ndarray:
     return out
 
 
+def operator_nesting(flat) -> int:
+    """The most ∪, ∩ and \\ nodes nested in one another between S-nodes (their rules
+    start a nest again): the graph's cycles pass through S-nodes, so below one the
+    operators form no cycle."""
+    kind = flat.kind.tolist()
+    start, count, children = flat.child_start.tolist(), flat.child_count.tolist(), \
+        flat.children.tolist()
+    operators = (UNION, INTERSECTION, DIFFERENCE)
+    deepest = [-1] * len(kind)          # -1 not yet, -2 on the way down
+    for root in range(len(kind)):
+        stack = [root]                  # a loop: a nest may be 100,000 brackets deep
+        while stack:
+            node = stack[-1]
+            below = [] if kind[node] == SELECT else children[start[node]:start[node] + count[node]]
+            if deepest[node] == -1:
+                deepest[node] = -2
+                stack += [c for c in below if deepest[c] == -1]
+                continue
+            stack.pop()
+            if deepest[node] == -2:     # (a cycle without an S-node would count once)
+                deepest[node] = (kind[node] in operators) + max(
+                    (deepest[c] for c in below if deepest[c] >= 0), default=0)
+    return max(deepest, default=0)
+
+
 class Traced:
     """A compiled, bounded, flattened PCSG object, ready to trace."""
 
@@ -144,7 +169,11 @@ class Traced:
                                   native_args=self.bounds_method == "every instance")
         self.events = no_events(len(graph.nodes))      # of all traces so far
         kids = int(self.flat.max_children)
-        self.stack_depth = int(stack_depth or kids + (self.max_depth + 2) * min(kids, 16) + 32)
+        # frames: a union's operands wait on the stack, and so does each operator of a nest
+        # (`(a ∩ (b ∩ (c ∩ ...)))`: 300 of them filled the stack, and drew nothing)
+        frames = max(min(kids, 16), 2 * operator_nesting(self.flat))
+        self.stack_depth = int(stack_depth or min(kids + (self.max_depth + 2) * frames + 32,
+                                                  MAX_STACK_DEPTH))
         self.interval_rows = int(interval_rows)
         self.max_instances = int(max_instances)
         # what the kernels get (limits.LIM_*)

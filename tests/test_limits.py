@@ -40,6 +40,27 @@ def test_a_full_walk_stack_is_reported_with_the_option_that_raises_it():
     assert line.endswith("raise --stack-depth (now 16)")
 
 
+@pytest.mark.parametrize("operator", ["∩", "∪", "\\"])
+def test_the_default_stack_holds_a_deep_nest_of_operators(operator):
+    """The default stack followed --max-depth and the widest union, not the nesting of
+    the expression: `(a ∩ (b ∩ (c ∩ ...)))` 300 deep filled its 166 frames, and drew
+    nothing (QA). The default finds what a stack of 5,000 frames finds."""
+    from pcsg.tracer import operator_nesting
+    text = "sphere"
+    for i in range(300):
+        text = f"(move({i % 3 * 0.001}, 0, 0) sphere {operator} {text})"
+    obj = pcsg.loads(text)
+    assert obj.stack_depth >= 2 * operator_nesting(obj.flat) >= 300    # ∪ spliced in twos
+    o, d = [[-5.0, 0, 0.1], [0, -5, 0.2]], [[1.0, 0, 0], [0, 1, 0]]
+    h = obj.trace(o, d)
+    assert h.events[EV_STACK].sum() == 0
+    deep = pcsg.loads(text, stack_depth=5000).trace(o, d)
+    assert h.t.tolist() == deep.t.tolist() and h.hit.tolist() == deep.hit.tolist()
+    assert h.hit.all() or operator == "\\"
+    # a rule's nest counts from its S-node again: one union in Sierpinski's rule
+    assert operator_nesting(pcsg.loads(SIERPINSKI).flat) == 1
+
+
 def test_full_interval_lists_are_reported_with_the_option_that_raises_it():
     o, d = [[-5.0, 0, 0]], [[1.0, 0, 0]]
     assert pcsg.loads(CLIPPED).trace(o, d).events[EV_INTERVALS].sum() == 0
