@@ -308,6 +308,19 @@ def test_a_scene_framed_from_near_is_written_scaled_up_by_a_power_of_two(tmp_pat
 POVRAY = shutil.which("povray")
 
 
+def both_pictures(tmp_path, grammar, *options):
+    """POV-Ray's picture of the exported scene and pcsg's of `grammar`, 160x120 with
+    point lights, and how far apart each pixel is (the largest channel's difference)."""
+    pov = export(tmp_path, grammar, "--shadow-samples", "1", *options)
+    subprocess.run([POVRAY, f"+I{pov}", f"+O{tmp_path / 'pov.png'}", "+W160", "+H120", "-D",
+                    "-A", "+WT2", "-GA"], check=True, capture_output=True, timeout=300)
+    assert main(["render", str(grammar), "-o", str(tmp_path / "pcsg.png"), "--size", "160x120",
+                 "--shadow-samples", "1", "--no-adaptive", "-q", *options]) == 0
+    a = np.asarray(Image.open(tmp_path / "pov.png").convert("RGB"), float)
+    b = np.asarray(Image.open(tmp_path / "pcsg.png").convert("RGB"), float)
+    return a, b, np.abs(a - b).max(axis=2)
+
+
 @pytest.mark.skipif(POVRAY is None, reason="POV-Ray is not installed (apt-get install povray)")
 @pytest.mark.parametrize("grammar,options", [(SIERPINSKI, ["--set", "c=2"]), (CSG, []),
                                              # the view and the light of the command line
@@ -324,14 +337,7 @@ POVRAY = shutil.which("povray")
                                              (GLASS, ["--set", "k=1", "--bounces", "0"]),
                                              (TINY, [])])
 def test_povray_draws_the_same_picture(tmp_path, grammar, options):
-    pov = export(tmp_path, grammar, "--shadow-samples", "1", *options)
-    subprocess.run([POVRAY, f"+I{pov}", f"+O{tmp_path / 'pov.png'}", "+W160", "+H120", "-D",
-                    "-A", "+WT2", "-GA"], check=True, capture_output=True, timeout=300)
-    assert main(["render", str(grammar), "-o", str(tmp_path / "pcsg.png"), "--size", "160x120",
-                 "--shadow-samples", "1", "--no-adaptive", "-q", *options]) == 0
-    a = np.asarray(Image.open(tmp_path / "pov.png").convert("RGB"), float)
-    b = np.asarray(Image.open(tmp_path / "pcsg.png").convert("RGB"), float)
-    d = np.abs(a - b).max(axis=2)
+    a, b, d = both_pictures(tmp_path, grammar, *options)
     # same geometry, camera and colours: shading models differ a little, edges alias
     assert d.mean() < 12 and (d > 48).mean() < 0.04, (d.mean(), (d > 48).mean())
     # and a mirrored or shifted picture would not pass
@@ -344,15 +350,8 @@ def test_cutters_flush_with_the_solid_cut_it_in_povray_too(tmp_path):
     cutter's lay exactly on it (capped holes, the whole cube drawn: mean 9.1, 3.7 % of
     the pixels off by more than 48, inside the loose bounds above); the export grows
     each cutter by 1e-4 of its size."""
-    pov = export(tmp_path, FLUSH, "--shadow-samples", "1")
-    assert "object { P_cube scale 1.0001 matrix" in pov.read_text()
-    subprocess.run([POVRAY, f"+I{pov}", f"+O{tmp_path / 'pov.png'}", "+W160", "+H120", "-D",
-                    "-A", "+WT2", "-GA"], check=True, capture_output=True, timeout=300)
-    assert main(["render", str(FLUSH), "-o", str(tmp_path / "pcsg.png"), "--size", "160x120",
-                 "--shadow-samples", "1", "--no-adaptive", "-q"]) == 0
-    a = np.asarray(Image.open(tmp_path / "pov.png").convert("RGB"), float)
-    b = np.asarray(Image.open(tmp_path / "pcsg.png").convert("RGB"), float)
-    d = np.abs(a - b).max(axis=2)
+    _, _, d = both_pictures(tmp_path, FLUSH)
+    assert "object { P_cube scale 1.0001 matrix" in (tmp_path / "flush_export.pov").read_text()
     assert d.mean() < 3 and (d > 48).mean() < 0.005, (d.mean(), (d > 48).mean())
 
 
@@ -365,14 +364,7 @@ def test_a_face_that_operands_of_an_intersection_share_has_the_first_ones_colour
     src = tmp_path / "shared.pcsg"
     src.write_text("#camera eye=(3, -4, 5) at=(0, 0, 0) fov=40\n"
                    "paint(0, 1, 0) cube ∩ paint(1, 0, 0) scale(2, 2, 1) cube\n", encoding="utf-8")
-    pov = export(tmp_path, src, "--shadow-samples", "1")
-    subprocess.run([POVRAY, f"+I{pov}", f"+O{tmp_path / 'pov.png'}", "+W160", "+H120", "-D",
-                    "-A", "+WT2", "-GA"], check=True, capture_output=True, timeout=300)
-    assert main(["render", str(src), "-o", str(tmp_path / "pcsg.png"), "--size", "160x120",
-                 "--shadow-samples", "1", "--no-adaptive", "-q"]) == 0
-    a = np.asarray(Image.open(tmp_path / "pov.png").convert("RGB"), float)
-    b = np.asarray(Image.open(tmp_path / "pcsg.png").convert("RGB"), float)
-    d = np.abs(a - b).max(axis=2)
+    _, _, d = both_pictures(tmp_path, src)
     assert d.mean() < 8 and (d > 48).mean() < 0.04, (d.mean(), (d > 48).mean())
 
 
