@@ -25,7 +25,7 @@ env "${BOUNDS_ENV[@]}" \
     tests/test_reference.py tests/test_vm.py tests/test_primitives.py tests/test_limits.py \
     tests/test_fuzz_systems.py tests/test_spheres.py tests/test_boxsplit.py \
     tests/test_instance_table.py tests/test_packets.py tests/test_states.py tests/test_maps.py \
-    tests/test_cut.py tests/test_balls.py tests/test_union_order.py \
+    tests/test_cut.py tests/test_balls.py tests/test_union_order.py tests/test_operand_trees.py \
     > "$BOUNDS_LOG" 2>&1 &
 bounds=$!
 # (venv.sh set -e: a failing pass must not end the script before the other's report)

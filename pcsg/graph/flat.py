@@ -16,6 +16,7 @@ from ..trace.vm import RAND, SALT, STORE
 from .defer import deferrable
 from .linear import invertible
 from .model import CALC, MATERIAL, PAINT, PRIMITIVE, SELECT, TRANSFORM, Graph
+from .operand_trees import operand_trees
 from .peephole import fuse_operands
 from .terminating import terminating_rules
 
@@ -46,6 +47,13 @@ Flat = namedtuple("Flat", [
                      #              box where that is smaller (radius < 0: the box); [0,4]
                      #              when no node has one (graph/volumes.py)
     "fractal",       # float64[n,5] fractal primitives: arguments, bounding radius
+    "tree_root",     # int32[n]     unions of many operands: the first row of the tree of
+                     #              boxes over their operands (graph/operand_trees.py), -1: none
+    "tree_box",      # float64[b,6] per tree row: the box of its operands
+    "tree_skip",     # int32[b]     the row after its subtree
+    "tree_first",    # int32[b]     leaves: their operands are tree_items[first:first + count]
+    "tree_count",    # int32[b]     (0: an inner row)
+    "tree_items",    # int32[k]     operand numbers
     "inst_keys",     # uint64[s]    instance table: S-node instance hash (0: empty) ->
     "inst_used",     # int16[s]     0: empty, else the entry's level + 1 (not probed)
     "inst_boxes",    # float32[s,8] that instance's own box (top levels only); keys and
@@ -180,6 +188,9 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table: dict | None = None,
     origin = np.full(n, -1, dtype=np.int32)
     for m, head in graph.origins.items():
         origin[m] = head
+    box = np.ascontiguousarray(boxes, dtype=np.float64)
+    sphere = np.ascontiguousarray(np.zeros((0, 4)) if spheres is None else spheres,
+                                  dtype=np.float64)
     return Flat(
         kind=kind, code=code,
         child_start=starts, child_count=counts,
@@ -187,9 +198,8 @@ def flatten_graph(graph: Graph, boxes: np.ndarray, table: dict | None = None,
         expr_start=_starts(ecounts), expr_count=ecounts,
         expr_ids=np.array([e for x in nodes for e in x.exprs], dtype=np.int32),
         term_rule=term, fixed=fixed, fixed_map=fixed_map, then=then, origin=origin,
-        box=np.ascontiguousarray(boxes, dtype=np.float64), fractal=fractal,
-        sphere=np.ascontiguousarray(np.zeros((0, 4)) if spheres is None else spheres,
-                                    dtype=np.float64),
+        box=box, fractal=fractal, sphere=sphere,
+        **operand_trees(kind, starts, counts, children, box, sphere),
         **table,
         by_state=np.int64(states is not None), state_count=state_count,
         state_start=_starts(np.maximum(state_count, 0)),

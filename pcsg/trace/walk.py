@@ -20,8 +20,9 @@ from .nodes import (BOXED, CUT, DX, EV_DEPTH, EV_INTERVALS, EV_LOD, EV_NONFINITE
                     sort_visits, cached_calc)
 from .normals import (average_box_normal, footprint_scale, world_diameter, world_normal,
                       world_size)
-from .windows import (entry_window, instance_slot, operand_entry, node_window, instance_window,
-                      operand_slot, state_window, volume_window, volume_normal)
+from .windows import (box_window, entry_window, instance_slot, operand_entry, node_window,
+                      instance_window, operand_slot, state_window, volume_window,
+                      volume_normal)
 from .deferred import defer_step, deferred_paint
 from .fractals import march
 from .primitives import FRACTAL_MIN, JULIA, intersect
@@ -422,6 +423,29 @@ def finish(res, ri, hit):
 
 
 @inline
+def meet_operand(flat, node, k, m, has_table, F, I, H, f, t0, t1, params, order, keys, hashes,
+                 phases):
+    """Operand k of the union `node` in frame f's window [t0, t1]: where its box meets it,
+    its window, hash and phase under its number, and k appended to order[:m]; returns m."""
+    c = flat.children[flat.child_start[node] + k]
+    if has_table:
+        es = operand_entry(flat, node, H[f], k, I[f, LEVEL])
+    else:
+        es = operand_slot(flat, c, params, I, f)
+    e0, e1 = volume_window(flat, c, es, F, f)
+    e0 = max(e0, t0)
+    e1 = min(e1, t1)
+    if e0 <= e1:
+        keys[k, 0] = e0
+        keys[k, 1] = e1
+        hashes[k] = child_hash(flat, H[f], node, k)
+        phases[k] = BOXED if has_table and es >= 0 else INSIDE
+        order[m] = k
+        m += 1
+    return m
+
+
+@inline
 def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, max_depth, S, ev,
          res, ri):
     """The first-hit walk over the frames 0..sp-1 of S (the ray in each frame's own
@@ -504,22 +528,26 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                 # nearest box first, cheap operands before the others: sort the children
                 # that the window meets; keys, hashes and phases by operand number
                 m = 0
-                for k in range(n):
-                    c = flat.children[flat.child_start[node] + k]
-                    if has_table:
-                        es = operand_entry(flat, node, H[f], k, I[f, LEVEL])
-                    else:
-                        es = operand_slot(flat, c, params, I, f)
-                    e0, e1 = volume_window(flat, c, es, F, f)
-                    e0 = max(e0, t0)
-                    e1 = min(e1, t1)
-                    if e0 <= e1:
-                        keys[k, 0] = e0
-                        keys[k, 1] = e1
-                        hashes[k] = child_hash(flat, H[f], node, k)
-                        phases[k] = BOXED if has_table and es >= 0 else INSIDE
-                        order[m] = k
-                        m += 1
+                row = flat.tree_root[node]
+                if row < 0:
+                    for k in range(n):
+                        m = meet_operand(flat, node, k, m, has_table, F, I, H, f, t0, t1,
+                                         params, order, keys, hashes, phases)
+                else:
+                    # only the operands under the tree boxes the window meets (a box that
+                    # holds theirs): the same ones the loop above finds
+                    end = flat.tree_skip[row]
+                    while row < end:
+                        b0, b1 = box_window(flat.tree_box, row, F, f)
+                        if max(b0, t0) > min(b1, t1):
+                            row = flat.tree_skip[row]
+                            continue
+                        first = flat.tree_first[row]
+                        for j in range(first, first + flat.tree_count[row]):
+                            m = meet_operand(flat, node, flat.tree_items[j], m, has_table,
+                                             F, I, H, f, t0, t1, params, order, keys,
+                                             hashes, phases)
+                        row += 1
                 sort_visits(flat, node, order, m, keys[:, 0])
                 for j in range(m - 1, -1, -1):     # the source frame f is overwritten last
                     g = sp + j

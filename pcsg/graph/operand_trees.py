@@ -1,0 +1,126 @@
+"""Trees of boxes over the operands of wide unions, for the tracer.
+
+A union's operands are tested one by one (walk.py): a generated scene written as one
+union of 10,000 spheres cost each ray 10,000 box tests (3.1 s at 320x240 against 0.17 s
+for the same spheres nested into unions of four by hand). A union of at least WIDE
+operands gets a tree of boxes over its operands' hyper boxes, and a ray tests only the
+operands whose tree boxes it meets. The operands keep their numbers, so the instance
+hashes (rand(), the instance table) and the order of visits are those of the union as
+written: the same operands are met, and the same picture drawn.
+
+The tree is laid out depth first; each tree node stores where its subtree ends (skip),
+so a ray walks it without a stack: into a node whose box it meets (the next row), past
+one whose box it misses (its skip). A leaf holds up to LEAF operands.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .model import UNION
+
+WIDE = 16       # the fewest operands of a union that get a tree
+LEAF = 4        # the most operands of a leaf
+# an instance table's box is float32, cut to its node's box and rounded to nearest: it may
+# stick out of that box by half a float32 step, so each operand's box is widened by more
+WIDEN = 2.0 ** -20
+TINY = 1e-37
+
+
+def operand_trees(kind, starts, counts, children, boxes, spheres) -> dict:
+    """The Flat's tree_* fields: tree_root[n] (-1: no tree), and per tree node its box,
+    skip, and operands tree_items[first:first + count] (count 0: an inner node)."""
+    n = len(kind)
+    root = np.full(n, -1, dtype=np.int32)
+    out = _Trees()
+    for u in np.flatnonzero((kind == UNION) & (counts >= WIDE)).tolist():
+        ks = np.arange(counts[u], dtype=np.int32)
+        items = _item_boxes(boxes, spheres, children[starts[u] + ks])
+        keep = items[:, 0] <= items[:, 3]       # an empty box meets no ray
+        if keep.sum() >= 2:
+            root[u] = out.build(ks[keep], items[keep])
+    return dict(tree_root=root, **out.arrays())
+
+
+def _item_boxes(boxes, spheres, nodes) -> np.ndarray:
+    """Each node's box as the walk tests it (windows.volume_window): its box, or its sphere
+    where it has one, widened; an empty box stays empty (all sides inverted)."""
+    b = np.array(boxes[nodes], dtype=np.float64)
+    empty = b[:, 0] > b[:, 3]
+    # box_window reads a box as empty by its x sides only, and other sides' slabs swap
+    # crossed ends: as a ray meets it, a box is each axis' span
+    lo, hi = np.minimum(b[:, :3], b[:, 3:]), np.maximum(b[:, :3], b[:, 3:])
+    lo[empty], hi[empty] = np.inf, -np.inf
+    if spheres is not None and len(spheres):
+        s = spheres[nodes]
+        has = s[:, 3] >= 0.0
+        r = s[has, 3:4] * (1.0 + WIDEN)
+        lo[has] = np.minimum(lo[has], s[has, :3] - r)
+        hi[has] = np.maximum(hi[has], s[has, :3] + r)
+    with np.errstate(invalid="ignore"):     # inf - inf where a side is already infinite
+        lo = lo - (np.abs(lo) * WIDEN + TINY)
+        hi = hi + (np.abs(hi) * WIDEN + TINY)
+    return np.concatenate([lo, hi], axis=1)
+
+
+class _Trees:
+    def __init__(self):
+        self.box: list[np.ndarray] = []
+        self.skip: list[int] = []
+        self.first: list[int] = []
+        self.count: list[int] = []
+        self.items: list[np.ndarray] = []
+        self.n_items = 0
+
+    def build(self, ks: np.ndarray, items: np.ndarray) -> int:
+        """A tree over the operands ks with boxes items; returns its first row."""
+        first = len(self.skip)
+        # an unbounded operand (a plane) as a finite one, to be sorted among the others
+        finite = np.clip(items, -1e300, 1e300)
+        centres = 0.5 * (finite[:, :3] + finite[:, 3:])
+        # depth first without recursion: (operands, the row of their node)
+        todo = [(np.arange(len(ks)), None)]
+        ends = []                       # (row, its subtree's operands) in order made
+        while todo:
+            sel, _ = todo.pop()
+            row = len(self.skip)
+            sub = items[sel]
+            self.box.append(np.concatenate([sub[:, :3].min(axis=0), sub[:, 3:].max(axis=0)]))
+            self.skip.append(-1)
+            if len(sel) <= LEAF:
+                self.first.append(self.n_items)
+                self.count.append(len(sel))
+                self.items.append(ks[sel])
+                self.n_items += len(sel)
+                self.skip[row] = row + 1
+            else:
+                self.first.append(0)
+                self.count.append(0)
+                c = centres[sel]
+                axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
+                half = len(sel) // 2
+                # a stable order: the same tree for the same boxes, whatever numpy's
+                # partition does with ties
+                order = np.lexsort((sel, c[:, axis]))
+                todo.append((sel[order[half:]], row))
+                todo.append((sel[order[:half]], row))
+                ends.append(row)
+        # an inner node's subtree ends where its last leaf's does: every leaf's skip is
+        # set; an inner node's is its second child's subtree's end, found from the end
+        for row in reversed(ends):
+            second = self._second_child(row)
+            self.skip[row] = self.skip[second]
+        return first
+
+    def _second_child(self, row: int) -> int:
+        """The row of an inner node's second child: past its first child's subtree, which
+        starts on the next row (set already: rows are finished from the end)."""
+        return self.skip[row + 1]
+
+    def arrays(self) -> dict:
+        return dict(
+            tree_box=np.ascontiguousarray(np.array(self.box, dtype=np.float64).reshape(-1, 6)),
+            tree_skip=np.array(self.skip, dtype=np.int32),
+            tree_first=np.array(self.first, dtype=np.int32),
+            tree_count=np.array(self.count, dtype=np.int32),
+            tree_items=np.concatenate([np.zeros(0, dtype=np.int32), *self.items]).astype(
+                np.int32))
