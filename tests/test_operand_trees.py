@@ -48,8 +48,32 @@ def _graftals(n):
     return pcsg.loads(" ∪\n".join(parts) + OCTA[1:], max_depth=3)
 
 
+def _repainted(operand):
+    """`paint(...) rest` of _scattered in another paint."""
+    return "paint(0.9, 0.1, 0.1) " + operand.split(") ", 1)[1]
+
+
+def _cheese(n):
+    """A block with n holes, one drilled by n subtrahends, and a wide union cut by a box:
+    interval lists of wide unions and differences (walk.intervals), with holes that
+    coincide and holes that touch."""
+    rng = np.random.default_rng(n)
+    holes = _scattered(rng, n, "sphere")
+    # coincident ones of other paints (the first one's shows), and touching ones
+    holes += [_repainted(h) for h in holes[:5]] + [f"move({x}, 5, 5) sphere" for x in (3, 5, 7)]
+    cut = _scattered(rng, n, "cube")
+    cut += [_repainted(c) for c in cut[:5]] + ["move(5, 5, 5) {d = 2} T"]
+    drilled = " \\ ".join(_scattered(rng, n, "sphere"))
+    return pcsg.loads(f"move(5, 5, 5) uscale(4.5) cube \\ ({' ∪ '.join(holes)}) ∪\n"
+                      f"move(-12, 0, 0) (move(5, 5, 5) uscale(4.5) cube \\ {drilled}) ∪\n"
+                      f"move(12, 0, 0) (({' ∪ '.join(cut)}) ∩ move(5, 5, 5) uscale(4) cube)\n"
+                      "T if(d > 0, 2, 1)\n1: T → sphere\n"
+                      "2: T → {d = d - 1} (move(1, 0, 0) uscale(0.5) T ∪ move(-1, 0, 0) "
+                      "uscale(0.5) T ∪ cube)\n")
+
+
 SYSTEMS = {"spheres": lambda: _spheres(300), "forest": lambda: _forest(40),
-           "graftals": lambda: _graftals(60)}
+           "graftals": lambda: _graftals(60), "cheese": lambda: _cheese(150)}
 
 
 def _without_trees(obj):
@@ -72,7 +96,7 @@ def _rays(obj):
 @pytest.mark.parametrize("name", sorted(SYSTEMS))
 def test_a_tree_meets_what_the_union_tested_operand_by_operand_meets(name):
     obj = SYSTEMS[name]()
-    assert (obj.flat.tree_root >= 0).sum() == 1
+    assert (obj.flat.tree_root >= 0).sum() == (3 if name == "cheese" else 1)
     plain = _without_trees(obj)
     o, d = _rays(obj)
     lod = 0.002 if name == "graftals" else 0.0      # graftal instances at pixel size
@@ -86,6 +110,13 @@ def test_a_tree_meets_what_the_union_tested_operand_by_operand_meets(name):
                 assert np.array_equal(getattr(a, field), getattr(b, field), equal_nan=True), \
                     (field, packets, any_hit)
             assert np.array_equal(a.events, b.events)
+
+
+def test_a_block_with_many_holes_agrees_with_the_reference():
+    obj = _cheese(40)
+    for view in [(1, -1.2, 0.6), (-0.2, 0.3, 1)]:
+        o, d = camera_rays(obj.bounds, 40, view, spread=0.3)
+        assert_agrees(obj, o, d, min_hits=400)
 
 
 def test_a_wide_union_of_random_trees_agrees_with_the_reference():

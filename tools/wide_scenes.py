@@ -1,6 +1,7 @@
 """Generated scenes written as one wide union, and the same scenes nested by hand into a
-balanced hierarchy of unions of four, for timing the trees over wide unions
-(graph/operand_trees.py) with tools/ab.py:
+balanced hierarchy of unions of four, and a block with 1,000 holes as `cube \\ (∪ of
+holes)` and as `cube \\ hole \\ hole ...`, for timing the trees over wide unions and
+differences (graph/operand_trees.py) with tools/ab.py:
 
     python tools/wide_scenes.py /tmp/wide
     python tools/ab.py /tmp/before . --rounds 5 /tmp/wide/spheres_flat_10000.pcsg \
@@ -41,6 +42,13 @@ def forest(n: int) -> tuple[list, str]:
     return items, "#camera eye=(60, -80, 50) at=(25, 25, 0) fov=40\n" + rules
 
 
+def holes(n: int) -> list[str]:
+    rng = random.Random(3)
+    return [f"move({rng.uniform(-1, 1):.4f}, {rng.uniform(-1, 1):.4f}, "
+            f"{rng.uniform(-1, 1):.4f}) uscale({rng.uniform(0.05, 0.15):.3f}) sphere"
+            for _ in range(n)]
+
+
 def nested(items: list, axis: int = 0) -> str:
     """A balanced nest of unions by median splits along the axes in turn."""
     if len(items) <= 4:
@@ -59,6 +67,11 @@ def main(out: Path) -> None:
             (out / f"{name}_flat_{n}.pcsg").write_text(
                 " ∪\n".join(text for _, text in items) + "\n" + tail)
             (out / f"{name}_nested_{n}.pcsg").write_text(nested(items) + "\n" + tail)
+    camera = "#camera eye=(3, -4, 2.5) at=(0, 0, 0) fov=40\n"
+    drilled = holes(1000)
+    (out / "cheese_1000.pcsg").write_text("cube \\ (" + " ∪\n".join(drilled) + ")\n" + camera)
+    (out / "cheesechain_1000.pcsg").write_text("cube \\ " + " \\\n".join(drilled) + "\n"
+                                               + camera)
     print(f"wrote the scenes into {out}")
 
 

@@ -18,7 +18,8 @@ Scratch = namedtuple("Scratch", [
     "F", "I", "H",          # the first-hit walk's frames (nodes.py columns)
     "Fi", "Ii", "Hi",       # the interval walk's frames
     "iv",       # (interval_rows, IV_WIDTH) interval lists of ∩ and \\ subtrees
-    "lists",    # (stack + 1, 2) their [start, count] stack
+    "lists",    # (2 * stack + 3, 2) their [start, count] stack (a union with an operand
+                #   tree holds two entries: its candidates' and its list: walk.intervals)
     "stack",    # the expression machine's value stack
     "args",     # T- and paint-node arguments
     "m34",      # a T-node's 3x4 map
@@ -47,7 +48,7 @@ def make_scratch(flat, limits):
         np.zeros(stack_depth, dtype=np.uint64),
         np.empty((stack_depth, F_WIDTH)), np.zeros((stack_depth, I_WIDTH), dtype=np.int64),
         np.zeros(stack_depth, dtype=np.uint64),
-        np.empty((limits[LIM_ROWS], IV_WIDTH)), np.zeros((stack_depth + 1, 2), dtype=np.int64),
+        np.empty((limits[LIM_ROWS], IV_WIDTH)), np.zeros((2 * stack_depth + 3, 2), dtype=np.int64),
         np.empty(flat.max_stack), np.empty(12), np.empty((3, 4)), np.empty(8),
         np.empty(flat.max_children, dtype=np.int64), np.empty((flat.max_children, 2)),
         np.empty(flat.max_children, dtype=np.uint64), np.empty(flat.max_children, dtype=np.int64),

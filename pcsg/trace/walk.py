@@ -204,6 +204,80 @@ def thick(s, e):
     return e - s > SLIVER * max(abs(s), abs(e))
 
 
+@inline
+def next_leaf(flat, row, end, F, f, t0, t1):
+    """The first leaf of an operand tree (graph/operand_trees.py) from `row` on, before
+    `end`, whose box and the boxes above it frame f's window [t0, t1] meets; end if none."""
+    while row < end:
+        b0, b1 = box_window(flat.tree_box, row, F, f)
+        if max(b0, t0) > min(b1, t1):
+            row = flat.tree_skip[row]
+        elif flat.tree_count[row] > 0:
+            return row
+        else:
+            row += 1
+    return end
+
+
+@inline
+def candidate(iv, start, p):
+    """The operand number p of a union's candidates, written from row `start` of iv on."""
+    return np.int64(iv[start + p // IV_WIDTH, p % IV_WIDTH])
+
+
+@inline
+def swap_candidates(iv, start, p, q):
+    a, b = p // IV_WIDTH, q // IV_WIDTH
+    x = iv[start + a, p % IV_WIDTH]
+    iv[start + a, p % IV_WIDTH] = iv[start + b, q % IV_WIDTH]
+    iv[start + b, q % IV_WIDTH] = x
+
+
+@kernel
+def candidates(flat, node, F, f, iv, top, cap_iv):
+    """The operands of the union `node` with a tree whose tree boxes frame f's window
+    meets (of a difference: its first operand, and such subtrahends), in rows from `top`
+    of iv, IV_WIDTH a row, sorted by number: the ones among which the loop over every
+    operand finds a list that is not empty. Returns how many, -1 where the rows run out."""
+    t0, t1 = F[f, T0], F[f, T1]
+    row = flat.tree_root[node]
+    end = flat.tree_skip[row]
+    m = 0
+    if flat.kind[node] == DIFFERENCE:   # its tree holds the subtrahends
+        iv[top, 0] = 0.0
+        m = 1
+    row = next_leaf(flat, row, end, F, f, t0, t1)
+    while row < end:
+        first = flat.tree_first[row]
+        for j in range(first, first + flat.tree_count[row]):
+            if top + m // IV_WIDTH >= cap_iv:
+                return -1
+            iv[top + m // IV_WIDTH, m % IV_WIDTH] = flat.tree_items[j]
+            m += 1
+        row = next_leaf(flat, row + 1, end, F, f, t0, t1)
+    # a heap sort: a ray may pass through the boxes of thousands of operands
+    for root in range(m // 2 - 1, -1, -1):
+        sift_candidate(iv, top, root, m)
+    for last in range(m - 1, 0, -1):
+        swap_candidates(iv, top, 0, last)
+        sift_candidate(iv, top, 0, last)
+    return m
+
+
+@inline
+def sift_candidate(iv, start, root, end):
+    while True:
+        c = 2 * root + 1
+        if c >= end:
+            return
+        if c + 1 < end and candidate(iv, start, c + 1) > candidate(iv, start, c):
+            c += 1
+        if candidate(iv, start, root) >= candidate(iv, start, c):
+            return
+        swap_candidates(iv, start, root, c)
+        root = c
+
+
 @kernel
 def push_list(lists, ls, start, count):
     """Put a finished subtree's interval list (rows start..start+count) on the list stack."""
@@ -309,16 +383,45 @@ def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, dnorm, max_depth, ev):
                     ls = push_list(lists, ls, top, 0)
                     sp -= 1
                     continue
+                first = 0
+                if flat.tree_root[node] >= 0:
+                    # only its candidates (under an entry [start, count] of the list stack),
+                    # merged as the loop over every operand merges them: skipped, an operand
+                    # that leaves an empty list leaves the list it is merged with as it is
+                    # (tests/test_operand_trees.py)
+                    m = candidates(flat, node, F, f, iv, top, cap_iv)
+                    if m <= 0:
+                        if m < 0:
+                            note(ev, EV_INTERVALS, node, I[f, LEVEL])
+                        ls = push_list(lists, ls, top, 0)
+                        sp -= 1
+                        continue
+                    ls = push_list(lists, ls, top, m)
+                    first = candidate(iv, top, 0)
+                    top += (m + IV_WIDTH - 1) // IV_WIDTH
+                    if first != 0:      # as operand 0's empty list: a list to merge with
+                        ls = push_list(lists, ls, top, 0)
                 I[f, PHASE] = 1
-                enter_child(flat, node, 0, F, I, H, f, sp)
+                enter_child(flat, node, first, F, I, H, f, sp)
                 sp += 1
                 continue
             if not step_unary(flat, node, kind, F, I, H, f, params, slot_base, S, ev):
                 ls = push_list(lists, ls, top, 0)
                 sp -= 1
             continue
-        # an operator whose child number phase-1 has just left its list on top
-        if phase > 1:
+        # an operator whose child number phase-1 has just left its list on top (a union or
+        # difference with a tree: its candidate number phase-1)
+        tree = flat.tree_root[node] >= 0
+        merge = phase > 1
+        if tree and phase == 1:
+            if lists[ls - 2, 1] == 0:       # operand 0 was not a candidate (above)
+                merge = True
+            elif lists[ls - 2, 1] == 1 or candidate(iv, lists[ls - 2, 0], 1) != 1:
+                # the loop over every operand merges operand 0's list with operand 1's,
+                # empty here, before any other: as it comes out of a merge
+                ls = push_list(lists, ls, top, 0)
+                merge = True
+        if merge:
             a0, na = lists[ls - 2, 0], lists[ls - 2, 1]
             b0, nb = lists[ls - 1, 0], lists[ls - 1, 1]
             op = 0 if kind == UNION else (1 if kind == INTERSECTION else 2)
@@ -334,6 +437,19 @@ def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, dnorm, max_depth, ev):
             lists[ls - 1, 1] = n
             top = a0 + n
         acc = lists[ls - 1, 1]
+        if tree:
+            if phase >= lists[ls - 2, 1] or (acc == 0 and kind != UNION):
+                # its candidates' entry goes: its list in its place
+                lists[ls - 2, 0] = lists[ls - 1, 0]
+                lists[ls - 2, 1] = acc
+                ls -= 1
+                sp -= 1
+            else:
+                I[f, PHASE] = phase + 1
+                enter_child(flat, node, candidate(iv, lists[ls - 2, 0], phase), F, I, H, f,
+                            sp)
+                sp += 1
+            continue
         done = phase >= flat.child_count[node] or (acc == 0 and kind != UNION)
         if done:
             sp -= 1
@@ -537,17 +653,14 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                     # only the operands under the tree boxes the window meets (a box that
                     # holds theirs): the same ones the loop above finds
                     end = flat.tree_skip[row]
+                    row = next_leaf(flat, row, end, F, f, t0, t1)
                     while row < end:
-                        b0, b1 = box_window(flat.tree_box, row, F, f)
-                        if max(b0, t0) > min(b1, t1):
-                            row = flat.tree_skip[row]
-                            continue
                         first = flat.tree_first[row]
                         for j in range(first, first + flat.tree_count[row]):
                             m = meet_operand(flat, node, flat.tree_items[j], m, has_table,
                                              F, I, H, f, t0, t1, params, order, keys,
                                              hashes, phases)
-                        row += 1
+                        row = next_leaf(flat, row + 1, end, F, f, t0, t1)
                 sort_visits(flat, node, order, m, keys[:, 0])
                 for j in range(m - 1, -1, -1):     # the source frame f is overwritten last
                     g = sp + j
