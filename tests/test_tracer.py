@@ -30,7 +30,9 @@ def test_samples_agree_with_the_reference(name, overrides, view):
     obj = pcsg.load(GRAMMARS / f"{name}.pcsg", **overrides)
     # the samples' grounds and seas are infinite; aim at the finite part of the object
     bounds = _finite_bounds(obj)
-    o, d = camera_rays(bounds, 40, view, seed=hash(view) & 0xFFFF)
+    # the tree's reference walks its expansion in Python, 7 s a view at 40x40
+    n = 28 if name == "sympodial_tree" else 40
+    o, d = camera_rays(bounds, n, view, seed=hash(view) & 0xFFFF)
     o = _outside_half_spaces(obj, o)
     assert_agrees(obj, o, d, min_hits=50)
 
