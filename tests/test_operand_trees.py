@@ -172,3 +172,13 @@ def test_a_tree_is_built_from_the_boxes_alone():
     a, b = _spheres(500).flat, _spheres(500).flat
     for field in ("tree_root", "tree_box", "tree_skip", "tree_first", "tree_count", "tree_items"):
         assert np.array_equal(getattr(a, field), getattr(b, field))
+
+
+def test_no_tree_where_no_operand_is_bounded():
+    """Where nothing is bounded (the boxes are all of space), a tree would cull nothing
+    and cost each ray its rows."""
+    from pcsg.graph.flat import flatten_graph
+    obj = _spheres(40)
+    everywhere = np.tile([-np.inf] * 3 + [np.inf] * 3, (len(obj.graph.nodes), 1))
+    assert (flatten_graph(obj.graph, everywhere).tree_root == -1).all()
+    assert (obj.flat.tree_root >= 0).sum() == 1

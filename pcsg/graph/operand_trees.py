@@ -41,7 +41,8 @@ def operand_trees(kind, starts, counts, children, boxes, spheres) -> dict:
         ks = np.arange(int(kind[u] == DIFFERENCE), counts[u], dtype=np.int32)
         items = _item_boxes(boxes, spheres, children[starts[u] + ks])
         keep = items[:, 0] <= items[:, 3]       # an empty box meets no ray
-        if keep.sum() >= 2:
+        # (where nothing is bounded, every box is all of space: a tree would cull nothing)
+        if keep.sum() >= 2 and np.isfinite(items[keep]).all(axis=1).any():
             root[u] = out.build(ks[keep], items[keep])
     return dict(tree_root=root, **out.arrays())
 
