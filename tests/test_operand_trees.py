@@ -182,3 +182,29 @@ def test_no_tree_where_no_operand_is_bounded():
     everywhere = np.tile([-np.inf] * 3 + [np.inf] * 3, (len(obj.graph.nodes), 1))
     assert (flatten_graph(obj.graph, everywhere).tree_root == -1).all()
     assert (obj.flat.tree_root >= 0).sum() == 1
+
+
+@pytest.mark.parametrize("rows", [16, 20, 64])
+def test_where_the_interval_rows_run_out_a_tree_does_what_the_loop_does(rows):
+    """The candidates are kept apart from the interval rows, which the loop over every
+    operand would use: where they run out, the loop's fallback (an operator keeps the
+    list it has) meets the same lists at the same rows. The first version kept them in
+    those rows, ran out sooner, and drew the far face of `long box ∩ (33 slabs)` (QA)."""
+    from pcsg.trace.nodes import EV_INTERVALS
+    slabs = " ∪ ".join(f"paint({k / 33:.4f}, 0, 0) move({2 * k + 1}, 0, 0) uscale(0.5) cube"
+                       for k in range(33))
+    thin = " \\ ".join(f"move({0.03 * k - 4.5:.3f}, 0, 0) scale(0.01, 2, 0.2) cube"
+                       for k in range(300))
+    rng = np.random.default_rng(rows)
+    for text, o in ((f"scale(100000, 1, 1) cube ∩ ({slabs})", [-5.0, 0.0, 0.01]),
+                    (f"paint(0, 0, 1) scale(5, 1, 1) cube \\ {thin}", [-8.0, 0.0, 0.01])):
+        obj = pcsg.loads(text, interval_rows=rows)
+        plain = _without_trees(obj)
+        origins = np.array(o) + rng.uniform(-0.3, 0.3, (200, 3)) * [0, 1, 0.1]
+        d = np.tile([1.0, 0.0, 0.0], (200, 1)) + rng.uniform(-0.02, 0.02, (200, 3))
+        a, b = obj.trace(origins, d, packets=False), plain.trace(origins, d, packets=False)
+        for field in ("t", "normal", "paint", "material", "what"):
+            assert np.array_equal(getattr(a, field), getattr(b, field), equal_nan=True), field
+        # the merges it skips (an operand's empty list) are ones the loop may find full
+        assert (a.events[EV_INTERVALS] <= b.events[EV_INTERVALS]).all()
+        assert b.events[EV_INTERVALS].sum() > 0 or rows > 16

@@ -12,6 +12,8 @@ from .nodes import F_WIDTH, I_WIDTH
 
 IV_WIDTH = 16
 CALC_CACHE_SLOTS = 4096      # a power of two
+CANDIDATES = 4      # wide operators nested in one interval walk before the next loops over
+                    # every operand (walk.candidates)
 
 Scratch = namedtuple("Scratch", [
     "params",   # (2 * stack + 1, n_params) parameter states by slot, and a spare
@@ -27,6 +29,8 @@ Scratch = namedtuple("Scratch", [
     "order", "keys", "hashes", "phases",  # union children sorted by their window, their
                                           # hashes and the PHASE their frames start in
     "ckeys", "cvals",       # the cache of calculated states (nodes.cached_calc)
+    "cands",    # operands of the wide unions and differences an interval walk is in
+                #   (walk.candidates), as many as CANDIDATES lists of the widest's
     "visits",   # [S-node instances the current ray entered, the most it may]
     "m21",      # a T-node's map with its inverse (nodes.transform_map)
 ])
@@ -53,4 +57,6 @@ def make_scratch(flat, limits):
         np.empty(flat.max_children, dtype=np.int64), np.empty((flat.max_children, 2)),
         np.empty(flat.max_children, dtype=np.uint64), np.empty(flat.max_children, dtype=np.int64),
         np.zeros(slots, dtype=np.uint64), np.empty((slots, flat.n_params)),
+        np.empty(CANDIDATES * flat.max_children if flat.tree_skip.shape[0] else 1,
+                 dtype=np.int64),
         np.array([0, limits[LIM_INSTANCES]], dtype=np.int64), np.empty(24))

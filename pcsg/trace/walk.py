@@ -30,6 +30,7 @@ from .scratch import IV_WIDTH
 
 
 SLIVER = 1e-9           # relative thickness below which ∩ and \ pieces are slivers
+BY_TREE = 1 << 40       # added to the PHASE of an operator that walks by its operand tree
 FLAT_MIN = 6            # primitive codes >= this have a surface only: triangles, fractals
 # interval record columns: an interval is [t_in, t_out] with what is at each end
 IT_IN, IT_OUT, IN_N, OUT_N, IN_PAINT, OUT_PAINT, IN_MAT, OUT_MAT = 0, 1, 2, 5, 8, 11, 14, 15
@@ -219,62 +220,52 @@ def next_leaf(flat, row, end, F, f, t0, t1):
     return end
 
 
-@inline
-def candidate(iv, start, p):
-    """The operand number p of a union's candidates, written from row `start` of iv on."""
-    return np.int64(iv[start + p // IV_WIDTH, p % IV_WIDTH])
-
-
-@inline
-def swap_candidates(iv, start, p, q):
-    a, b = p // IV_WIDTH, q // IV_WIDTH
-    x = iv[start + a, p % IV_WIDTH]
-    iv[start + a, p % IV_WIDTH] = iv[start + b, q % IV_WIDTH]
-    iv[start + b, q % IV_WIDTH] = x
-
-
 @kernel
-def candidates(flat, node, F, f, iv, top, cap_iv):
+def candidates(flat, node, F, f, cands, start):
     """The operands of the union `node` with a tree whose tree boxes frame f's window
-    meets (of a difference: its first operand, and such subtrahends), in rows from `top`
-    of iv, IV_WIDTH a row, sorted by number: the ones among which the loop over every
-    operand finds a list that is not empty. Returns how many, -1 where the rows run out."""
+    meets (of a difference: its first operand, and such subtrahends), into cands from
+    `start` on, sorted by number: the ones among which the loop over every operand finds
+    a list that is not empty. Returns how many, -1 where cands runs out (then the loop
+    over every operand does: the interval rows are the loop's, and so is what it does
+    where they run out)."""
     t0, t1 = F[f, T0], F[f, T1]
     row = flat.tree_root[node]
     end = flat.tree_skip[row]
     m = 0
     if flat.kind[node] == DIFFERENCE:   # its tree holds the subtrahends
-        iv[top, 0] = 0.0
+        if start >= cands.shape[0]:
+            return -1
+        cands[start] = 0
         m = 1
     row = next_leaf(flat, row, end, F, f, t0, t1)
     while row < end:
         first = flat.tree_first[row]
         for j in range(first, first + flat.tree_count[row]):
-            if top + m // IV_WIDTH >= cap_iv:
+            if start + m >= cands.shape[0]:
                 return -1
-            iv[top + m // IV_WIDTH, m % IV_WIDTH] = flat.tree_items[j]
+            cands[start + m] = flat.tree_items[j]
             m += 1
         row = next_leaf(flat, row + 1, end, F, f, t0, t1)
     # a heap sort: a ray may pass through the boxes of thousands of operands
     for root in range(m // 2 - 1, -1, -1):
-        sift_candidate(iv, top, root, m)
+        sift_candidate(cands, start, root, m)
     for last in range(m - 1, 0, -1):
-        swap_candidates(iv, top, 0, last)
-        sift_candidate(iv, top, 0, last)
+        cands[start], cands[start + last] = cands[start + last], cands[start]
+        sift_candidate(cands, start, 0, last)
     return m
 
 
 @inline
-def sift_candidate(iv, start, root, end):
+def sift_candidate(cands, start, root, end):
     while True:
         c = 2 * root + 1
         if c >= end:
             return
-        if c + 1 < end and candidate(iv, start, c + 1) > candidate(iv, start, c):
+        if c + 1 < end and cands[start + c + 1] > cands[start + c]:
             c += 1
-        if candidate(iv, start, root) >= candidate(iv, start, c):
+        if cands[start + root] >= cands[start + c]:
             return
-        swap_candidates(iv, start, root, c)
+        cands[start + root], cands[start + c] = cands[start + c], cands[start + root]
         root = c
 
 
@@ -297,7 +288,7 @@ def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, dnorm, max_depth, ev):
     on the way only cull: a primitive's interval is clipped to [tmin, tmax], as the
     reference clips it. A piece clipped at a box or a hit would be shorter, and ∩ and \\
     drop pieces shorter than SLIVER."""
-    params, out8 = S.params, S.out8
+    params, out8, cands = S.params, S.out8, S.cands
     F, I, H, iv, lists = S.Fi, S.Ii, S.Hi, S.iv, S.lists
     slot_base = S.F.shape[0]
     cap_f = F.shape[0]
@@ -311,6 +302,7 @@ def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, dnorm, max_depth, ev):
     sp = 1              # frames
     ls = 0              # lists: rows [start, count]
     top = 0             # first free interval row
+    ct = 0              # first free entry of cands
     while sp > 0:
         f = sp - 1
         node = I[f, NODE]
@@ -384,24 +376,23 @@ def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, dnorm, max_depth, ev):
                     sp -= 1
                     continue
                 first = 0
-                if flat.tree_root[node] >= 0:
-                    # only its candidates (under an entry [start, count] of the list stack),
-                    # merged as the loop over every operand merges them: skipped, an operand
-                    # that leaves an empty list leaves the list it is merged with as it is
-                    # (tests/test_operand_trees.py)
-                    m = candidates(flat, node, F, f, iv, top, cap_iv)
-                    if m <= 0:
-                        if m < 0:
-                            note(ev, EV_INTERVALS, node, I[f, LEVEL])
-                        ls = push_list(lists, ls, top, 0)
-                        sp -= 1
-                        continue
-                    ls = push_list(lists, ls, top, m)
-                    first = candidate(iv, top, 0)
-                    top += (m + IV_WIDTH - 1) // IV_WIDTH
+                I[f, PHASE] = 1
+                m = -1 if flat.tree_root[node] < 0 else candidates(flat, node, F, f, cands, ct)
+                if m == 0:
+                    ls = push_list(lists, ls, top, 0)
+                    sp -= 1
+                    continue
+                if m > 0:
+                    # only its candidates (cands[ct:ct + m], an entry [ct, m] of the list
+                    # stack), merged as the loop over every operand merges them: skipped,
+                    # an operand that leaves an empty list leaves the list it is merged
+                    # with as it is (tests/test_operand_trees.py)
+                    ls = push_list(lists, ls, ct, m)
+                    first = cands[ct]
+                    ct += m
+                    I[f, PHASE] = BY_TREE + 1
                     if first != 0:      # as operand 0's empty list: a list to merge with
                         ls = push_list(lists, ls, top, 0)
-                I[f, PHASE] = 1
                 enter_child(flat, node, first, F, I, H, f, sp)
                 sp += 1
                 continue
@@ -410,13 +401,15 @@ def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, dnorm, max_depth, ev):
                 sp -= 1
             continue
         # an operator whose child number phase-1 has just left its list on top (a union or
-        # difference with a tree: its candidate number phase-1)
-        tree = flat.tree_root[node] >= 0
+        # difference that walks by its tree: its candidate number phase-1-BY_TREE)
+        tree = phase > BY_TREE
+        if tree:
+            phase -= BY_TREE
         merge = phase > 1
         if tree and phase == 1:
             if lists[ls - 2, 1] == 0:       # operand 0 was not a candidate (above)
                 merge = True
-            elif lists[ls - 2, 1] == 1 or candidate(iv, lists[ls - 2, 0], 1) != 1:
+            elif lists[ls - 2, 1] == 1 or cands[lists[ls - 2, 0] + 1] != 1:
                 # the loop over every operand merges operand 0's list with operand 1's,
                 # empty here, before any other: as it comes out of a merge
                 ls = push_list(lists, ls, top, 0)
@@ -440,14 +433,14 @@ def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, dnorm, max_depth, ev):
         if tree:
             if phase >= lists[ls - 2, 1] or (acc == 0 and kind != UNION):
                 # its candidates' entry goes: its list in its place
+                ct = lists[ls - 2, 0]
                 lists[ls - 2, 0] = lists[ls - 1, 0]
                 lists[ls - 2, 1] = acc
                 ls -= 1
                 sp -= 1
             else:
-                I[f, PHASE] = phase + 1
-                enter_child(flat, node, candidate(iv, lists[ls - 2, 0], phase), F, I, H, f,
-                            sp)
+                I[f, PHASE] = BY_TREE + phase + 1
+                enter_child(flat, node, cands[lists[ls - 2, 0] + phase], F, I, H, f, sp)
                 sp += 1
             continue
         done = phase >= flat.child_count[node] or (acc == 0 and kind != UNION)
