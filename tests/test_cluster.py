@@ -16,7 +16,7 @@ from pcsg.distributed.cluster import DaskRunner  # noqa: E402
 from pcsg.distributed.sweep import sweep_outputs  # noqa: E402
 from pcsg.render.job import Options  # noqa: E402
 
-from .conftest import GRAMMARS  # noqa: E402
+from .conftest import GRAMMARS, sigint_reaches_children  # noqa: E402
 
 pytestmark = pytest.mark.cluster
 SAMPLES = sorted(str(p) for p in GRAMMARS.glob("*.pcsg"))
@@ -135,10 +135,13 @@ def test_ctrl_c_at_a_terminal_stops_a_cluster_render_without_the_workers_traceba
     import subprocess
     import sys
     import time
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "pcsg", "sweep", SIERPINSKI, "--set", "c=1..40", "--size",
-         "320x240", "--samples", "16", "-q", "-o", str(tmp_path / "s"), "--workers", "2"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True, text=True)
+    # (a suite started by a script's `cmd &` ignores SIGINT, and so would the sweep)
+    with sigint_reaches_children():
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "pcsg", "sweep", SIERPINSKI, "--set", "c=1..40", "--size",
+             "320x240", "--samples", "16", "-q", "-o", str(tmp_path / "s"), "--workers",
+             "2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
+            text=True)
     deadline = time.monotonic() + 120
     while not list((tmp_path / "s").glob("*.png")) and time.monotonic() < deadline:
         time.sleep(0.1)                 # the cluster is up and rendering
