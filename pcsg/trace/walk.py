@@ -220,6 +220,16 @@ def next_leaf(flat, row, end, F, f, t0, t1):
     return end
 
 
+@inline
+def leaf_span(flat, row, end):
+    """The operands of an operand tree's leaf `row`: tree_items[first:stop]; none past
+    the tree's `end`."""
+    if row >= end:
+        return 0, 0
+    first = flat.tree_first[row]
+    return first, first + flat.tree_count[row]
+
+
 @kernel
 def candidates(flat, node, F, f, cands, start):
     """The operands of the union `node` with a tree whose tree boxes frame f's window
@@ -239,8 +249,8 @@ def candidates(flat, node, F, f, cands, start):
         m = 1
     row = next_leaf(flat, row, end, F, f, t0, t1)
     while row < end:
-        first = flat.tree_first[row]
-        for j in range(first, first + flat.tree_count[row]):
+        first, stop = leaf_span(flat, row, end)
+        for j in range(first, stop):
             if start + m >= cands.shape[0]:
                 return -1
             cands[start + m] = flat.tree_items[j]
@@ -636,24 +646,27 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                     break
                 # nearest box first, cheap operands before the others: sort the children
                 # that the window meets; keys, hashes and phases by operand number
+                # with a tree, only the operands under the tree boxes the window meets (a
+                # box that holds theirs): the same ones the loop over all of them finds.
+                # Both in one loop: meet_operand is inlined at each call, and the walk into
+                # every kernel
                 m = 0
-                row = flat.tree_root[node]
-                if row < 0:
-                    for k in range(n):
+                root, row, end = flat.tree_root[node], 0, 0
+                j, stop = 0, n                  # without a tree, one leaf of every operand
+                if root >= 0:
+                    end = flat.tree_skip[root]
+                    row = next_leaf(flat, root, end, F, f, t0, t1)
+                    j, stop = leaf_span(flat, row, end)
+                while True:
+                    while j < stop:
+                        k = j if end == 0 else flat.tree_items[j]
                         m = meet_operand(flat, node, k, m, has_table, F, I, H, f, t0, t1,
                                          params, order, keys, hashes, phases)
-                else:
-                    # only the operands under the tree boxes the window meets (a box that
-                    # holds theirs): the same ones the loop above finds
-                    end = flat.tree_skip[row]
-                    row = next_leaf(flat, row, end, F, f, t0, t1)
-                    while row < end:
-                        first = flat.tree_first[row]
-                        for j in range(first, first + flat.tree_count[row]):
-                            m = meet_operand(flat, node, flat.tree_items[j], m, has_table,
-                                             F, I, H, f, t0, t1, params, order, keys,
-                                             hashes, phases)
-                        row = next_leaf(flat, row + 1, end, F, f, t0, t1)
+                        j += 1
+                    if row >= end:
+                        break
+                    row = next_leaf(flat, row + 1, end, F, f, t0, t1)
+                    j, stop = leaf_span(flat, row, end)
                 sort_visits(flat, node, order, m, keys[:, 0])
                 for j in range(m - 1, -1, -1):     # the source frame f is overwritten last
                     g = sp + j
