@@ -83,11 +83,11 @@ class _Trees:
         # an unbounded operand (a plane) as a finite one, to be sorted among the others
         finite = np.clip(items, -1e300, 1e300)
         centres = 0.5 * (finite[:, :3] + finite[:, 3:])
-        # depth first without recursion: (operands, the row of their node)
-        todo = [(np.arange(len(ks)), None)]
-        ends = []                       # (row, its subtree's operands) in order made
+        # depth first without recursion: the operands of each node still to make
+        todo = [np.arange(len(ks))]
+        inner = []                      # the inner nodes' rows, in the order made
         while todo:
-            sel, _ = todo.pop()
+            sel = todo.pop()
             row = len(self.skip)
             sub = items[sel]
             self.box.append(np.concatenate([sub[:, :3].min(axis=0), sub[:, 3:].max(axis=0)]))
@@ -107,20 +107,15 @@ class _Trees:
                 # a stable order: the same tree for the same boxes, whatever numpy's
                 # partition does with ties
                 order = np.lexsort((sel, c[:, axis]))
-                todo.append((sel[order[half:]], row))
-                todo.append((sel[order[:half]], row))
-                ends.append(row)
-        # an inner node's subtree ends where its last leaf's does: every leaf's skip is
-        # set; an inner node's is its second child's subtree's end, found from the end
-        for row in reversed(ends):
-            second = self._second_child(row)
-            self.skip[row] = self.skip[second]
+                todo.append(sel[order[half:]])
+                todo.append(sel[order[:half]])
+                inner.append(row)
+        # an inner node's subtree ends where its second child's does; that child starts
+        # where its first child's subtree (from the next row) ends. Every leaf's skip is
+        # set, and from the last inner node back, each child's is set before its parent's
+        for row in reversed(inner):
+            self.skip[row] = self.skip[self.skip[row + 1]]
         return first
-
-    def _second_child(self, row: int) -> int:
-        """The row of an inner node's second child: past its first child's subtree, which
-        starts on the next row (set already: rows are finished from the end)."""
-        return self.skip[row + 1]
 
     def arrays(self) -> dict:
         return dict(
