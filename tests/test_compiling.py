@@ -1,7 +1,9 @@
 """How the kernels are compiled: on a frame stack of their own (trace/compilestack.py),
-with one copy of an inlined callee's scope per call site (trace/inlinecopy.py), the
-packet trace, the largest kernel, once per render and not once more for a literal, and
+with one copy of an inlined callee's scope per call site (trace/inlinecopy.py), SSA
+rewritten block by block where a variable is named (trace/ssablocks.py), live
+variables found on bit sets (trace/livebits.py), the packet trace, the largest kernel, once per render and not once more for a literal, and
 a person at a terminal told when a render is about to compile them."""
+import copy
 import os
 import resource
 import subprocess
@@ -10,12 +12,13 @@ import sys
 import numpy as np
 import pytest
 from numba import njit, types
-from numba.core import inline_closurecall
+from numba.core import analysis, inline_closurecall, ssa
 from numba.core.compiler import run_frontend
 from numba.core.dispatcher import Dispatcher
 
 import pcsg
-from pcsg.trace import compilestack, inlinecopy, packet
+from pcsg.trace import (compilestack, dispatch, inlinecopy, livebits, nodes, packet,
+                        ssablocks, windows)
 from pcsg.trace.dispatch import cached
 from pcsg.trace.jit import kernel
 from pcsg.render.camera import make_camera
@@ -132,6 +135,81 @@ def test_a_callee_inlined_at_two_call_sites_computes_as_in_python():
     a = np.linspace(0.0, 3.0, 7)
     # above 0.5: 1 + 1.5 + 2 + 2.5 + 3, less 2; above 2: 2.5 + 3, less 5
     assert twice(a) == twice.py_func(a) == 8.0 + 2.0 * 0.5
+
+
+
+def _statements(blocks):
+    return [(label, [str(stmt) for stmt in blk.body]) for label, blk in blocks.items()]
+
+
+def _variables(blocks):
+    return sorted(next(iter(blocks.values())).scope.localvars._con) if blocks else []
+
+
+def _numbas_and_ours(blocks):
+    """numba's SSA reconstruction and ssablocks' of the same IR, each on a copy: their
+    statements and the variables in the scope."""
+    theirs = ssablocks.NUMBA_RUN_SSA(copy.deepcopy(blocks))
+    ours = ssablocks.run_ssa(copy.deepcopy(blocks))
+    return (_statements(theirs), _variables(theirs)), (_statements(ours), _variables(ours))
+
+
+def test_ssa_of_every_kernel_function_is_numbas_statement_for_statement():
+    assert ssa._run_ssa is ssablocks.run_ssa
+    rewritten = 0
+    for d in dispatch._deferred_all:
+        blocks = run_frontend(d.py_func).blocks
+        theirs, ours = _numbas_and_ours(blocks)
+        assert ours == theirs, d.__qualname__
+        rewritten += ours[1] != sorted(blocks[min(blocks)].scope.localvars._con)
+    # most assign some variable more than once, which the rewrite renames
+    assert rewritten > 50
+
+
+def _live_maps(blocks):
+    """numba's map of live variables and livebits' for the same IR."""
+    cfg = analysis.compute_cfg_from_blocks(blocks)
+    usedefs = analysis.compute_use_defs(blocks)
+    theirs = livebits.NUMBA_LIVE_MAP(cfg, blocks, usedefs.usemap, usedefs.defmap)
+    ours = livebits.compute_live_map(cfg, blocks, usedefs.usemap, usedefs.defmap)
+    return (list(theirs), theirs), (list(ours), ours)
+
+
+def test_the_live_variables_of_every_kernel_function_are_numbas():
+    assert analysis.compute_live_map is livebits.compute_live_map
+    live = 0
+    for d in dispatch._deferred_all:
+        blocks = run_frontend(d.py_func).blocks
+        for ir_ in (blocks, ssablocks.run_ssa(copy.deepcopy(blocks))):
+            theirs, ours = _live_maps(ir_)
+            assert ours == theirs, d.__qualname__
+            live += sum(map(len, ours[1].values()))
+    assert live > 10_000
+
+
+def test_a_compile_with_inlined_steps_finds_ssa_and_live_variables_as_numba_does(monkeypatch):
+    """In a compile, after the per-node steps are inlined, where the rewrites matter."""
+    compared = []
+
+    def both_ssas(blocks):
+        theirs, ours = _numbas_and_ours(blocks)
+        compared.append(ours == theirs)
+        return ssablocks.run_ssa(blocks)
+
+    def both_maps(cfg, blocks, usemap, defmap):
+        theirs, ours = _live_maps(blocks)
+        compared.append(ours == theirs)
+        return ours[1]
+
+    monkeypatch.setattr(ssa, "_run_ssa", both_ssas)
+    monkeypatch.setattr(analysis, "compute_live_map", both_maps)
+    window = njit(error_model="numpy")(windows.box_window.py_func)    # slabs, _slab inlined
+    boxes = np.array([[-1.0, -2.0, -3.0, 1.0, 2.0, 3.0]])
+    F = np.zeros((1, nodes.INV + 3))
+    F[0, nodes.OX:nodes.OX + 3] = [-5.0, 0.5, 0.25]
+    F[0, nodes.INV:nodes.INV + 3] = [1.0, np.inf, np.inf]      # along x
+    assert window(boxes, 0, F, 0) == windows.box_window(boxes, 0, F, 0) == (4.0, 6.0)
+    assert len(compared) > 10 and all(compared)
 
 
 NOTICE = b"pcsg: compiling the tracing kernels"

@@ -10,7 +10,7 @@ import functools
 import hashlib
 from pathlib import Path
 
-from . import cacheload, compilestack, inlinecopy
+from . import cacheload, compilestack, inlinecopy, livebits, ssablocks
 
 
 def _cache_dirs(here: Path) -> list[Path]:
@@ -57,3 +57,5 @@ _refresh_kernel_cache()
 cacheload.install()
 compilestack.install()
 inlinecopy.install()
+ssablocks.install()
+livebits.install()
