@@ -7,9 +7,9 @@ per-node step inlined into them, so that was a quarter of the kernels' compile (
 profile: 24 million statement visits and 26 million debug calls, 125 s of 483).
 A rewrite changes nothing in a block whose statements do not name the variable, except
 where it puts a phi node there, so here each variable visits the blocks that name it,
-in numba's order, with numba's own handlers; the rest keep their statements, and a block
-that gets a phi node is copied first, as numba's rewrite copies every block. The IR that
-comes out is numba's, statement for statement (tests/test_compiling.py)."""
+in numba's order, with numba's own handlers; the rest keep their statements. Every block
+is copied once first, as numba's rewrite gives every block anew. The IR that comes out is
+numba's, statement for statement (tests/test_compiling.py)."""
 from __future__ import annotations
 
 from collections import defaultdict
@@ -29,6 +29,10 @@ def run_ssa(blocks):
     violators = ssa._find_defs_violators(blocks, cfg)
     cache_list_vars = ssa._CacheListVars()
     naming = _blocks_naming(blocks, violators)
+    if violators:
+        # numba's rewrite gives every block anew: no block of the caller's is shared with
+        # what comes out (statements are, in both)
+        blocks = {label: _copy(blk, blk.body) for label, blk in blocks.items()}
     for varname in violators:
         labels = naming[varname]
         blocks, defmap = _fresh_vars(blocks, labels, varname)
@@ -66,13 +70,9 @@ def _fix_ssa_vars(blocks, labels, varname, defmap, cfg, df_plus, cache_list_vars
     states['phimap'] = phimap = defaultdict(list)
     states['cfg'] = cfg
     states['phi_locations'] = ssa._compute_phi_locations(df_plus, defmap)
-    rewritten = set(labels)
     newblocks = _rewrite(blocks, labels, states, ssa._FixSSAVars(cache_list_vars))
     for label, philist in phimap.items():
-        block = newblocks[label]
-        if label not in rewritten:     # still the caller's block: not to be changed
-            block = newblocks[label] = _copy(block, block.body)
-        block.body = philist + block.body
+        newblocks[label].body = philist + newblocks[label].body
     return newblocks
 
 
