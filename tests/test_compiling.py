@@ -171,6 +171,18 @@ def test_ssa_of_every_kernel_function_is_numbas_statement_for_statement():
     assert rewritten > 50
 
 
+def test_another_numba_keeps_its_own_ssa_and_live_variables(monkeypatch):
+    """Both follow numba 0.68's functions; what another numba does is its own."""
+    import numba
+    monkeypatch.setattr(numba, "__version__", "0.69.0")
+    monkeypatch.setattr(ssa, "_run_ssa", ssablocks.NUMBA_RUN_SSA)
+    monkeypatch.setattr(analysis, "compute_live_map", livebits.NUMBA_LIVE_MAP)
+    ssablocks.install()
+    livebits.install()
+    assert ssa._run_ssa is ssablocks.NUMBA_RUN_SSA
+    assert analysis.compute_live_map is livebits.NUMBA_LIVE_MAP
+
+
 def _live_maps(blocks):
     """numba's map of live variables and livebits' for the same IR."""
     cfg = analysis.compute_cfg_from_blocks(blocks)

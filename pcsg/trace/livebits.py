@@ -11,6 +11,7 @@ grows; the least sets the rules allow are one answer whatever the representation
 the map that comes out holds numba's sets (tests/test_compiling.py)."""
 from __future__ import annotations
 
+import numba
 from numba.core import analysis
 
 NUMBA_LIVE_MAP = analysis.compute_live_map
@@ -75,6 +76,7 @@ def _names(v: int, names: list[str]) -> set[str]:
 
 
 def install() -> None:
-    """Where numba computes the map as 0.68 does; another numba keeps its own way."""
-    if analysis.compute_live_map is NUMBA_LIVE_MAP:
+    """For numba 0.68, whose rules this applies; another numba keeps its own way."""
+    if numba.__version__.split(".")[:2] == ["0", "68"] and \
+            analysis.compute_live_map is NUMBA_LIVE_MAP:
         analysis.compute_live_map = compute_live_map

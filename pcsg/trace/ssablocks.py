@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections import defaultdict
 
+import numba
 from numba.core import errors, ir, ssa
 from numba.core.analysis import compute_cfg_from_blocks
 
@@ -100,10 +101,7 @@ def _copy(blk, body):
 
 
 def install() -> None:
-    """Where numba reconstructs SSA as 0.68 does; another numba keeps its own way."""
-    if ssa._run_ssa is NUMBA_RUN_SSA and all(
-            hasattr(ssa, name) for name in ("_iterated_domfronts", "_find_defs_violators",
-                                            "_CacheListVars", "_make_states",
-                                            "_FreshVarHandler", "_FixSSAVars",
-                                            "_compute_phi_locations")):
+    """For numba 0.68, whose `_run_ssa` this follows step by step and whose handlers it
+    calls; another numba keeps its own way."""
+    if numba.__version__.split(".")[:2] == ["0", "68"] and ssa._run_ssa is NUMBA_RUN_SSA:
         ssa._run_ssa = run_ssa
