@@ -4,6 +4,7 @@ rewritten block by block where a variable is named (trace/ssablocks.py), live
 variables found on bit sets (trace/livebits.py), the packet trace, the largest kernel, once per render and not once more for a literal, and
 a person at a terminal told when a render is about to compile them."""
 import copy
+import operator
 import os
 import resource
 import subprocess
@@ -12,7 +13,7 @@ import sys
 import numpy as np
 import pytest
 from numba import njit, types
-from numba.core import analysis, inline_closurecall, ssa
+from numba.core import analysis, inline_closurecall, ir, ssa
 from numba.core.compiler import run_frontend
 from numba.core.dispatcher import Dispatcher
 
@@ -169,6 +170,37 @@ def test_ssa_of_every_kernel_function_is_numbas_statement_for_statement():
             assert not {id(b) for b in out.values()} & {id(b) for b in given.values()}
     # most assign some variable more than once, which the rewrite renames
     assert rewritten > 50
+
+
+def _two_products(c, n):
+    p = n
+    u = n           # a variable numba rewrites between p and w: the order that shows it
+    w = n
+    if c:
+        p = n + 1
+        u = 2
+        w = 5
+    if n > 3:
+        a = p * w
+        w = a
+    else:
+        a = 0
+    b = p * w
+    return a + b
+
+
+def test_ir_whose_statements_share_an_expression_is_rewritten_as_numba_does():
+    """One expression object as the value of two statements: numba's rewrite reads its
+    operands once, in the pass that first visits it, which a rewrite that skips blocks
+    would read later (it then lacks a phi that numba puts in); such IR goes to numba's."""
+    blocks = run_frontend(_two_products).blocks
+    products = [stmt for blk in blocks.values() for stmt in blk.body
+                if isinstance(stmt, ir.Assign) and isinstance(stmt.value, ir.Expr)
+                and stmt.value.op == "binop" and stmt.value.fn is operator.mul]
+    assert len(products) == 2
+    products[1].value = products[0].value
+    theirs, ours = _numbas_and_ours(blocks)
+    assert ours == theirs
 
 
 def test_another_numba_keeps_its_own_ssa_and_live_variables(monkeypatch):

@@ -21,26 +21,31 @@ BESIDE=(tests/test_fractals.py tests/test_graftals.py tests/test_povray.py
 # can drop kernels the other has just compiled
 env "${BOUNDS_ENV[@]}" python -c "import pcsg.trace"
 LOGS="$(mktemp -d)"
+main=
 other=
-# a script's `cmd &` ignores SIGINT: Ctrl-C would end the main pass and leave the other
-# core's runs going on, so the script ends them itself
-trap '[ -z "$other" ] || kill "$other" 2>/dev/null; rm -rf "$LOGS"' EXIT
-trap 'exit 130' INT
+# Ctrl-C or SIGTERM ends every run and whatever its tests started: both cores' runs are
+# process groups of their own (set -m), which the script waits for (so that it takes a
+# signal at once, not when a pass ends) and ends whole; stdin is /dev/null for both, as
+# for any command a script puts in the background
+trap '[ -z "$main" ] || kill -- -"$main" 2>/dev/null || true
+      [ -z "$other" ] || kill -- -"$other" 2>/dev/null || true
+      rm -rf "$LOGS"' EXIT
+trap 'echo "test.sh: interrupted, the test runs stopped" >&2; exit 130' INT
 trap 'exit 143' TERM
+set -m
 (
-    child=
-    trap '[ -z "$child" ] || kill "$child" 2>/dev/null; exit 143' TERM
     env "${BOUNDS_ENV[@]}" python -m pytest -p no:cacheprovider "${BOUNDS_TESTS[@]}" \
-        > "$LOGS/bounds" 2>&1 &
-    child=$!
-    wait "$child" && echo 0 > "$LOGS/bounds_status" || echo $? > "$LOGS/bounds_status"
-    python -m pytest -p no:cacheprovider "${BESIDE[@]}" > "$LOGS/beside" 2>&1 &
-    child=$!
-    wait "$child" && echo 0 > "$LOGS/beside_status" || echo $? > "$LOGS/beside_status"
-) &
+        > "$LOGS/bounds" 2>&1 && echo 0 > "$LOGS/bounds_status" || echo $? > "$LOGS/bounds_status"
+    python -m pytest -p no:cacheprovider "${BESIDE[@]}" > "$LOGS/beside" 2>&1 &&
+        echo 0 > "$LOGS/beside_status" || echo $? > "$LOGS/beside_status"
+) < /dev/null &
 other=$!
+python -m pytest "${BESIDE[@]/#/--ignore=}" < /dev/null &
+main=$!
+set +m
 # (venv.sh set -e: a failing pass must not end the script before the others' reports)
-python -m pytest "${BESIDE[@]/#/--ignore=}" && main_status=0 || main_status=$?
+wait "$main" && main_status=0 || main_status=$?
+main=
 wait "$other" || true
 other=
 echo

@@ -29,6 +29,8 @@ def run_ssa(blocks):
     df_plus = ssa._iterated_domfronts(cfg)
     violators = ssa._find_defs_violators(blocks, cfg)
     cache_list_vars = ssa._CacheListVars()
+    if violators and _shares_objects(blocks):
+        return NUMBA_RUN_SSA(blocks)
     naming = _blocks_naming(blocks, violators)
     if violators:
         # numba's rewrite gives every block anew: no block of the caller's is shared with
@@ -55,6 +57,25 @@ def _blocks_naming(blocks, violators) -> dict[str, list]:
         for name in names & wanted:
             naming[name].append(label)
     return naming
+
+
+def _shares_objects(blocks) -> bool:
+    """Whether two statements share a statement, an expression or an expression's table
+    of operands. numba's rewrite edits a copied expression's table in place and reads
+    each expression's operands once, in its first pass, so where one object serves two
+    statements what it makes depends on the order it visits every block in. No compile of
+    pcsg's shares any; numba's own rewrite takes such IR."""
+    seen = set()
+    count = 0
+    for blk in blocks.values():
+        for stmt in blk.body:
+            seen.add(id(stmt))
+            count += 1
+            if isinstance(stmt, ir.Assign) and isinstance(stmt.value, ir.Expr):
+                seen.add(id(stmt.value))
+                seen.add(id(stmt.value._kws))
+                count += 2
+    return len(seen) != count
 
 
 def _fresh_vars(blocks, labels, varname):
