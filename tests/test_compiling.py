@@ -1,8 +1,9 @@
 """How the kernels are compiled: on a frame stack of their own (trace/compilestack.py),
 with one copy of an inlined callee's scope per call site (trace/inlinecopy.py), SSA
 rewritten block by block where a variable is named (trace/ssablocks.py), live
-variables found on bit sets (trace/livebits.py), the packet trace, the largest kernel, once per render and not once more for a literal, and
-a person at a terminal told when a render is about to compile them."""
+variables found on bit sets (trace/livebits.py), the packet trace, the largest kernel,
+once per render and not once more for a literal, and a person at a terminal told when a
+render is about to compile them."""
 import copy
 import operator
 import os
@@ -136,7 +137,6 @@ def test_a_callee_inlined_at_two_call_sites_computes_as_in_python():
     a = np.linspace(0.0, 3.0, 7)
     # above 0.5: 1 + 1.5 + 2 + 2.5 + 3, less 2; above 2: 2.5 + 3, less 5
     assert twice(a) == twice.py_func(a) == 8.0 + 2.0 * 0.5
-
 
 
 def _statements(blocks):
