@@ -32,12 +32,17 @@ trap '[ -z "$main" ] || kill -- -"$main" 2>/dev/null || true
       rm -rf "$LOGS"' EXIT
 trap 'echo "test.sh: interrupted, the test runs stopped" >&2; exit 130' INT
 trap 'exit 143' TERM
+# `logged NAME command...`: its output into $LOGS/NAME, its exit status into NAME_status
+logged() {
+    local name=$1
+    shift
+    "$@" > "$LOGS/$name" 2>&1 && echo 0 > "$LOGS/${name}_status" ||
+        echo $? > "$LOGS/${name}_status"
+}
 set -m
 (
-    env "${BOUNDS_ENV[@]}" python -m pytest -p no:cacheprovider "${BOUNDS_TESTS[@]}" \
-        > "$LOGS/bounds" 2>&1 && echo 0 > "$LOGS/bounds_status" || echo $? > "$LOGS/bounds_status"
-    python -m pytest -p no:cacheprovider "${BESIDE[@]}" > "$LOGS/beside" 2>&1 &&
-        echo 0 > "$LOGS/beside_status" || echo $? > "$LOGS/beside_status"
+    logged bounds env "${BOUNDS_ENV[@]}" python -m pytest -p no:cacheprovider "${BOUNDS_TESTS[@]}"
+    logged beside python -m pytest -p no:cacheprovider "${BESIDE[@]}"
 ) < /dev/null &
 other=$!
 python -m pytest "${BESIDE[@]/#/--ignore=}" < /dev/null &

@@ -28,14 +28,14 @@ def run_ssa(blocks):
     cfg = compute_cfg_from_blocks(blocks)
     df_plus = ssa._iterated_domfronts(cfg)
     violators = ssa._find_defs_violators(blocks, cfg)
-    cache_list_vars = ssa._CacheListVars()
     if violators and _shares_objects(blocks):
         return NUMBA_RUN_SSA(blocks)
+    cache_list_vars = ssa._CacheListVars()
     naming = _blocks_naming(blocks, violators)
     if violators:
         # numba's rewrite gives every block anew: no block of the caller's is shared with
         # what comes out (statements are, in both)
-        blocks = {label: _copy(blk, blk.body) for label, blk in blocks.items()}
+        blocks = {label: _block(blk, list(blk.body)) for label, blk in blocks.items()}
     for varname in violators:
         labels = naming[varname]
         blocks, defmap = _fresh_vars(blocks, labels, varname)
@@ -111,13 +111,14 @@ def _rewrite(blocks, labels, states, handler):
                 body.append(handler.on_assign(states, stmt))
             else:
                 body.append(handler.on_other(states, stmt))
-        newblocks[label] = _copy(blk, body)
+        newblocks[label] = _block(blk, body)
     return newblocks
 
 
-def _copy(blk, body):
+def _block(blk, body):
+    """A block in blk's scope and place with `body`."""
     new = ir.Block(scope=blk.scope, loc=blk.loc)
-    new.body = list(body)
+    new.body = body
     return new
 
 
