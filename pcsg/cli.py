@@ -265,12 +265,17 @@ def _stats_text(r: dict) -> str:
         f"  nodes        {r['nodes']} ({kinds})",
         f"  modules      {modules or 'none'}",
         f"  parameters   {', '.join(r['parameters']) or 'none'}",
-        f"  expressions  {r['expressions']} ({r['bytecode_instructions']} instructions)",
+        f"  expressions  {r['expressions']} "
+        f"({_counted(r['bytecode_instructions'], 'instruction')})",
         f"  primitives   {count}",
     ]
     for k, (name, v) in enumerate(r.get("bounding_volumes", {}).items()):
         lines.append(("  bounds       " if k == 0 else " " * 15) + _volume_text(name, v))
     return "\n".join(lines)
+
+
+def _counted(n: int, noun: str) -> str:
+    return f"{n:,} {noun}" + ("" if n == 1 else "s")
 
 
 def _volume_text(name: str, v: dict) -> str:

@@ -347,7 +347,8 @@ def load(path: str | Path, max_depth: int | None = None, stack_depth: int | None
          **overrides: float) -> Traced:
     """Compile a .pcsg file (raising PcsgError on errors) and prepare it for tracing.
     Keyword arguments override initial parameters, like --set (`params`, a dict, too: for
-    parameters named like an argument here, `file` or `max_depth`); the others are the
+    parameters named like an argument here, `file` or `max_depth`; a name given both ways
+    is refused, as --set given twice); the others are the
     render options of the same names (max_depth None: as --max-depth's default)."""
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"load takes a .pcsg file's path, got {type(path).__name__}")
@@ -366,6 +367,10 @@ def loads(text: str, file: str = "<string>", max_depth: int | None = None,
     if not isinstance(text, str):
         raise TypeError(f"loads takes a grammar's text as str, got {type(text).__name__}"
                         + (" (decode it first)" if isinstance(text, bytes) else ""))
+    if not isinstance(file, (str, os.PathLike)):
+        # `loads(text, file=3)` meant a parameter named file: it became the name in errors
+        raise TypeError(f"file={file!r}: loads takes the name its errors give the text, as "
+                        f"str; a parameter named file goes in params={{'file': ...}}")
     return Traced(compile_text(text, str(file), _parameters(params, overrides)), max_depth,
                   stack_depth, interval_rows, max_instances, bounds_budget)
 
@@ -376,6 +381,11 @@ def _parameters(params: dict | None, overrides: dict) -> dict[str, float]:
     if params is not None and not isinstance(params, Mapping):
         raise TypeError(f"params={params!r}: give a dict of parameter names and numbers, such "
                         f"as {{'c': 2}}")
+    twice = sorted(set(params or {}) & set(overrides))
+    if twice:
+        # as `--set c=1 --set c=2` is refused: one of the two values was dropped unsaid
+        raise ValueError(f"parameter {twice[0]} is given twice, in params and as a keyword "
+                         f"argument: give it once")
     given = {**(params or {}), **overrides}
     out = {}
     for name, value in given.items():

@@ -67,7 +67,26 @@ def test_parameters_named_like_an_argument_go_in_params():
     obj = pcsg.loads("{file = 1; max_depth = 2} move(file, max_depth, 0) sphere",
                      params={"file": 3, "max_depth": 4})
     np.testing.assert_allclose(obj.bounds, [2, 3, -1, 4, 5, 1])
-    assert pcsg.loads("{c = 1} uscale(c) sphere", params={"c": 2}, c=3).bounds[3] == 3
+    obj = pcsg.loads("{c = 1; d = 1} scale(c, d, 1) sphere", params={"c": 2}, d=3)
+    np.testing.assert_allclose(obj.bounds, [-2, -3, -1, 2, 3, 1])
+
+
+def test_a_parameter_given_twice_is_refused():
+    """The keyword won and params' value was dropped unsaid; --set c=1 --set c=2 is
+    refused, and so is a Python call given the same keyword twice."""
+    with pytest.raises(ValueError, match="^parameter c is given twice, in params and as a "
+                                         "keyword argument: give it once$"):
+        pcsg.loads("{c = 1} uscale(c) sphere", params={"c": 2}, c=3)
+    with pytest.raises(ValueError, match="given twice"):
+        pcsg.load(GRAMMARS / "sierpinski.pcsg", params={"c": 3}, c=4)
+
+
+@pytest.mark.parametrize("file", [3, None, b"name"])
+def test_loads_file_is_a_name(file):
+    """loads(text, file=3) named the text "3" in its errors: a parameter named file was
+    meant, which goes in params."""
+    with pytest.raises(TypeError, match=r"^file=.*: loads takes the name its errors give"):
+        pcsg.loads("{file = 1} uscale(file) sphere", file=file)
 
 
 @pytest.mark.parametrize("value, want", [(np.array(2.0), 2), (np.float32(2), 2), (2, 2)])

@@ -132,6 +132,13 @@ def test_stats_text_and_json(capsys, sierpinski):
     assert json.loads(out)["endless"] is False
 
 
+def test_stats_counts_one_instruction_in_the_singular(capsys, tmp_path):
+    one = tmp_path / "one.pcsg"
+    one.write_text("uscale(2) sphere\n")
+    code, out, err = run(capsys, "stats", str(one))
+    assert code == 0 and "  expressions  1 (1 instruction)\n" in out, out
+
+
 def test_set_errors(capsys, sierpinski):
     code, out, err = run(capsys, "stats", str(sierpinski), "--set", "k=1")
     assert code == 1 and "cannot set 'k': it is not an initial parameter (initial parameters: c)" in err
