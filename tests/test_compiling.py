@@ -1,5 +1,6 @@
 """How the kernels are compiled: on a frame stack of their own (trace/compilestack.py),
-with one copy of an inlined callee's scope per call site (trace/inlinecopy.py), SSA
+with one copy of an inlined callee's scope per call site (trace/inlinecopy.py), a
+callee's untyped passes once per compile however many its sites (trace/inlinepasses.py), SSA
 rewritten block by block where a variable is named (trace/ssablocks.py), live
 variables found on bit sets (trace/livebits.py), the packet trace, the largest kernel,
 once per render and not once more for a literal, and a person at a terminal told when a
@@ -7,6 +8,7 @@ render is about to compile them."""
 import copy
 import operator
 import os
+import re
 import resource
 import subprocess
 import sys
@@ -19,8 +21,8 @@ from numba.core.compiler import run_frontend
 from numba.core.dispatcher import Dispatcher
 
 import pcsg
-from pcsg.trace import (compilestack, dispatch, inlinecopy, livebits, nodes, packet,
-                        ssablocks, windows)
+from pcsg.trace import (compilestack, dispatch, inlinecopy, inlinepasses, livebits, nodes,
+                        packet, ssablocks, windows)
 from pcsg.trace.dispatch import cached
 from pcsg.trace.jit import kernel
 from pcsg.render.camera import make_camera
@@ -55,7 +57,7 @@ def test_deep_calls_on_their_own_stack_do_not_map_chunks_again_and_again():
 
 
 def test_compiles_go_through_the_own_stack_and_work():
-    assert Dispatcher.compile is compilestack.compile_on_own_stack
+    assert Dispatcher.compile.__wrapped__ is compilestack.compile_on_own_stack
 
     @njit
     def inner(x):
@@ -102,12 +104,15 @@ def _two_branches(x):
 def test_blocks_copied_at_one_call_site_share_one_copy_of_the_scope():
     blocks = list(run_frontend(_two_branches).blocks.values())
     assert len(blocks) > 3
-    inlinecopy._memos.stack = [{}]
+    inlinecopy._memos.stack = [inlinecopy._Site()]
     try:
         first = [inlinecopy._Copy.deepcopy(b) for b in blocks]
         again = [inlinecopy._Copy.deepcopy(b) for b in blocks]
+        # numba's copy of its copy, which its callers do not read: not made under 0.68
+        kept = [inlinecopy._Copy.deepcopy(b) for b in first]
     finally:
         inlinecopy._memos.stack = []
+    assert all(k is b for k, b in zip(kept, first))
     assert len({id(b.scope) for b in first}) == 1
     assert first[0].scope is not blocks[0].scope
     assert first[0].scope.localvars._con.keys() == blocks[0].scope.localvars._con.keys()
@@ -137,6 +142,93 @@ def test_a_callee_inlined_at_two_call_sites_computes_as_in_python():
     a = np.linspace(0.0, 3.0, 7)
     # above 0.5: 1 + 1.5 + 2 + 2.5 + 3, less 2; above 2: 2.5 + 3, less 5
     assert twice(a) == twice.py_func(a) == 8.0 + 2.0 * 0.5
+
+
+def _translations(monkeypatch):
+    """The functions the inliner runs the untyped passes of, as it runs them."""
+    names = []
+    run = inline_closurecall.InlineWorker.run_untyped_passes
+
+    def counted(self, func, enable_ssa=False):
+        names.append(func.__name__)
+        return run(self, func, enable_ssa)
+    monkeypatch.setattr(inline_closurecall.InlineWorker, "run_untyped_passes", counted)
+    return names
+
+
+@njit(inline="always")
+def _inner(x, k):
+    return x * k if x > k else x - k
+
+
+@njit(inline="always")
+def _middle(x):
+    return _inner(x, 1.0) + _inner(x, 2.0)
+
+
+def _outer(a):
+    s = 0.0
+    for v in a:
+        s += _middle(v) - 2.0 * _middle(v + 1.0)
+    return s + _middle(s)
+
+
+def test_a_callee_inlined_at_many_sites_is_translated_once_per_compile(monkeypatch):
+    assert inline_closurecall.InlineWorker.inline_function is inlinepasses.inline_function
+    a = np.linspace(-1.0, 3.0, 9)
+    want = _outer(a)            # _middle compiled alone from Python, before the count
+    translated = _translations(monkeypatch)
+    assert njit(_outer)(a) == want
+    assert sorted(translated) == ["_inner", "_middle"]
+    assert inlinepasses._scope.memo is None         # it lasts one compile
+    # numba's own: _middle at its 3 sites, and _inner at its 2 in each of those
+    translated.clear()
+    monkeypatch.setattr(inline_closurecall.InlineWorker, "inline_function",
+                        inlinepasses.NUMBA_INLINE_FUNCTION)
+    assert njit(_outer)(a) == want
+    assert sorted(translated) == ["_inner"] * 6 + ["_middle"] * 3
+
+
+def _llvm_of_box_window():
+    window = njit(error_model="numpy")(windows.box_window.py_func)    # slabs, _slab inlined
+    boxes = np.array([[-1.0, -2.0, -3.0, 1.0, 2.0, 3.0]])
+    F = np.zeros((1, nodes.INV + 3))
+    F[0, nodes.OX:nodes.OX + 3] = [-5.0, 0.5, 0.25]
+    F[0, nodes.INV:nodes.INV + 3] = [1.0, np.inf, np.inf]      # along x
+    assert window(boxes, 0, F, 0) == (4.0, 6.0)
+    # the unique ids numba numbers functions and inlined variables by, which differ
+    # between any two compiles
+    llvm = window.inspect_llvm(window.signatures[0])
+    return re.sub(r"B\d+v\d+", "BvN", re.sub(r"_v\d+", "_vN", llvm))
+
+
+def test_a_kernel_function_compiled_with_translations_shared_is_numbas_code(monkeypatch):
+    translated = _translations(monkeypatch)
+    ours = _llvm_of_box_window()
+    assert len(translated) == 2
+    monkeypatch.setattr(inline_closurecall.InlineWorker, "inline_function",
+                        inlinepasses.NUMBA_INLINE_FUNCTION)
+    theirs = _llvm_of_box_window()
+    assert len(translated) == 2 + 4             # _slab at each of slabs' three sites
+    assert "slabs_vN__slab_vN_t0" in ours and ours == theirs
+
+
+FACTOR = 2.0
+
+
+@njit(inline="always")
+def _by_factor(x):
+    return x * FACTOR
+
+
+def test_a_later_compile_translates_again_and_reads_the_globals_then(monkeypatch):
+    """The translation a compile shares is of the globals at its time: a process-wide one
+    would give a later compile the old value."""
+    def twice(x):
+        return _by_factor(x) + _by_factor(1.0)
+    assert njit(twice)(3.0) == 8.0
+    monkeypatch.setattr(sys.modules[__name__], "FACTOR", 10.0)
+    assert njit(twice)(3.0) == 40.0
 
 
 def _statements(blocks):
@@ -209,10 +301,18 @@ def test_another_numba_keeps_its_own_ssa_and_live_variables(monkeypatch):
     monkeypatch.setattr(numba, "__version__", "0.69.0")
     monkeypatch.setattr(ssa, "_run_ssa", ssablocks.NUMBA_RUN_SSA)
     monkeypatch.setattr(analysis, "compute_live_map", livebits.NUMBA_LIVE_MAP)
+    monkeypatch.setattr(inline_closurecall.InlineWorker, "inline_function",
+                        inlinepasses.NUMBA_INLINE_FUNCTION)
+    monkeypatch.setattr(Dispatcher, "compile", Dispatcher.compile)
+    compile_ = Dispatcher.compile
     ssablocks.install()
     livebits.install()
+    inlinepasses.install()
     assert ssa._run_ssa is ssablocks.NUMBA_RUN_SSA
     assert analysis.compute_live_map is livebits.NUMBA_LIVE_MAP
+    assert inline_closurecall.InlineWorker.inline_function is \
+        inlinepasses.NUMBA_INLINE_FUNCTION
+    assert Dispatcher.compile is compile_
 
 
 def _live_maps(blocks):

@@ -10,7 +10,7 @@ import functools
 import hashlib
 from pathlib import Path
 
-from . import cacheload, compilestack, inlinecopy, livebits, ssablocks
+from . import cacheload, compilestack, inlinecopy, inlinepasses, livebits, ssablocks
 
 
 def _cache_dirs(here: Path) -> list[Path]:
@@ -57,5 +57,6 @@ _refresh_kernel_cache()
 cacheload.install()
 compilestack.install()
 inlinecopy.install()
+inlinepasses.install()
 ssablocks.install()
 livebits.install()

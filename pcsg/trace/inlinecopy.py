@@ -10,15 +10,28 @@ same cost). Here the blocks copied during one call site share one memo, so the s
 copied once and every copied block refers to that one copy, as numba asks next (it
 checks that the inlined blocks have a single scope, and renames through it). A block
 met a second time starts a fresh memo: a second copy of the same blocks must not share
-anything with the first."""
+anything with the first.
+
+numba then copies its copy once more, to return as the callee's IR before inlining,
+which neither of numba 0.68's callers of `inline_ir` reads (they take the new blocks):
+under numba 0.68 a block copied at the call site is given back as it is, uncopied."""
 from __future__ import annotations
 
 import copy
 import threading
 
+import numba
 from numba.core import inline_closurecall, ir
 
 _memos = threading.local()
+_numbas_original_unread = False      # set by install() under numba 0.68
+
+
+class _Site:
+    """One call site's copies: the memo its blocks share, and the copies made."""
+    def __init__(self):
+        self.memo = {}
+        self.made = set()
 
 
 class _Copy:
@@ -29,9 +42,14 @@ class _Copy:
     def deepcopy(x, memo=None):
         stack = getattr(_memos, "stack", None)
         if memo is None and stack and isinstance(x, ir.Block):
-            if id(x) in stack[-1]:
-                stack[-1] = {}
-            memo = stack[-1]
+            site = stack[-1]
+            if id(x) in site.made and _numbas_original_unread:
+                return x
+            if id(x) in site.memo:
+                site.memo = {}
+            y = copy.deepcopy(x, site.memo)
+            site.made.add(id(y))
+            return y
         return copy.deepcopy(x, memo)
 
 
@@ -40,7 +58,7 @@ NUMBA_INLINE_IR = inline_closurecall.InlineWorker.inline_ir
 
 def inline_ir(self, *args, **kwargs):
     stack = _memos.__dict__.setdefault("stack", [])
-    stack.append({})
+    stack.append(_Site())
     try:
         return NUMBA_INLINE_IR(self, *args, **kwargs)
     finally:
@@ -50,6 +68,8 @@ def inline_ir(self, *args, **kwargs):
 def install() -> None:
     """Where numba's inliner reaches `copy` through its module, as numba 0.68 does: a
     numba that copies otherwise keeps its own way."""
+    global _numbas_original_unread
     if getattr(inline_closurecall, "copy", None) is copy:
+        _numbas_original_unread = numba.__version__.split(".")[:2] == ["0", "68"]
         inline_closurecall.copy = _Copy
         inline_closurecall.InlineWorker.inline_ir = inline_ir
