@@ -465,7 +465,7 @@ def cmd_render(args) -> int:
 
 def cmd_sweep(args) -> int:
     from .distributed.batch import Job, run_jobs
-    from .distributed.sweep import Swept, sweep_outputs
+    from .distributed.sweep import Swept, drop_other_widths, sweep_outputs
     ranges = [(name, values) for name, values in args.overrides if isinstance(values, Swept)]
     if len(ranges) != 1:
         raise UsageError("give one parameter to sweep, e.g. --set c=1..12 "
@@ -486,8 +486,14 @@ def cmd_sweep(args) -> int:
     # checked before the directory is made: a usage error left an empty one
     options = [_options(args, {**fixed, name: value}) for value in values]
     _make_directory(out_dir, args.output)
-    jobs = [Job(args.file, out, opts, name=out.name)
-            for opts, out in zip(options, sweep_outputs(args.file, out_dir, name, values))]
+    outputs = sweep_outputs(args.file, out_dir, name, values)
+    if (dropped := drop_other_widths(args.file, out_dir, name, values, outputs)) and \
+            not args.quiet:
+        print(f"pcsg sweep: removed {len(dropped)} image{'s' if len(dropped) > 1 else ''} "
+              f"of these values that an earlier sweep named with other digits "
+              f"({', '.join(dropped[:3])}{', ...' if len(dropped) > 3 else ''})",
+              file=sys.stderr)
+    jobs = [Job(args.file, out, opts, name=out.name) for opts, out in zip(options, outputs)]
     return _exit(run_jobs(jobs, args, resume=True, what="images"))
 
 

@@ -83,6 +83,29 @@ def test_sweep_writes_one_image_per_value_and_resumes(capsys, tmp_path):
     assert set(json.loads((out / MANIFEST).read_text())) == set(names)
 
 
+def test_a_wider_sweep_replaces_the_images_it_names_with_other_digits(capsys, tmp_path):
+    """c=1..2 then c=1..11 into one directory left c=1.png and c=2.png beside c=01.png
+    and c=02.png, sorted among them (c=09, c=1, c=10). Images of other values, other
+    files' and ones no run recorded stay."""
+    out = tmp_path / "sweep"
+    small = ["--size", "8x6", "-o", str(out)]
+    assert main(["sweep", SIERPINSKI, "--set", "c=1..2", *small, "-q"]) == 0
+    assert main(["sweep", SIERPINSKI, "--set", "c=7..8", *small, "-q"]) == 0
+    (out / "sierpinski_c=3.png").write_bytes(b"not made by a sweep")
+    (out / "other_c=1.png").write_bytes(b"another file's")
+    capsys.readouterr()
+    assert main(["sweep", SIERPINSKI, "--set", "c=1..11..2", *small]) == 0
+    err = capsys.readouterr().err
+    assert "removed 2 images of these values that an earlier sweep named with other " \
+           "digits (sierpinski_c=1.png, sierpinski_c=7.png)" in err
+    assert sorted(p.name for p in out.glob("*.png")) == [
+        "other_c=1.png", "sierpinski_c=01.png", "sierpinski_c=03.png", "sierpinski_c=05.png",
+        "sierpinski_c=07.png", "sierpinski_c=09.png", "sierpinski_c=11.png",
+        "sierpinski_c=2.png", "sierpinski_c=3.png", "sierpinski_c=8.png"]
+    made = json.loads((out / MANIFEST).read_text())
+    assert "sierpinski_c=1.png" not in made and "sierpinski_c=8.png" in made
+
+
 def test_sweep_names_sort_by_value(tmp_path):
     assert [p.name for p in sweep_outputs("g/tree.pcsg", tmp_path, "cnt", [1.0, 10.0, 12.0])] \
         == ["tree_cnt=01.png", "tree_cnt=10.png", "tree_cnt=12.png"]

@@ -2,9 +2,11 @@
 from __future__ import annotations
 
 import argparse
+import re
 from pathlib import Path
 
 from ..overrides import set_number
+from ..resume import Manifest
 
 
 MAX_IMAGES = 10_000
@@ -46,3 +48,21 @@ def sweep_outputs(file: str, directory: Path, name: str, values: list[float]) ->
     stem = Path(file).stem
     return [directory / f"{stem}_{name}={'-' if v < 0 else ''}{abs(int(v)):0{width}d}.png"
             for v in values]
+
+
+def drop_other_widths(file: str, directory: Path, name: str, values: list[float],
+                      outputs: list[Path]) -> list[str]:
+    """Removes the images an earlier sweep of this file made of these values under another
+    zero-padding (c=1.png where this one writes c=01.png), which sorted among the new ones
+    (c=09, c=1, c=10) as stale copies; only those the directory's list of images made
+    names. Returns their names."""
+    image = re.compile(rf"{re.escape(Path(file).stem)}_{re.escape(name)}=(-?[0-9]+)\.png")
+    swept = {int(v) for v in values}
+
+    def same_value(n: str) -> bool:
+        m = image.fullmatch(n)
+        return m is not None and int(m.group(1)) in swept
+    stale = Manifest(directory).forget_others({p.name for p in outputs}, same_value)
+    for n in stale:
+        (directory / n).unlink(missing_ok=True)
+    return stale
