@@ -139,6 +139,29 @@ def test_stats_counts_one_instruction_in_the_singular(capsys, tmp_path):
     assert code == 0 and "  expressions  1 (1 instruction)\n" in out, out
 
 
+def test_a_parameter_set_but_read_nowhere_is_warned_of(capsys, tmp_path, sierpinski):
+    """An expanded file keeps its axiom's block, `{c = 2} (...)`: `--set c=5` on it drew
+    what c=2 drew, without a word."""
+    full = tmp_path / "full.pcsg"
+    code, out, err = run(capsys, "expand", str(sierpinski), "-n", "9", "--set", "c=2",
+                         "-o", str(full))
+    assert code == 0 and "{c = 2} (" in full.read_text() and " S" not in full.read_text()
+    code, out, err = run(capsys, "check", str(full), "--set", "c=5")
+    assert code == 0
+    assert "full.pcsg: warning: 'c' is set to 5, but nothing in the file reads it: the " \
+           "object is the same whatever its value" in err
+    assert run(capsys, "check", str(full), "--set", "c=5", "--werror")[0] == 1
+    code, out, err = run(capsys, "check", str(sierpinski), "--set", "c=5")
+    assert code == 0 and "warning" not in err
+    # read only by a selection, a paint, a directive: read all the same
+    for text in ("{c = 1} S\nS if(c > 0, 1, 1)\n1: S → sphere\n",
+                 "{c = 1} paint(c, 0, 0) sphere\n"):
+        one = tmp_path / "one.pcsg"
+        one.write_text(text)
+        code, out, err = run(capsys, "check", str(one), "--set", "c=0.5")
+        assert code == 0 and "warning" not in err, (text, err)
+
+
 def test_set_errors(capsys, sierpinski):
     code, out, err = run(capsys, "stats", str(sierpinski), "--set", "k=1")
     assert code == 1 and "cannot set 'k': it is not an initial parameter (initial parameters: c)" in err

@@ -297,12 +297,20 @@ class _Builder:
             for child in _csg_children(n):
                 stack.append(child)
         known = {a.name for a in initial}
+        read = _reads(self.program.statements)
         for name, value in self.overrides.items():
             if name not in known:
                 listed = ", ".join(sorted(known)) or "none: the axiom has no calculation block"
                 self.errors.append(Diagnostic(
                     "error", f"cannot set '{name}': it is not an initial parameter "
                              f"(initial parameters: {listed})", None, self.source, code="set"))
+            elif name not in read:
+                # an expanded file keeps its axiom's block, and `--set c=5` on it drew the
+                # same object as c=2 without a word
+                self.warnings.append(Diagnostic(
+                    "warning", f"'{name}' is set to {float(value):g}, but nothing in the file "
+                               f"reads it: the object is the same whatever its value", None,
+                    self.source, code="set-unread"))
             for a in initial:
                 if a.name == name:
                     a.value = ast.Num(float(value), a.value.span)
@@ -528,23 +536,37 @@ def _csg_children(n):
     return []
 
 
-def _assignments(stmts):
-    """Every assignment in every calculation block of the file."""
-    stack = []
-    for s in stmts:
-        if isinstance(s, ast.Axiom):
-            stack.append(s.expr)
-        elif isinstance(s, ast.Rule):
-            stack.append(s.body)
-        elif isinstance(s, ast.Named):
-            stack.append(s.body)
-    found = []
+def _csg_nodes(stmts):
+    """Every node of the CSG expressions of the file: axiom, rules and named ones."""
+    stack = [s.expr if isinstance(s, ast.Axiom) else s.body for s in stmts
+             if isinstance(s, (ast.Axiom, ast.Rule, ast.Named))]
     while stack:
         n = stack.pop()
-        if isinstance(n, ast.Calc):
-            found.append(n.assigns)
+        yield n
         stack.extend(_csg_children(n))
-    return sorted((a for block in found for a in block), key=lambda a: a.span[0])
+
+
+def _assignments(stmts):
+    """Every assignment in every calculation block of the file."""
+    found = [a for n in _csg_nodes(stmts) if isinstance(n, ast.Calc) for a in n.assigns]
+    return sorted(found, key=lambda a: a.span[0])
+
+
+def _reads(stmts) -> set[str]:
+    """Every name an expression of the file reads: selections, blocks' values, arguments
+    and directives' values."""
+    values = [s.selection for s in stmts if isinstance(s, ast.ModuleDecl)]
+    for s in stmts:
+        if isinstance(s, ast.Directive):
+            for item in s.items:
+                values += item.value.items if isinstance(item.value, ast.Tuple) else \
+                    [item.value]
+    for n in _csg_nodes(stmts):
+        if isinstance(n, ast.Calc):
+            values += [a.value for a in n.assigns]
+        elif isinstance(n, (ast.Transform, ast.Paint, ast.Fractal)):
+            values += n.args
+    return set().union(*(names_in(v) for v in values if v is not None))
 
 
 def build_graph(program: ast.Program, source, overrides: dict[str, float] | None = None) -> Graph:
