@@ -15,8 +15,7 @@ BOUNDS_TESTS=(tests/test_tracer.py tests/test_shading.py
     tests/test_fuzz_systems.py tests/test_spheres.py tests/test_boxsplit.py
     tests/test_instance_table.py tests/test_packets.py tests/test_states.py tests/test_maps.py
     tests/test_cut.py tests/test_balls.py tests/test_union_order.py tests/test_operand_trees.py)
-BESIDE=(tests/test_graftals.py tests/test_povray.py tests/test_leaves.py
-    tests/test_derivation.py)
+BESIDE=(tests/test_graftals.py tests/test_leaves.py tests/test_derivation.py)
 # settle both kernel caches' stamps first (pcsg/trace/__init__.py), so that neither pass
 # can drop kernels the other has just compiled
 env "${BOUNDS_ENV[@]}" python -c "import pcsg.trace"
