@@ -482,7 +482,12 @@ def cmd_sweep(args) -> int:
         raise UsageError(f"-o {args.output}: a sweep writes one image per value into a "
                          f"directory; name it, e.g. -o {out_dir.with_suffix('')}/")
     # the file's errors and unknown names once, not once for every image
-    _compile(args.file, {**fixed, name: values[0]})
+    graph = _compile(args.file, {**fixed, name: values[0]})
+    if any(w.code == "set-unread" and w.message.startswith(f"'{name}' ")
+           for w in graph.warnings):
+        # as animate refuses a t that nothing reads: the same image, again and again
+        raise UsageError(f"{args.file}: nothing in it reads {name}, so every image of the "
+                         f"sweep would be the same")
     # checked before the directory is made: a usage error left an empty one
     options = [_options(args, {**fixed, name: value}) for value in values]
     _make_directory(out_dir, args.output)

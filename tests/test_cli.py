@@ -153,6 +153,12 @@ def test_a_parameter_set_but_read_nowhere_is_warned_of(capsys, tmp_path, sierpin
     assert run(capsys, "check", str(full), "--set", "c=5", "--werror")[0] == 1
     code, out, err = run(capsys, "check", str(sierpinski), "--set", "c=5")
     assert code == 0 and "warning" not in err
+    # a sweep of it would draw one image again and again, as animate's of an unread t
+    code, out, err = run(capsys, "sweep", str(full), "--set", "c=1..3", "-o",
+                         str(tmp_path / "sweep"))
+    assert code == 2 and "nothing in it reads c, so every image of the sweep would be " \
+                         "the same" in err
+    assert not (tmp_path / "sweep").exists()
     # read only by a selection, a paint, a directive: read all the same
     for text in ("{c = 1} S\nS if(c > 0, 1, 1)\n1: S → sphere\n",
                  "{c = 1} paint(c, 0, 0) sphere\n"):
