@@ -12,6 +12,7 @@ import re
 import resource
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -57,7 +58,10 @@ def test_deep_calls_on_their_own_stack_do_not_map_chunks_again_and_again():
 
 
 def test_compiles_go_through_the_own_stack_and_work():
-    assert Dispatcher.compile.__wrapped__ is compilestack.compile_on_own_stack
+    compile_ = Dispatcher.compile
+    while hasattr(compile_, "__wrapped__"):     # the wrappers that count and share
+        compile_ = compile_.__wrapped__
+    assert compile_ is compilestack.compile_on_own_stack
 
     @njit
     def inner(x):
@@ -375,6 +379,25 @@ def test_a_person_at_a_terminal_is_told_when_a_render_compiles_the_kernels(tmp_p
     assert b"s.png: 32x24" in warm and NOTICE not in warm
     quiet = on_a_terminal(args + ["-q"], cold, NOTICE, timeout=5.0)
     assert NOTICE not in quiet
+
+
+def test_sigterm_during_the_first_compile_ends_the_render_at_once(tmp_path):
+    """A render's first call of a kernel compiles it, for minutes, on the helper thread
+    that calls it, which reads no stop flag: SIGTERM and Ctrl-C waited for the compile
+    to end (125 s), where the command should end at once (trace/compiling.py)."""
+    cold = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "empty"))
+    proc = subprocess.Popen([sys.executable, "-m", "pcsg", "render",
+                             "grammars/sierpinski.pcsg", "--size", "8x6",
+                             "-o", str(tmp_path / "s.png")],
+                            env=cold, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    time.sleep(3)           # imports, the file, and into the compile of the walks
+    proc.terminate()
+    try:
+        _, err = proc.communicate(timeout=30)
+    finally:
+        proc.kill()
+    assert proc.returncode == 143 and b"pcsg: terminated (SIGTERM)" in err, err
+    assert b"Traceback" not in err and not (tmp_path / "s.png").exists()
 
 
 @pytest.mark.parametrize("cold", [True, False])

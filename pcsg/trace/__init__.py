@@ -10,7 +10,8 @@ import functools
 import hashlib
 from pathlib import Path
 
-from . import cacheload, compilestack, inlinecopy, inlinepasses, livebits, ssablocks
+from . import (cacheload, compilestack, compiling, inlinecopy, inlinepasses, livebits,
+               ssablocks)
 
 
 def _cache_dirs(here: Path) -> list[Path]:
@@ -58,5 +59,6 @@ cacheload.install()
 compilestack.install()
 inlinecopy.install()
 inlinepasses.install()
+compiling.install()
 ssablocks.install()
 livebits.install()

@@ -12,6 +12,7 @@ from concurrent.futures import ThreadPoolExecutor, wait
 
 from numba import config
 
+from . import compiling
 from .dispatch import cached_jit
 
 kernel = cached_jit(error_model="numpy", nogil=True, _nrt=False)
@@ -140,7 +141,9 @@ def _run_watched(calls, flag, tick, every: float) -> list:
     except BaseException:
         flag[0] = 1
         for job in jobs:            # a poll, which takes no lock across an interrupt
-            while not job.done():
+            # but not for a helper in a kernel's first compile, which reads no flag and
+            # held Ctrl-C and SIGTERM for minutes (trace/compiling.py)
+            while not job.done() and not compiling.threads:
                 time.sleep(0.001)
         raise
     return [job.result() for job in jobs]
