@@ -751,11 +751,15 @@ def _export_fits(args, out: Path, total: int):
     """Refuse, before hours of writing, a scene the disk cannot hold (Sierpinski at 14,
     268 million primitives, filled 15 GB of a temporary file in ten minutes and said
     nothing), and past EXPORT_LIMIT one POV-Ray could not hold, unless --force."""
-    if total > EXPORT_LIMIT and not args.force:
-        _too_many(args, f"has {_count(total)} primitives, a scene of {_bytes(total * 150)} or "
-                        f"so that POV-Ray needs about {_bytes(total * 1000)} of memory to parse")
     free = _free(out)
-    if free is not None and total * BYTES_AT_LEAST > free:
+    fits = free is None or total * BYTES_AT_LEAST <= free
+    if total > EXPORT_LIMIT and not args.force:
+        # --force was offered where the disk check then refused it
+        _too_many(args, f"has {_count(total)} primitives, a scene of {_bytes(total * 150)} or "
+                        f"so that POV-Ray needs about {_bytes(total * 1000)} of memory to parse",
+                  None if fits else f"its disk has {_bytes(free)} free, too little even with "
+                                    f"--force")
+    if not fits:
         raise UsageError(f"--pov {out}: the {_count(total)} primitives take at least "
                          f"{_bytes(total * BYTES_AT_LEAST)}, and its disk has {_bytes(free)} free")
 
@@ -779,9 +783,10 @@ def _export_watch(args, out: Path, total: int, progress):
     return watch
 
 
-def _too_many(args, said: str):
+def _too_many(args, said: str, no_force: str | None = None):
     raise UsageError(f"{args.file}: the derivation {said}; lower the order (--set), cut it "
-                     f"(--max-depth N), or --force to write it")
+                     + (f"(--max-depth N): {no_force}" if no_force else
+                        "(--max-depth N), or --force to write it"))
 
 
 def _free(out: Path) -> int | None:
@@ -803,7 +808,7 @@ def _count(n: int) -> str:
     if n < 10 ** 15:
         return f"{n:,}"
     digits = len(str(n))
-    return f"about {n // 10 ** (digits - 3) / 100:.2f}e{digits - 1}"
+    return f"{n // 10 ** (digits - 3) / 100:.2f}e{digits - 1}"
 
 
 def _bytes(n: int | float) -> str:
@@ -811,7 +816,7 @@ def _bytes(n: int | float) -> str:
     at 510 has 1.1e307 primitives, an int no float holds: an internal error here)."""
     if n >= 10 ** 15:
         digits = len(str(int(n)))
-        return f"about {int(n) // 10 ** (digits - 3) / 100:.2f}e{digits - 1 - 9} GB"
+        return f"{int(n) // 10 ** (digits - 3) / 100:.2f}e{digits - 1 - 9} GB"
     for unit, size in (("TB", 10 ** 12), ("GB", 10 ** 9)):
         if n >= size:
             return f"{n / size:.1f} {unit}"

@@ -221,7 +221,10 @@ class Traced:
                              f"t < tmax, so tmax must be greater than tmin")
         o, d = _rays(origins, "origins"), _rays(directions, "directions")
         if o.shape != d.shape:
-            raise ValueError(f"origins {o.shape} and directions {d.shape} differ")
+            # the shapes given: "origins (1, 3)" was said of a (3,) one
+            raise ValueError(f"origins {np.shape(origins)} and directions "
+                             f"{np.shape(directions)} differ: give one origin per direction "
+                             f"(np.broadcast_to(origin, directions.shape) shares one)")
         _finite_rays(o, d)
         n = len(o)
         try:

@@ -128,6 +128,15 @@ def test_describe_events_says_what_it_takes(events):
     assert obj.describe_events(obj.trace([[0, -5, 0]], [[0, 1, 0]]).events) == []
 
 
+def test_origins_and_directions_that_differ_are_said_as_given():
+    obj = pcsg.loads("sphere")
+    with pytest.raises(ValueError, match=r"^origins \(3,\) and directions \(2, 3\) differ: "
+                                         r"give one origin per direction"):
+        obj.trace([1, 2, 3], [[1, 0, 0], [0, 1, 0]])
+    shared = np.broadcast_to([0.0, -5.0, 0.0], (2, 3))     # what the message says works
+    assert obj.trace(shared, [[0, 1, 0], [0, 1, 0.01]]).hit.all()
+
+
 def test_no_rays_are_no_hits():
     obj = pcsg.loads("sphere")
     for none in ([], np.empty((0, 3))):
