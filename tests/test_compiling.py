@@ -22,8 +22,8 @@ from numba.core.compiler import run_frontend
 from numba.core.dispatcher import Dispatcher
 
 import pcsg
-from pcsg.trace import (compilestack, dispatch, inlinecopy, inlinepasses, livebits, nodes,
-                        packet, ssablocks, windows)
+from pcsg.trace import (compilestack, compiling, dispatch, inlinecopy, inlinepasses,
+                        livebits, nodes, packet, ssablocks, windows)
 from pcsg.trace.dispatch import cached
 from pcsg.trace.jit import kernel
 from pcsg.render.camera import make_camera
@@ -184,7 +184,7 @@ def test_a_callee_inlined_at_many_sites_is_translated_once_per_compile(monkeypat
     translated = _translations(monkeypatch)
     assert njit(_outer)(a) == want
     assert sorted(translated) == ["_inner", "_middle"]
-    assert inlinepasses._scope.memo is None         # it lasts one compile
+    assert compiling.this_compile() is None         # it lasts one compile
     # numba's own: _middle at its 3 sites, and _inner at its 2 in each of those
     translated.clear()
     monkeypatch.setattr(inline_closurecall.InlineWorker, "inline_function",
@@ -307,8 +307,6 @@ def test_another_numba_keeps_its_own_ssa_and_live_variables(monkeypatch):
     monkeypatch.setattr(analysis, "compute_live_map", livebits.NUMBA_LIVE_MAP)
     monkeypatch.setattr(inline_closurecall.InlineWorker, "inline_function",
                         inlinepasses.NUMBA_INLINE_FUNCTION)
-    monkeypatch.setattr(Dispatcher, "compile", Dispatcher.compile)
-    compile_ = Dispatcher.compile
     ssablocks.install()
     livebits.install()
     inlinepasses.install()
@@ -316,7 +314,6 @@ def test_another_numba_keeps_its_own_ssa_and_live_variables(monkeypatch):
     assert analysis.compute_live_map is livebits.NUMBA_LIVE_MAP
     assert inline_closurecall.InlineWorker.inline_function is \
         inlinepasses.NUMBA_INLINE_FUNCTION
-    assert Dispatcher.compile is compile_
 
 
 def _live_maps(blocks):

@@ -1,33 +1,43 @@
-"""Which threads are in a numba compile now.
+"""Which threads are in a numba compile now, and what lasts one compile.
 
 A render's first call of a kernel compiles it on the helper thread that calls it, for
 minutes on a fresh install. Ctrl-C or SIGTERM then set the walks' stop flag and waited
 for every helper to read it, which a compile does not: the command ended only once the
 compile had (125 s after a SIGTERM). The waiting side asks here whether a helper is
 compiling, and does not wait for one that is (`jit._run_watched`); numba writes a kernel
-to its cache whole at the end of its compile, or not at all."""
+to its cache whole at the end of its compile, or not at all.
+
+Each thread's outermost compile (a callee that is not inlined compiles inside its
+caller's) also has a dict of its own, dropped when it ends: what may be shared within
+one compile but not across two, such as a callee's untyped IR (`inlinepasses`), which
+holds the globals the callee read at the time."""
 from __future__ import annotations
 
 import threading
 
 from numba.core.dispatcher import Dispatcher
 
-threads: set[int] = set()
+threads: dict[int, dict] = {}
 
 
-def counted(compile_):
+def this_compile() -> dict | None:
+    """The dict of the outermost compile this thread is in; None outside one."""
+    return threads.get(threading.get_ident())
+
+
+def tracked(compile_):
     def compile(self, *args, **kwargs):
         me = threading.get_ident()
-        if me in threads:               # a callee's compile inside its caller's
+        if me in threads:
             return compile_(self, *args, **kwargs)
-        threads.add(me)
+        threads[me] = {}
         try:
             return compile_(self, *args, **kwargs)
         finally:
-            threads.discard(me)
+            del threads[me]
     compile.__wrapped__ = compile_
     return compile
 
 
 def install() -> None:
-    Dispatcher.compile = counted(Dispatcher.compile)
+    Dispatcher.compile = tracked(Dispatcher.compile)

@@ -8,31 +8,31 @@ each of those: 44 s of a 277 s profile of the tracing kernels' compile, and abou
 130 s without the profiler (README, "Compiling the kernels"). What the pipeline gives
 depends on the function, on the compile's flags and on the globals the function reads,
 which stay the same during one compile; so within one compile of a kernel the first
-site's IR serves the later ones. The inliner copies a callee's IR before it changes
-anything (its `inline_ir` starts so), and names the inlined variables after the callee's
-FunctionIdentity, which each site still gets new (`derive`), as numba's own run gives it
-one."""
+site's IR serves the later ones (kept in that compile's dict, `compiling.this_compile`).
+The inliner copies a callee's IR before it changes anything (its `inline_ir` starts so),
+and names the inlined variables after the callee's FunctionIdentity, which each site
+still gets new (`derive`), as numba's own run gives it one."""
 from __future__ import annotations
 
 import copy
-import threading
 
 import numba
 from numba.core import inline_closurecall
-from numba.core.dispatcher import Dispatcher
+
+from . import compiling
 
 NUMBA_INLINE_FUNCTION = inline_closurecall.InlineWorker.inline_function
-_scope = threading.local()
 
 
 def inline_function(self, caller_ir, block, i, function, arg_typs=None):
-    memo = getattr(_scope, "memo", None)
-    if memo is None or self.locals:
+    scope = compiling.this_compile()
+    if scope is None or self.locals:
         # outside a dispatcher's compile, or with locals declared, which numba's with-
         # lifting passes on: numba's own way
         return NUMBA_INLINE_FUNCTION(self, caller_ir, block, i, function, arg_typs)
     # run_untyped_passes sets this on the caller's flags: so does a site served here
     self.flags.enable_ssa = False
+    memo = scope.setdefault(__name__, {})
     key = (function, id(self.targetctx), repr(self.flags))
     first = memo.get(key)
     if first is None:
@@ -43,24 +43,8 @@ def inline_function(self, caller_ir, block, i, function, arg_typs=None):
                           arg_typs=arg_typs)
 
 
-def compile_with_memo(compile_):
-    """A dispatcher's compile, with one memo of callees' IR for it and the compiles it
-    starts (callees not inlined compile inside their caller's)."""
-    def compile(self, *args, **kwargs):
-        if getattr(_scope, "memo", None) is not None:
-            return compile_(self, *args, **kwargs)
-        _scope.memo = {}
-        try:
-            return compile_(self, *args, **kwargs)
-        finally:
-            _scope.memo = None
-    compile.__wrapped__ = compile_
-    return compile
-
-
 def install() -> None:
     """For numba 0.68, whose inliner this follows; another numba keeps its own way."""
     if numba.__version__.split(".")[:2] == ["0", "68"] and \
             inline_closurecall.InlineWorker.inline_function is NUMBA_INLINE_FUNCTION:
         inline_closurecall.InlineWorker.inline_function = inline_function
-        Dispatcher.compile = compile_with_memo(Dispatcher.compile)
