@@ -1,10 +1,10 @@
 """How the kernels are compiled: on a frame stack of their own (trace/compilestack.py),
 with one copy of an inlined callee's scope per call site (trace/inlinecopy.py), a
-callee's untyped passes once per compile however many its sites (trace/inlinepasses.py), SSA
-rewritten block by block where a variable is named (trace/ssablocks.py), live
+callee's untyped passes once per compile however many its sites (trace/inlinepasses.py),
+SSA rewritten block by block where a variable is named (trace/ssablocks.py), live
 variables found on bit sets (trace/livebits.py), the packet trace, the largest kernel,
-once per render and not once more for a literal, and a person at a terminal told when a
-render is about to compile them."""
+once per render and not once more for a literal, a person at a terminal told when a
+render is about to compile them, and SIGTERM not held by a compile (trace/compiling.py)."""
 import copy
 import operator
 import os
