@@ -15,9 +15,16 @@ from __future__ import annotations
 
 import threading
 
+import numba
 from numba.core.dispatcher import Dispatcher
 
 threads: dict[int, dict] = {}
+
+
+def numba_followed() -> bool:
+    """Whether this is numba 0.68, whose compiler ssablocks, livebits, inlinecopy and
+    inlinepasses follow step by step: under another numba they leave it its own way."""
+    return numba.__version__.split(".")[:2] == ["0", "68"]
 
 
 def this_compile() -> dict | None:

@@ -20,8 +20,9 @@ from __future__ import annotations
 import copy
 import threading
 
-import numba
 from numba.core import inline_closurecall, ir
+
+from . import compiling
 
 _memos = threading.local()
 _numbas_original_unread = False      # set by install() under numba 0.68
@@ -70,6 +71,6 @@ def install() -> None:
     numba that copies otherwise keeps its own way."""
     global _numbas_original_unread
     if getattr(inline_closurecall, "copy", None) is copy:
-        _numbas_original_unread = numba.__version__.split(".")[:2] == ["0", "68"]
+        _numbas_original_unread = compiling.numba_followed()
         inline_closurecall.copy = _Copy
         inline_closurecall.InlineWorker.inline_ir = inline_ir

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import copy
 
-import numba
 from numba.core import inline_closurecall
 
 from . import compiling
@@ -45,6 +44,6 @@ def inline_function(self, caller_ir, block, i, function, arg_typs=None):
 
 def install() -> None:
     """For numba 0.68, whose inliner this follows; another numba keeps its own way."""
-    if numba.__version__.split(".")[:2] == ["0", "68"] and \
+    if compiling.numba_followed() and \
             inline_closurecall.InlineWorker.inline_function is NUMBA_INLINE_FUNCTION:
         inline_closurecall.InlineWorker.inline_function = inline_function

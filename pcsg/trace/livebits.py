@@ -11,8 +11,9 @@ grows; the least sets the rules allow are one answer whatever the representation
 the map that comes out holds numba's sets (tests/test_compiling.py)."""
 from __future__ import annotations
 
-import numba
 from numba.core import analysis
+
+from . import compiling
 
 NUMBA_LIVE_MAP = analysis.compute_live_map
 
@@ -77,6 +78,6 @@ def _names(v: int, names: list[str]) -> set[str]:
 
 def install() -> None:
     """For numba 0.68, whose rules this applies; another numba keeps its own way."""
-    if numba.__version__.split(".")[:2] == ["0", "68"] and \
+    if compiling.numba_followed() and \
             analysis.compute_live_map is NUMBA_LIVE_MAP:
         analysis.compute_live_map = compute_live_map

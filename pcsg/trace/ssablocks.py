@@ -14,9 +14,10 @@ from __future__ import annotations
 
 from collections import defaultdict
 
-import numba
 from numba.core import errors, ir, ssa
 from numba.core.analysis import compute_cfg_from_blocks
+
+from . import compiling
 
 NUMBA_RUN_SSA = ssa._run_ssa
 
@@ -125,5 +126,5 @@ def _block(blk, body):
 def install() -> None:
     """For numba 0.68, whose `_run_ssa` this follows step by step and whose handlers it
     calls; another numba keeps its own way."""
-    if numba.__version__.split(".")[:2] == ["0", "68"] and ssa._run_ssa is NUMBA_RUN_SSA:
+    if compiling.numba_followed() and ssa._run_ssa is NUMBA_RUN_SSA:
         ssa._run_ssa = run_ssa
