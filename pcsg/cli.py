@@ -266,16 +266,12 @@ def _stats_text(r: dict) -> str:
         f"  modules      {modules or 'none'}",
         f"  parameters   {', '.join(r['parameters']) or 'none'}",
         f"  expressions  {r['expressions']} "
-        f"({_counted(r['bytecode_instructions'], 'instruction')})",
+        f"({_many(r['bytecode_instructions'], 'instruction')})",
         f"  primitives   {count}",
     ]
     for k, (name, v) in enumerate(r.get("bounding_volumes", {}).items()):
         lines.append(("  bounds       " if k == 0 else " " * 15) + _volume_text(name, v))
     return "\n".join(lines)
-
-
-def _counted(n: int, noun: str) -> str:
-    return f"{n:,} {noun}" + ("" if n == 1 else "s")
 
 
 def _volume_text(name: str, v: dict) -> str:
@@ -494,7 +490,7 @@ def cmd_sweep(args) -> int:
     outputs = sweep_outputs(args.file, out_dir, name, values)
     if (dropped := drop_other_widths(args.file, out_dir, name, values, outputs)) and \
             not args.quiet:
-        print(f"pcsg sweep: removed {len(dropped)} image{'s' if len(dropped) > 1 else ''} "
+        print(f"pcsg sweep: removed {_many(len(dropped), 'image')} "
               f"of these values that an earlier sweep named with other digits "
               f"({', '.join(dropped[:3])}{', ...' if len(dropped) > 3 else ''})",
               file=sys.stderr)
