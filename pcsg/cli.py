@@ -244,10 +244,13 @@ def cmd_stats(args) -> int:
 
 
 def _stats_text(r: dict) -> str:
+    from .graph.stats import TOO_MANY
     kinds = ", ".join(f"{v} {k}" for k, v in r["node_kinds"].items() if v)
     modules = ", ".join(f"{m} ({n} rule{'s' if n != 1 else ''})" for m, n in r["modules"].items())
     if r.get("count_digits"):
         count = f"not written: {r['not_counted']}"
+    elif r.get("not_counted", "").startswith(TOO_MANY):
+        count = f"not counted: {r['not_counted']}"
     elif r.get("not_counted"):
         count = (f"not counted: {r['not_counted']}; a render refines it to pixel size or "
                  f"--max-depth")

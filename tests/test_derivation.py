@@ -179,6 +179,32 @@ def test_stats_of_a_derivation_it_cannot_count_says_why(capsys, tmp_path, text, 
     assert r["endless"] == why.startswith("the derivation never ends")   # deep is not endless
 
 
+def test_stats_of_too_many_random_instances_says_so_not_that_it_is_deep(capsys, tmp_path,
+                                                                        monkeypatch):
+    """Every instance of a module whose selection reads rand() is a state of its own: past
+    the count's states it said "the derivation goes deeper than 30 levels: 'S' is still
+    being rewritten there (c = 0)" of a system that ends at 30 levels."""
+    from pcsg.cli import main
+    from pcsg.graph import stats
+    src = tmp_path / "r.pcsg"
+    src.write_text("{c = 30} S\nS if(c > 0 && rand() < 0.95, 2, 1)\n1: S -> cube\n"
+                   "2: S -> {c = c - 1} (move(1,0,0) uscale(0.5) S | move(-1,0,0) uscale(0.5) S)\n")
+    monkeypatch.setattr(stats, "MAX_STATES", 1000)
+    assert main(["stats", str(src), "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert r["primitives"] is None and r["endless"] is False
+    assert r["not_counted"] == ("too many different instances to count, more than 1,000; "
+                                "rand() makes each instance of 'S' differ")
+    assert main(["stats", str(src)]) == 0
+    assert capsys.readouterr().out.splitlines()[-1] == (
+        "  primitives   not counted: too many different instances to count, more than 1,000; "
+        "rand() makes each instance of 'S' differ")
+    # at 5 levels it has a few hundred states: counted
+    src.write_text(src.read_text().replace("c = 30", "c = 5"))
+    assert main(["stats", str(src), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["primitives"] > 1
+
+
 def test_a_count_too_long_to_write_is_given_by_its_size(capsys):
     """Python writes integers of up to 4,300 digits: Sierpinski at c=9999 (6,020 digits)
     was an internal error in stats and stats --json."""
@@ -282,3 +308,8 @@ def test_a_word_longer_than_max_chars_by_its_count_is_refused_before_it_is_writt
     graph = compile_file(GRAMMARS / "sierpinski.pcsg", {"c": 12})
     with pytest.raises(ExpansionTooLarge, match="longer than 50,000,000 characters"):
         expand_axiom(graph, 12)
+    # the most steps expand takes: the count stopped at its own depth limit there, and
+    # the word was written for 36 s and 520 MB before it was refused
+    graph = compile_text("A\n1: A -> uscale(0.5) (A | move(1,0,0) A)\n")
+    with pytest.raises(ExpansionTooLarge, match="longer than 50,000,000 characters"):
+        expand_axiom(graph, 10_000)

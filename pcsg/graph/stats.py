@@ -19,7 +19,9 @@ MAX_LEVELS = 10_000         # derivation levels (S-node nesting) before we call 
 MAX_STATES = 2_000_000      # distinct (node, relevant state) pairs before giving up
 
 # a derivation that never ends: one state on its own path again, or still going at the limit
-ENDLESS = ("repeats", "endless")
+# (or too many states to count)
+ENDLESS = ("repeats", "endless", "states")
+TOO_MANY = "too many different instances to count"
 
 
 class Endless(Exception):
@@ -65,7 +67,10 @@ def count_by_primitive(graph: Graph, max_states: int = MAX_STATES,
     per instance: counting it costs about what deriving it does). With a cut
     (graph/cut.py), the derivation flatten.instances writes: S-node instances deeper than
     its depth end as the tracer ends them, a cut graftal instance as its volume."""
-    counter = _Counter(graph, max_states, cut, faults=faults)
+    # a cut at the deepest level the count follows ends its instances one level below it:
+    # `expand -n 10000` counted past the limit, and wrote 50 million characters to refuse
+    levels = MAX_LEVELS if cut is None else max(MAX_LEVELS, cut.depth + 2)
+    counter = _Counter(graph, max_states, cut, max_levels=levels, faults=faults)
     try:
         with recursion_limit(12 * MAX_LEVELS + 1000):
             state, h = counter.d.initial()
@@ -106,14 +111,19 @@ class _Counter:
         if key in self.active:
             raise Endless(self._endless(node_id, state, "the derivation never ends",
                                         "repeats with the same parameters", "repeats"))
-        if node.kind == SELECT and (level >= self.max_levels or
-                                    len(self.memo) > self.max_states):
+        if node.kind == SELECT and level >= self.max_levels:
             # deep, or endless: a count that ends after 20 000 levels is not endless
             raise Endless(self._endless(
-                node_id, state, f"the derivation goes deeper than "
-                                f"{min(level, self.max_levels)} "
-                                f"levels", "is still being rewritten there"),
-                deep=level >= self.max_levels)
+                node_id, state, f"the derivation goes deeper than {self.max_levels} "
+                                f"levels", "is still being rewritten there"), deep=True)
+        if node.kind == SELECT and len(self.memo) > self.max_states:
+            # not the depth: the states its parameters take (rand() makes each instance
+            # one); it said "deeper than 30 levels" of a system that ends at 30
+            why = (f"; rand() makes each instance of '{node.name}' differ"
+                   if self.key.rand[node_id] else "")
+            raise Endless(Diagnostic(
+                "error", f"{TOO_MANY}, more than {self.max_states:,}{why}", node.span,
+                self.g.source, code="states"))
         self.active.add(key)
         if node.kind == SELECT:
             cut = self.cut is not None and level + 1 > self.cut.depth
@@ -181,7 +191,7 @@ def graph_stats(graph: Graph, count: bool = True) -> dict:
     if count:
         out["endless"] = False      # always there: `d["endless"]` was a KeyError if counted
         try:
-            by_kind = count_by_primitive(graph)
+            by_kind = count_by_primitive(graph, MAX_STATES)
             total = sum(by_kind.values())
             if total >= PRINTABLE:
                 out["count_digits"] = digits = math.floor(math.log10(total)) + 1
