@@ -11,6 +11,13 @@ import sys
 NUMBER = re.compile(r"[+-]?([0-9]+\.[0-9]*|\.[0-9]+|[0-9]+)([eE][+-]?[0-9]+)?")
 
 
+def underflows(text: str, value: float) -> bool:
+    """Whether the number written `text` is too small for a double and reads as 0 (1e-400),
+    where it is written with a digit other than 0."""
+    mantissa = re.split(r"[eE]", text, maxsplit=1)[0]
+    return value == 0.0 and any(c in "123456789" for c in mantissa)
+
+
 def set_number(value: str, text: str) -> float:
     """VALUE of `--set TEXT`, or the error that says what a number is."""
     if not NUMBER.fullmatch(value.strip()):
@@ -21,6 +28,11 @@ def set_number(value: str, text: str) -> float:
         # 1e400: inf, which --set c=inf was refused as
         raise argparse.ArgumentTypeError(f"'{value}' is too large (in --set {text}): a "
                                          f"parameter holds at most {sys.float_info.max:.2g}")
+    if underflows(value.strip(), number):
+        # 1e-400: 0, which the file would then divide by or scale with, without a word
+        raise argparse.ArgumentTypeError(
+            f"'{value}' is too small (in --set {text}): it would be 0; a parameter other "
+            f"than 0 is at least {5e-324:.2g} in size")
     return number
 
 

@@ -226,6 +226,14 @@ class TestContraction:
         assert [x.code for x in w] == ["non-contracting"]
         assert (w[0].location.line, w[0].location.column) == (4, 37)
 
+    @pytest.mark.parametrize("body, column", [("S", 8), ("(S)", 8), ("move(1,0,0) S", 20),
+                                              ("{d = 1} S", 16)])
+    def test_a_rule_that_is_only_its_module_is_reported_at_the_call(self, body, column):
+        # a bare `S` put the warning under the whole rule, at its number
+        w = [x for x in warnings_of(f"{{c = 1}} S\nS if(c > 0, 1, 2)\n1: S → {body}\n"
+                                    f"2: S → cube\n") if x.code == "non-contracting"]
+        assert [(x.location.line, x.location.column) for x in w] == [(3, column)]
+
     @pytest.mark.parametrize("text", [
         # a count that runs the wrong way, or that a second condition keeps going
         "{i = 0} R\nR if(i < 8, 2, 1)\n1: R → sphere\n2: R → sphere ∪ {i = i - 1} move(2,0,0) R\n",
@@ -399,3 +407,17 @@ def test_the_memoised_bounds_ask_the_poll_as_they_go():
         raise Stop
     with pytest.raises(Stop):
         bounds.bound(graph, 4000, poll=stop)
+
+
+def test_a_flat_operand_is_noted_where_it_is_used_only_if_that_is_elsewhere():
+    """`cube ∪ plane ∩ tri1` followed its error at 1:16 with "1:16: note: 'tri1' used
+    here", the same place again."""
+    from pcsg.language.errors import PcsgError
+    with pytest.raises(PcsgError) as e:
+        compile_text("cube ∪ plane ∩ tri1\n", "t.pcsg")
+    (d,) = e.value.diagnostics
+    assert (d.location.line, d.location.column) == (1, 16) and d.notes == []
+    with pytest.raises(PcsgError) as e:
+        compile_text("E ∩ cube\nE = tri2 ∪ tri1\n", "t.pcsg")
+    (d,) = e.value.diagnostics
+    assert [n[1] for n in d.notes] == ["'tri1' used here"]

@@ -193,8 +193,18 @@ def test_set_refuses_a_number_past_the_largest_double(capsys, sierpinski):
     assert "'-1e400' is too large (in --set c=-1e400)" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("value", ["1e-400", "-2.5e-330"])
+def test_set_refuses_a_number_too_small_for_a_double(capsys, sierpinski, value):
+    """It read as 0 without a word, where a number too large is refused (QA)."""
+    with pytest.raises(SystemExit) as e:
+        main(["stats", str(sierpinski), f"--set=c={value}"])
+    assert e.value.code == 2
+    assert f"'{value}' is too small (in --set c={value}): it would be 0" in \
+        capsys.readouterr().err
+
+
 @pytest.mark.parametrize("value, count", [("+3", 4 ** 3), ("3.", 4 ** 3), (".3e1", 4 ** 3),
-                                          ("30E-1", 4 ** 3), ("-0", 1)])
+                                          ("30E-1", 4 ** 3), ("-0", 1), ("0.0e-500", 1), ("4.9e-324", 4)])
 def test_set_takes_every_form_of_a_number(capsys, sierpinski, value, count):
     code, out, err = run(capsys, "stats", str(sierpinski), "--json", f"--set=c={value}")
     assert code == 0 and json.loads(out)["primitives"] == count

@@ -163,3 +163,14 @@ def test_an_operator_that_ends_a_macro_is_named_where_the_parse_stops():
     with pytest.raises(PcsgError) as e:
         compile_text("sphere \\ ∪ cone\n", "d.pcsg")
     assert "note" not in e.value.diagnostics[0].format(show_source=False)
+
+
+def test_macros_that_expand_too_far_are_reported_at_their_use():
+    """Forty macros each naming the one before twice: the error had no line and column."""
+    lines = ["#define D0 sphere"] + [f"#define D{k} (D{k - 1} ∪ D{k - 1})" for k in range(1, 41)]
+    with pytest.raises(PcsgError) as e:
+        compile_text("\n".join(lines + ["cube ∪ D40"]) + "\n", "t.pcsg")
+    (d,) = e.value.diagnostics
+    assert d.format().splitlines()[0] == (
+        "t.pcsg:42:8: error: macro 'D40' expands to more than 20,000 uses or 8,000,000 "
+        "characters here; nested macros multiply")

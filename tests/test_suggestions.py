@@ -200,6 +200,15 @@ def test_a_number_past_what_a_double_holds_is_warned_of():
                 if x.code == "huge-number"]
 
 
+def test_a_number_too_small_for_a_double_is_warned_of():
+    # it read as 0 without a word, where 1e999 is warned of and --set refuses both (QA)
+    w = [(x.location.line, x.location.column, x.message) for x in
+         warnings_of("move(1e-400, 0, 0) scale(1, 0.0e-5, 4.9e-324) sphere\n")
+         if x.code == "tiny-number"]
+    assert w == [(1, 6, "the number 1e-400 is too small for a double (at least 4.9e-324 in "
+                        "size): it reads as 0")]
+
+
 @pytest.mark.parametrize("text, want", [
     ("#material m color=(1,0,0)\n#material m color=(0,1,0)\nsphere\n",
      (2, "material 'm' is defined twice (first at t.pcsg:1:1)")),

@@ -12,6 +12,7 @@ from ..language.names import FRACTAL_PRIMITIVES, FREE, PIXELS, PRIMITIVES, RESER
 from ..language.mistakes import axiom_slip
 from ..language.unparse import unparse_arith
 from ..language.suggest import did_you_mean
+from ..overrides import underflows
 from ..trace.fractals import check_arguments
 from ..scene import build_scene
 from .derive import names_in
@@ -79,6 +80,10 @@ class _Builder:
                 text = self.source.expanded[n.span[0]:n.span[1]]
                 self.warn(n.span, f"the number {text} is too large for a double (at most "
                                   f"{sys.float_info.max:.2g}): it reads as inf", "huge-number")
+            elif isinstance(n, ast.Num) and n.value == 0.0 and \
+                    underflows(text := self.source.expanded[n.span[0]:n.span[1]], 0.0):
+                self.warn(n.span, f"the number {text} is too small for a double (at least "
+                                  f"{5e-324:.2g} in size): it reads as 0", "tiny-number")
 
     def _bracketed(self, n, left) -> bool:
         """Whether `left`, n's left operand, is written in brackets: `(1 < c) < 3` says
@@ -130,7 +135,9 @@ class _Builder:
             s.exprs = [self.expr(sel)]
             for rule in by_number:
                 s.children.append(self.csg(rule.body))
-                s.edge_spans.append(rule.span)
+                # where the child is written: a rule `S -> S` put "calls itself here"
+                # under the whole rule, where `S -> move(1,0,0) S` put it under the S
+                s.edge_spans.append(rule.body.span)
         for name, named in self.named.items():
             if name not in self.modules:
                 self.named_ref(name, named.name_span)

@@ -312,7 +312,10 @@ def flat_under_solid_operators(graph: Graph) -> list[Diagnostic]:
                                     f"{'left' if side == 0 else 'right'} operand of '{op}' derives "
                                     f"it; {kinds} primitives may only be combined by '∪'",
                                     n.edge_spans[side], "flat-primitive",
-                                    [(nodes[f].span, f"'{prim}' used here")] if nodes[f].span else []))
+                                    # where the operand is not the primitive as written
+                                    [(nodes[f].span, f"'{prim}' used here")]
+                                    if nodes[f].span and nodes[f].span != n.edge_spans[side]
+                                    else []))
     return errors
 
 

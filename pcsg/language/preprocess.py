@@ -56,7 +56,7 @@ class _Expander:
         self.out.append(self.text[start:end])
         self.length += end - start
         if self.length > MAX_EXPANSION:
-            raise _TooLarge
+            raise _TooLarge(start, uses)
 
     def error(self, offset: int, message: str):
         self.errors.append(Diagnostic("error", message, None, self.source, code="macro",
@@ -105,7 +105,7 @@ class _Expander:
                                          f"keys too", "macro-directive")
                 self.uses += 1
                 if self.uses > MAX_USES:
-                    raise _TooLarge
+                    raise _TooLarge(m.start(), uses)
                 self.emit(pos, m.start(), uses)
                 inner = ((macro.name, m.start(), macro.defined), uses)
                 active.add(macro.name)
@@ -210,7 +210,12 @@ class _Expander:
 
 
 class _TooLarge(Exception):
-    pass
+    def __init__(self, offset: int, uses: tuple | None):
+        super().__init__()
+        self.macro = None       # the use in the file's own text whose expansion grew so
+        self.offset = offset
+        while uses is not None:
+            (self.macro, self.offset, _), uses = uses
 
 
 _LINE_PARTS = re.compile(r"/\*.*?(?:\*/|\Z)|//[^\n]*|\n", re.S)
@@ -262,10 +267,10 @@ def preprocess(text: str, file: str) -> tuple[Source, list[Diagnostic]]:
     try:
         ex.expand(0, len(text), None, set(), top=True)
         ex.unused()
-    except _TooLarge:
-        ex.errors.append(Diagnostic(
-            "error", f"macros expand to more than {MAX_USES:,} uses or {MAX_EXPANSION:,} "
-                     f"characters; nested macros multiply", None, source, code="macro"))
+    except _TooLarge as e:
+        what = "macros expand" if e.macro is None else f"macro '{e.macro}' expands"
+        ex.error(e.offset, f"{what} to more than {MAX_USES:,} uses or {MAX_EXPANSION:,} "
+                           f"characters here; nested macros multiply")
     expanded = Source(file, text, "".join(ex.out), ex.pieces,
                       {name: m.defined for name, m in ex.macros.items()}, ex.warnings,
                       ex.defines)
