@@ -491,6 +491,7 @@ def cmd_sweep(args) -> int:
     options = [_options(args, {**fixed, name: value}) for value in values]
     _make_directory(out_dir, args.output)
     outputs = sweep_outputs(args.file, out_dir, name, values)
+    _no_directory_in_the_way(outputs)
     if (dropped := drop_other_widths(args.file, out_dir, name, values, outputs)) and \
             not args.quiet:
         print(f"pcsg sweep: removed {_many(len(dropped), 'image')} "
@@ -535,6 +536,13 @@ def _outputs(files: list[str], output: str | None) -> list[Path]:
     return [out]
 
 
+def _no_directory_in_the_way(paths: list[Path]) -> None:
+    from .output import directory_in_the_way
+    if (d := directory_in_the_way(paths)) is not None:
+        raise UsageError(f"{d} is a directory, where an image goes: move it, or write the "
+                         f"images elsewhere with -o")
+
+
 _STANDARD = re.compile(r"/(dev/(stdout|stderr|fd/[0-9]+)|proc/self/fd/[0-9]+)")
 
 
@@ -551,8 +559,9 @@ def _device(path: Path) -> bool:
 
 
 def _distinct(files: list[str], paths: list[Path]) -> list[Path]:
-    """The paths, where no two files of the batch share one: the second image overwrote
-    the first, and the batch said it rendered both."""
+    """The paths, where no two files of the batch share one (the second image overwrote
+    the first, and the batch said it rendered both) and none is a directory."""
+    _no_directory_in_the_way(paths)
     first: dict[Path, int] = {}
     for k, (f, n) in enumerate(zip(files, paths)):
         if first.setdefault(n, k) == k:

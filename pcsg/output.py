@@ -97,8 +97,19 @@ def make_directory(path: Path) -> str | None:
         path.mkdir(parents=True, exist_ok=True)
         return cannot_write_in(path)
     except (FileExistsError, NotADirectoryError):
+        for p in (path, *path.parents):
+            if p.is_symlink() and not p.exists():
+                # it said "dangling is a file, not a directory" (QA)
+                return f"{p} is a link to {os.readlink(p)}, which does not exist"
         blocking = next((p for p in (path, *path.parents) if p.exists() and not p.is_dir()),
                         path)
         return f"{blocking} is a file, not a directory"
     except OSError as e:
         return f"cannot make the directory {path}: {e.strerror or e}"
+
+
+def directory_in_the_way(paths) -> Path | None:
+    """The first of the files about to be written that is a directory: the render ran to
+    its end and then failed on 'Is a directory' (QA), where `-o` and `--depth` are
+    refused before anything renders."""
+    return next((Path(p) for p in paths if Path(p).is_dir()), None)

@@ -82,6 +82,17 @@ def test_each_frame_is_the_render_of_its_t_and_eye(capsys, tmp_path, ball):
         assert still.read_bytes() == data[i], f"frame {i}"
 
 
+@pytest.mark.parametrize("name", ["frame_0001.png", "ball.png"])
+def test_a_frame_or_animation_whose_name_is_a_directory_is_refused_first(capsys, tmp_path,
+                                                                         ball, name):
+    """That frame failed after the others had rendered, and no animation was written (QA)."""
+    out = tmp_path / "anim"
+    (out / name).mkdir(parents=True)
+    code, stdout, stderr = animate(capsys, ball, out, "--frames", "3")
+    assert code == 2 and frames(out) == ([] if name == "ball.png" else [out / name])
+    assert f"{out / name} is a directory, where an image of the animation goes" in stderr
+
+
 def test_the_ball_grows_with_t(capsys, tmp_path, ball):
     out = tmp_path / "a"
     assert animate(capsys, ball, out, "--frames", "2", "--jobs", "1")[0] == 0

@@ -263,6 +263,14 @@ def test_output_directory_missing(capsys, sierpinski, tmp_path, command):
     assert code == 2 and "is a file, not a directory" in err
 
 
+def test_an_output_directory_that_is_a_dangling_link_is_said_to_be_one(capsys, sierpinski,
+                                                                        tmp_path):
+    # "dangling is a file, not a directory" (QA)
+    (tmp_path / "dangling").symlink_to("nowhere/")
+    code, _, err = run(capsys, "render", str(sierpinski), "-o", f"{tmp_path}/dangling/")
+    assert code == 2 and f"{tmp_path}/dangling is a link to nowhere/, which does not exist" in err
+
+
 @pytest.mark.parametrize("argv, output", [
     (["render", "{f}", "-o", "{d}/file/sub/"], "-o {d}/file/sub/"),          # a directory
     (["render", "{f}", "{g}", "-o", "{d}/file/many"], "-o {d}/file/many"),   # a batch
@@ -584,7 +592,8 @@ def test_timeout_stops_a_long_bounding_walk(capsys, tmp_path):
      "the camera's eye and at are the same point (1, 1, 1)"),
     (SIERPINSKI, ["--eye", "0,0,5", "--at", "0,0,0"],
      "the camera's up (0, 0, 1) is parallel to its viewing direction"),
-    (SIERPINSKI, ["--eye", "1e300,1e300,1e300", "--at", "0,0,0"],
+    # the file's eye (both on the command line: a usage error, below)
+    ("#camera eye=(1e300, 1e300, 1e300)\n" + SIERPINSKI, ["--at", "0,0,0"],
      "the camera's eye is too far from at"),
 ])
 def test_a_camera_that_cannot_be_placed_fails_cleanly(capsys, tmp_path, text, options,
@@ -618,6 +627,9 @@ def test_an_up_of_zero_is_no_direction(capsys, tmp_path):
                            "--up 0,0,1 is parallel to the view from --eye to --at"),
                           (["--eye", "1e154,0,0", "--at", "0,0,0", "--up", "0,0,1"],
                            "--eye 1e+154,0,0 is too far from --at 0,0,0 (at most 1e+150)"),
+                          # whatever the up: it failed the file, exit 1 (QA)
+                          (["--eye", "1e300,0,0", "--at", "0,0,0"],
+                           "--eye 1e+300,0,0 is too far from --at 0,0,0 (at most 1e+150)"),
                           (["--eye", "nan,0,0"], "--eye nan,0,0: give finite coordinates"),
                           (["--at", "1,inf,0"], "--at 1,inf,0: give finite coordinates"),
                           # framed, this eye was at infinity: "the object's box is too
@@ -836,6 +848,29 @@ def test_sweep_usage_errors_are_said_once_before_any_image(capsys, tmp_path, arg
         got = e.code
     err = capsys.readouterr().err
     assert got == code and err.count(message) == 1 and not out.exists()
+
+
+@pytest.mark.parametrize("command", ["render", "sweep"])
+def test_an_image_whose_name_is_a_directory_is_refused_before_anything_renders(
+        capsys, tmp_path, monkeypatch, command):
+    """It rendered to the end and then failed, exit 1, on 'Is a directory' (QA), where -o
+    and --depth naming a directory are refused at once."""
+    from pcsg.render import job
+    monkeypatch.setattr(job, "render_file", lambda *a, **k: pytest.fail("it rendered"))
+    monkeypatch.chdir(tmp_path)
+    if command == "render":
+        (tmp_path / "sierpinski.png").mkdir()
+        args = ["render", str(GRAMMARS / "sierpinski.pcsg"), str(GRAMMARS / "table_tower.pcsg")]
+        blocked = "sierpinski.png"
+    else:
+        (tmp_path / "sw" / "sierpinski_c=2.png").mkdir(parents=True)
+        args = ["sweep", str(GRAMMARS / "sierpinski.pcsg"), "--set", "c=1..3", "-o", "sw/"]
+        blocked = "sw/sierpinski_c=2.png"
+    code, out, err = run(capsys, *args, "--size", "8x6")
+    assert code == 2 and out == ""
+    assert err.strip().endswith(f"{blocked} is a directory, where an image goes: move it, "
+                                f"or write the images elsewhere with -o")
+    assert sorted(p.name for p in tmp_path.rglob("*.png")) == [Path(blocked).name]
 
 
 def test_sweep_into_a_file_is_a_usage_error(capsys, tmp_path):

@@ -28,7 +28,7 @@ from ..language.errors import PcsgError, labelled
 from .job import Options, RenderFailed, render_file, traced_for
 from .path import bezier
 from ..resume import Manifest, output_key
-from ..output import make_directory
+from ..output import directory_in_the_way, make_directory
 
 TIME = "t"
 
@@ -267,6 +267,11 @@ def animate(anim: Animation) -> int:
         raise BadAnimation(f"{anim.source}: its animation would be named "
                            f"{anim.source.stem}.png, as a frame is; rename the file")
     jobs, timed = plan(anim)
+    stem = anim.source.stem
+    movies = [anim.out_dir / f"{stem}.png"] + ([anim.out_dir / f"{stem}.gif"] if anim.gif else [])
+    if (d := directory_in_the_way([j.png for j in jobs] + movies)) is not None:
+        raise BadAnimation(f"{d} is a directory, where an image of the animation goes: "
+                           f"move it, or give another -o")
     if problem := make_directory(anim.out_dir):
         raise BadAnimation(f"-o {anim.out_dir}: {problem}")
     manifest = Manifest(anim.out_dir)
@@ -306,7 +311,6 @@ def animate(anim: Animation) -> int:
     made = ""
     if not report.failed:
         from .movie import write_apng, write_gif
-        stem = anim.source.stem
         frames = [j.png for j in jobs]
         write_apng(frames, anim.out_dir / f"{stem}.png", anim.fps)
         made = f"; animation {anim.out_dir / f'{stem}.png'}"

@@ -106,7 +106,9 @@ def view_problem(eye, at, up, fov, light) -> str | None:
         return f"--eye and --at are the same point {_given(eye)}: the camera looks nowhere"
     if up is not None and not any(up):
         return "--up 0,0,0 is no direction: give one such as 0,0,1"
-    what = camera_degenerate(eye, at, up) if None not in (eye, at, up) else None
+    # without --up the file's #camera may give one: only the distance is the options' alone
+    what = camera_degenerate(eye, at, up or (0, 0, 1)) if None not in (eye, at) else None
+    what = None if up is None and what == "parallel" else what
     if what == "parallel":
         return f"--up {_given(up)} is parallel to the view from --eye to --at: give another up"
     if what == "far":
