@@ -410,7 +410,6 @@ def _depth_output(depth: str, files: list[str]):
 
 
 def cmd_render(args) -> int:
-    from .render.job import RenderFailed, render_file
     files = expand_globs(args.files)
     opts = _options(args)
     distributed = _distributed(args)
@@ -418,7 +417,30 @@ def cmd_render(args) -> int:
         raise UsageError("--depth names one file; render one .pcsg file with it")
     if opts.depth is not None:
         _depth_output(str(opts.depth), files)       # before -o's directory is made
+    out = Path(args.output or ".").absolute()
+    made = [d for d in (out, *out.parents) if not os.path.lexists(d)]
     outputs = _outputs(files, args.output)
+    with _removed_if_left_empty(made):
+        return _render_into(args, files, opts, distributed, outputs)
+
+
+@contextlib.contextmanager
+def _removed_if_left_empty(made: list[Path]):
+    """The directories `-o DIR/` made (DIR and its new parents, deepest first), removed
+    again where the command wrote nothing in them: a usage error after they were made, or
+    a batch whose every file failed, left them there."""
+    try:
+        yield
+    finally:
+        for d in made:
+            if not d.is_dir() or any(d.iterdir()):
+                break
+            with contextlib.suppress(OSError):
+                d.rmdir()
+
+
+def _render_into(args, files: list[str], opts, distributed: bool, outputs: list[Path]) -> int:
+    from .render.job import RenderFailed, render_file
     for out in outputs:
         _not_an_input(out, "-o", files)
     if opts.depth is not None and _same_file(opts.depth, outputs[0]):

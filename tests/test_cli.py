@@ -252,6 +252,27 @@ def test_unreadable_inputs(capsys, tmp_path):
     assert code == 1 and "l.pcsg:1:14: error: not UTF-8 text (byte 0xe9)" in err
 
 
+def test_a_render_that_writes_nothing_leaves_no_directory_it_made(capsys, sierpinski,
+                                                                    tmp_path):
+    """`-o DIR/` is made before the files render: one that failed, or a usage error found
+    after it was made, left it there empty."""
+    bad = tmp_path / "bad.pcsg"
+    bad.write_text("sphere ∪ foo\n", encoding="utf-8")
+    out = tmp_path / "new" / "renders"
+    assert run(capsys, "render", str(bad), "-o", f"{out}/", "--size", "8x6")[0] == 1
+    assert run(capsys, "render", str(sierpinski), "-o", f"{out}/", "--workers", "2",
+               "--timings")[0] == 2
+    assert not (tmp_path / "new").exists()
+    # one that existed stays, and so does one something was written in
+    out.mkdir(parents=True)
+    assert run(capsys, "render", str(bad), "-o", f"{out}/", "--size", "8x6")[0] == 1
+    assert out.is_dir()
+    out.rmdir()
+    assert run(capsys, "render", str(sierpinski), str(bad), "-o", f"{out}/", "--size", "8x6",
+               "-q")[0] == 1
+    assert [p.name for p in out.iterdir()] == ["s.png"]
+
+
 @pytest.mark.parametrize("command", ["graph", "expand"])
 def test_output_directory_missing(capsys, sierpinski, tmp_path, command):
     # the message named the temporary file beside the output
