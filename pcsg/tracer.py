@@ -14,6 +14,7 @@ from .collector import collector_paused
 from .compiler import compile_file, compile_text
 from .graph.flat import NORMAL_DECAY, flatten_graph
 from .graph.regroup import regroup
+from .graph.solidglass import glass_unions_as_solids
 from .graph.states import StateTable
 from .graph.volumes import bounding_volumes
 from .graph.model import DIFFERENCE, INTERSECTION, KIND_NAMES, SELECT, UNION, Graph
@@ -141,6 +142,8 @@ class Traced:
         # bounded instance by instance its runs of maps written out as one (graph/fuse.py);
         # False traces the graph as written, for comparisons
         graph = regroup(graph) if regrouped else graph
+        # glass of overlapping parts as one solid for the rays inside it (graph/solidglass.py)
+        graph = glass_unions_as_solids(graph)
         # bounds_poll(visits, expected): progress and a way to stop a long bounding walk;
         # max_depth None: as deep as the derivation goes where it ends (memoised, within
         # DEEPEST_DEFAULT levels), else MAX_DEPTH (graph/bounds.py, _memoised)

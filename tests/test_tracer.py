@@ -398,6 +398,10 @@ def test_a_ray_from_inside_a_union_stops_at_the_inner_surface_unless_intersected
     assert pcsg.loads("sphere ∪ move(0.5, 0, 0) sphere").trace(o, d).t[0] == 1.0
     whole = pcsg.loads("(sphere ∪ move(0.5, 0, 0) sphere) ∩ uscale(10) cube").trace(o, d)
     assert whole.t[0] == pytest.approx(1.5)
+    # a union that glass is made of is traced as one solid (graph/solidglass.py)
+    glass = pcsg.loads("#material glass transmit=0.9\n"
+                       "material(glass) (sphere ∪ move(0.5, 0, 0) sphere)").trace(o, d)
+    assert glass.t[0] == pytest.approx(1.5) and glass.normal[0].tolist() == [1.0, 0.0, 0.0]
 
 
 @pytest.mark.parametrize("shape", [(3, 2), (2, 3, 3), (1, 2), (4,)])
