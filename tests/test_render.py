@@ -527,6 +527,27 @@ def test_a_tiny_scene_casts_its_shadows_as_a_large_one(tmp_path):
         assert apart.sum() <= 4, (size, apart.sum())
 
 
+def test_a_tiny_scene_on_a_ground_plane_casts_its_shadows_as_a_large_one(tmp_path):
+    """A shaded point moves off its surface by 1e-6 of the object's size, which the
+    plane's infinite box left at 1: at 1e-6 the hollow's shadow was gone and the floor's
+    cut short (QA: 15,011 of 160x120 pixels apart from the picture at scale 1)."""
+    pictures = {}
+    for size in ("1", "1e-6", "1e-30"):
+        src = tmp_path / f"hollow_{size}.pcsg"
+        src.write_text(f"#camera eye=(3*{size}, -4*{size}, 3*{size}) at=(0, 0, 0)\n"
+                       f"#light at=(-2*{size}, -{size}, 6*{size})\n"
+                       f"uscale({size}) ((paint(1,0.5,0.2) cube \\ move(0.5,-0.5,0.5) "
+                       f"uscale(0.9) sphere) ∪ move(0,0,-1) plane)\n", encoding="utf-8")
+        out = tmp_path / f"hollow_{size}.png"
+        assert main(["render", str(src), "-o", str(out), "--size", "80x60", "-q"]) == 0
+        pictures[size] = np.asarray(Image.open(out).convert("RGB"), float)
+    one = pictures.pop("1")
+    assert (np.abs(one - one[0, 0]).max(axis=2) > 30).mean() > 0.3       # a scene, shaded
+    for size, picture in pictures.items():
+        apart = np.abs(picture - one).max(axis=2) > 8
+        assert apart.sum() <= 4, (size, apart.sum())
+
+
 def test_a_tiny_csg_object_is_drawn_as_a_large_one(tmp_path):
     """∩ and \\ dropped their pieces thinner than 1e-9 below t = 1 as slivers: from 1e-9
     down, `sphere \\ cube` was drawn as nothing and `sphere ∩ cube` said no ray met it (QA:

@@ -94,10 +94,12 @@ def make_lighting(traced, camera, shadows=True, shadow_samples=8, max_bounces=3,
 
 
 def _unit(traced) -> float:
-    """Lighting.unit: the diagonal of the object's box where it is finite and below 1 (a
-    ground plane's object is as large as a scene gets)."""
-    box = traced.boxes[traced.graph.root]
-    size = float(np.linalg.norm(box[3:] - box[:3])) if np.isfinite(box).all() else math.inf
+    """Lighting.unit: the diagonal of the object's box without a ground plane's infinite
+    part (camera.finite_bounds), where it is below 1. With the plane's infinite box the unit
+    stayed 1, and an object of 1e-6 on a plane had its shaded points moved off their
+    surfaces by its own size: its shadows were cut short or gone (QA)."""
+    box = finite_bounds(traced)
+    size = float(np.linalg.norm(box[3:] - box[:3]))
     return size if 0.0 < size < 1.0 else 1.0
 
 
