@@ -146,7 +146,9 @@ def test_cluster_options_without_dask_say_how_to_install_it(capsys, monkeypatch,
 def test_an_output_that_cannot_be_written_fails_alone(capsys, tmp_path):
     out = tmp_path / "sweep"
     out.mkdir()
-    (out / "sierpinski_c=2.png").mkdir()          # a directory where the image should go
+    # a link into a directory that is not there, where the image should go (a directory
+    # there is refused before anything renders)
+    (out / "sierpinski_c=2.png").symlink_to(tmp_path / "gone" / "c2.png")
     code = main(["sweep", SIERPINSKI, "--set", "c=1..3", "--size", "32x24", "-o", str(out),
                  "-q", "--tiles", "3"])
     captured = capsys.readouterr()
