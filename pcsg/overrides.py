@@ -11,9 +11,13 @@ import sys
 NUMBER = re.compile(r"[+-]?([0-9]+\.[0-9]*|\.[0-9]+|[0-9]+)([eE][+-]?[0-9]+)?")
 
 
-def underflows(text: str, value: float) -> bool:
-    """Whether the number written `text` is too small for a double and reads as 0 (1e-400),
-    where it is written with a digit other than 0."""
+def underflows(text: str) -> bool:
+    """Whether `text` is a number too small for a double, which reads as 0 (1e-400): one
+    written with a digit other than 0. Text that is no number is not."""
+    try:
+        value = float(text)
+    except ValueError:
+        return False
     mantissa = re.split(r"[eE]", text, maxsplit=1)[0]
     return value == 0.0 and any(c in "123456789" for c in mantissa)
 
@@ -28,7 +32,7 @@ def set_number(value: str, text: str) -> float:
         # 1e400: inf, which --set c=inf was refused as
         raise argparse.ArgumentTypeError(f"'{value}' is too large (in --set {text}): a "
                                          f"parameter holds at most {sys.float_info.max:.2g}")
-    if underflows(value.strip(), number):
+    if underflows(value.strip()):
         # 1e-400: 0, which the file would then divide by or scale with, without a word
         raise argparse.ArgumentTypeError(
             f"'{value}' is too small (in --set {text}): it would be 0; a parameter other "

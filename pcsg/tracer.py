@@ -53,7 +53,12 @@ def _rays(values, what: str) -> np.ndarray:
     if np.ma.is_masked(values):
         # np.asarray drops the mask: the masked rays were traced from their hidden values
         raise ValueError(f"{what} has masked entries: fill them or leave those rays out")
-    a = np.asarray(values)
+    try:
+        a = np.asarray(values)
+    except ValueError:
+        # rows of different lengths: numpy's "inhomogeneous shape" named no argument
+        raise ValueError(f"{what} must be real numbers of shape (N, 3), or (3,) for one "
+                         f"ray; got rows of different lengths") from None
     # no rays: [] or (0, 3), not (0, 5) nor (5, 0), which were taken as none
     if a.shape in ((0,), (0, 3)) and a.dtype.kind in "iuf":
         return np.empty((0, 3))
@@ -185,6 +190,7 @@ class Traced:
 
     @property
     def material_names(self) -> list[str]:
+        """The file's materials by the number `Hits.material` gives (-1: none)."""
         return self.graph.material_names
 
     @property
@@ -246,7 +252,7 @@ class Traced:
             e = min(n, s + BATCH)
             ev = no_events(len(self.graph.nodes), (e - s + CHUNK - 1) // CHUNK)
             trace_rays(self.flat, o[s:e], d[s:e], cones[s:e], float(tmin), float(tmax),
-                       bool(any_hit), float(lod), self.max_depth, self.limits, threads(),
+                       bool(any_hit), float(lod), int(self.max_depth), self.limits, threads(),
                        self._packets(packets), out[s:e], ev)
             add_events(events, ev)
         add_events(self.events, events)

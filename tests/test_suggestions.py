@@ -207,6 +207,10 @@ def test_a_number_too_small_for_a_double_is_warned_of():
          if x.code == "tiny-number"]
     assert w == [(1, 6, "the number 1e-400 is too small for a double (at least 4.9e-324 in "
                         "size): it reads as 0")]
+    # a parameter set to 0 keeps the place of the number it replaces, which is no 0 (QA)
+    from pcsg.compiler import compile_text
+    graph = compile_text("{r = 1} uscale(r) sphere\n", overrides={"r": 0.0})
+    assert not [x for x in graph.warnings if x.code == "tiny-number"]
 
 
 @pytest.mark.parametrize("text, want", [

@@ -414,6 +414,9 @@ def test_rays_of_another_shape_are_refused(shape):
     assert obj.trace([0, 0, 5], [0, 0, -1]).t[0] == 4.0          # (3,): one ray
     hits = obj.trace([0, 0, 5], [0, 0, -1])
     assert obj.trace([], []).t.shape == (0,)                      # no rays
+    with pytest.raises(ValueError, match="origins must be real numbers of shape .* rows of "
+                                         "different lengths"):
+        obj.trace([[0, 0, 5], [0, 0]], [[0, 0, -1], [0, 0, -1]])     # numpy's message (QA)
     assert hits == hits and hits != obj.trace([0, 0, 5], [0, 0, -1])   # identity, not arrays
 
 
@@ -427,3 +430,16 @@ def test_normals_of_extreme_maps_are_unit_vectors(text, origin, want):
     hits = pcsg.loads(text).trace(origin, (0, 0, 1))
     assert hits.hit[0]
     np.testing.assert_allclose(hits.normal[0], want, atol=1e-12)
+
+
+def test_a_depth_of_another_integer_type_does_not_compile_the_kernel_again():
+    """`obj.max_depth = np.int32(3)` went to the kernel as an int32: numba compiled the
+    trace again for it, minutes with no word (QA)."""
+    import pcsg
+    from pcsg.trace.kernel import trace_share
+    obj = pcsg.loads("sphere")
+    assert obj.trace([0, 0, 5], [0, 0, -1]).t[0] == 4.0
+    compiled = list(trace_share.signatures)
+    obj.max_depth = np.int32(3)
+    assert obj.trace([0, 0, 5], [0, 0, -1]).t[0] == 4.0
+    assert list(trace_share.signatures) == compiled

@@ -81,7 +81,8 @@ class _Builder:
                 self.warn(n.span, f"the number {text} is too large for a double (at most "
                                   f"{sys.float_info.max:.2g}): it reads as inf", "huge-number")
             elif isinstance(n, ast.Num) and n.value == 0.0 and \
-                    underflows(text := self.source.expanded[n.span[0]:n.span[1]], 0.0):
+                    underflows(text := self.source.expanded[n.span[0]:n.span[1]]):
+                # as written: a --set of 0 keeps the place of the number it replaces
                 self.warn(n.span, f"the number {text} is too small for a double (at least "
                                   f"{5e-324:.2g} in size): it reads as 0", "tiny-number")
 

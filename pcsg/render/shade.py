@@ -232,7 +232,7 @@ def _shade_kernel(traced, light: Lighting, origins, directions, ids, check=None)
     shade_rays(traced.flat, o, d, lights, np.asarray(light.horizon, float),
                np.asarray(light.zenith, float), np.ascontiguousarray(materials, dtype=float),
                default, bool(light.shadows), int(light.shadow_samples), int(light.max_bounces),
-               float(light.lod), traced.max_depth, traced.limits, workers,
+               float(light.lod), int(traced.max_depth), traced.limits, workers,
                AMBIENT, int(light.ao_samples), float(light.ao_distance), float(light.unit),
                np.ascontiguousarray(ids, dtype=np.int64), traced._packets(light.packets), rgb,
                t, hit, rays, events, tick=check)
