@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -367,8 +368,8 @@ def load(path: str | Path, max_depth: int | None = None, stack_depth: int | None
     path = os.fspath(path)
     if not isinstance(path, str):
         raise TypeError(f"load takes a .pcsg file's path as str, got {type(path).__name__}")
-    return Traced(compile_file(path, _parameters(params, overrides)), max_depth, stack_depth,
-                  interval_rows, max_instances, bounds_budget)
+    return _in_api_words(Traced(compile_file(path, _parameters(params, overrides)), max_depth,
+                                stack_depth, interval_rows, max_instances, bounds_budget))
 
 
 def loads(text: str, file: str = "<string>", max_depth: int | None = None,
@@ -383,8 +384,25 @@ def loads(text: str, file: str = "<string>", max_depth: int | None = None,
         # `loads(text, file=3)` meant a parameter named file: it became the name in errors
         raise TypeError(f"file={file!r}: loads takes the name its errors give the text, as "
                         f"str; a parameter named file goes in params={{'file': ...}}")
-    return Traced(compile_text(text, str(file), _parameters(params, overrides)), max_depth,
-                  stack_depth, interval_rows, max_instances, bounds_budget)
+    return _in_api_words(Traced(compile_text(text, str(file), _parameters(params, overrides)),
+                                max_depth, stack_depth, interval_rows, max_instances,
+                                bounds_budget))
+
+
+# a limit as the command line names it in a warning, with its value or without
+_LIMIT_OPTION = re.compile(r"--(max-depth|stack-depth|interval-rows|max-instances|bounds-budget)"
+                           r"( (?=[0-9]))?")
+
+
+def _in_api_words(traced: Traced) -> Traced:
+    """Its warnings name the limits as load and loads take them (`max_depth=64`), where
+    they said "a smaller --max-depth (16, say)" to a Python caller (QA)."""
+    def api(m):
+        name = m.group(1).replace("-", "_")
+        return api_argument(name) if m.group(2) else name
+    traced.warnings = [replace(w, message=_LIMIT_OPTION.sub(api, w.message))
+                       for w in traced.warnings]
+    return traced
 
 
 def _parameters(params: dict | None, overrides: dict) -> dict[str, float]:

@@ -219,3 +219,13 @@ def test_a_graftal_traced_without_a_level_of_detail_is_told_to_take_one():
     deep = pcsg.load(GRAMMARS / "sierpinski.pcsg", c=6, max_depth=2)
     (line,) = deep.describe_events(deep.trace([[0.1, -5, 0.3]], [[0, 1, 0]]).events)
     assert "lod" not in line
+
+
+def test_warnings_name_the_limits_as_load_takes_them():
+    """They said "to --max-depth 64: a smaller --max-depth (16, say)" to a Python caller,
+    where describe_events says `max_depth=` (QA)."""
+    import pcsg
+    obj = pcsg.loads("S\nS 1\n1: S → S ∪ move(0.1,0,0) S ∪ sphere")
+    said = " ".join(w.message for w in obj.warnings)
+    assert "bounds_budget=400,000,000 node visits" in said and "to max_depth=64" in said
+    assert "a smaller max_depth (16, say)" in said and "--" not in said

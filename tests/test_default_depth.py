@@ -40,8 +40,8 @@ def test_the_default_stays_64_where_the_derivation_does_not_end_or_is_too_deep(m
     # nothing, its note told of instances "finished with their terminating rule")
     said = [w.message for w in deep.warnings if w.code == "deep-derivation"]
     assert said == [f"the derivation ends {DEEPEST_DEFAULT + 5:,} levels down, deeper than "
-                    f"the {DEEPEST_DEFAULT:,} a render follows without --max-depth: it is "
-                    f"cut at {MAX_DEPTH}; --max-depth {DEEPEST_DEFAULT + 6} draws it whole"]
+                    f"the {DEEPEST_DEFAULT:,} a render follows without max_depth: it is "
+                    f"cut at {MAX_DEPTH}; max_depth={DEEPEST_DEFAULT + 6} draws it whole"]
     whole = pcsg.loads(ROW.format(n=DEEPEST_DEFAULT + 5), max_depth=DEEPEST_DEFAULT + 6)
     assert _last_hit(whole, DEEPEST_DEFAULT + 5) and not _last_hit(deep, DEEPEST_DEFAULT + 5)
     assert not [w for w in whole.warnings if w.code == "deep-derivation"]

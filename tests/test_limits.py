@@ -244,8 +244,8 @@ def test_a_budget_too_small_for_the_first_walk_bounds_a_shallower_depth(budget, 
     obj = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=6, bounds_budget=budget)
     assert obj.bounds_method == "every instance" and obj.max_depth == depth
     (w,) = obj.warnings
-    # at depth 0 no --max-depth is named: the option takes 1 and more (QA)
-    assert (f"refinement stops there, as with --max-depth {depth}:" if depth else
+    # at depth 0 no max_depth is named: the argument takes 1 and more (QA)
+    assert (f"refinement stops there, as with max_depth={depth}:" if depth else
             "refinement stops there: deeper") in w.message
     assert not pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=6).warnings
     hits = obj.trace(np.array([[0.5, 0.5, 5.0]]), np.array([[0.0, 0.0, -1.0]]))
@@ -281,7 +281,7 @@ def test_an_endless_system_too_large_to_walk_whole_is_told_to_take_a_depth():
     assert obj.bounds_method == "unbounded"
     (w,) = obj.warnings
     assert w.message.endswith("it never ends, and is bounded only walked whole, to "
-                              "--max-depth 64: a smaller --max-depth (16, say) ends it where "
+                              "max_depth=64: a smaller max_depth (16, say) ends it where "
                               "its instances can be walked")
     cut = pcsg.loads(text, max_depth=12)
     assert cut.bounds_method == "every instance" and not cut.warnings

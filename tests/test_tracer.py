@@ -251,8 +251,8 @@ def test_too_many_instances_to_bound_stop_refining_where_the_bounds_stop(monkeyp
     assert obj.bounds_method == "every instance"
     assert 3 <= obj.max_depth <= 7 and obj.asked_depth == 64     # it ends at depth 9
     warned = [w for w in obj.warnings if w.code == "depth-bounded"]
-    assert len(warned) == 1 and f"--max-depth {obj.max_depth}:" in warned[0].message
-    assert "--bounds-budget 10,000 node visits" in warned[0].message
+    assert len(warned) == 1 and f"max_depth={obj.max_depth}:" in warned[0].message
+    assert "bounds_budget=10,000 node visits" in warned[0].message
     same = pcsg.load(GRAMMARS / "carpenter_terrain.pcsg", cnt=obj.max_depth - 1)
     assert same.max_depth == 64 and not [w for w in same.warnings if w.code == "depth-bounded"]
     # every view's rays in one reference trace, whose cost is mostly per primitive
