@@ -140,6 +140,13 @@ GLASS_OF_TWO_BALLS = [
     "#camera eye=(0,-0.01,8) at=(0,0,0) up=(0,1,0) fov=40\n#light at=(50,0,50)\n"
     "#material glass transmit=0.9 ior=1\nmaterial(glass) move(0,0,2) (move(-0.3,0,0) "
     "uscale(0.8) sphere ∪ move(0.3,0,0) uscale(0.8) sphere) ∪ paint(1,1,1) plane\n",
+    # glass given operand by operand beside a floor that is no solid, and beside a rand()
+    "#camera eye=(0.5, -6, 2.5) at=(0, 0, 0.8)\n#material glass ior=1.5 transmit=0.9\n"
+    "material(glass) move(-0.4,0,1) sphere ∪ material(glass) move(0.5,0,1) uscale(0.8) "
+    "sphere ∪ paint(0.3,0.5,0.3) scale(4,4,1) tri1\n",
+    "#camera eye=(0.5, -6, 2.5) at=(0, 0, 0.8)\n#material glass ior=1.5 transmit=0.9\n"
+    "material(glass) (move(-0.4,0,1) sphere ∪ move(0.5,0,1) uscale(0.8) sphere) ∪ "
+    "paint(0.3, 0.5 + 0 * rand(), 0.3) move(0,0,-0.05) scale(4,4,0.05) cube\n",
 ]
 
 

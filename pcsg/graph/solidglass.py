@@ -13,11 +13,14 @@ itself; so a union that glass is made of goes under a difference of one operand,
 
 Only where that is cheap and safe: a union with no S-node below it (a fixed tree of at
 most MAX_PRIMITIVES primitives; an interval list over a recursive operand walks every
-instance the ray passes) and no flat triangle or fractal (they have no inside), that a
-transmitting material reaches (below one, or one below it), in a system without rand(),
-whose values hash the path of every instance through the new node. The outermost such
-union is wrapped, once. A recursive glass object keeps the inner faces where its parts
-overlap (README, "How the tracer works")."""
+instance the ray passes), no flat triangle or fractal (they have no inside) and no rand()
+(its values hash the path through the new node), that a transmitting material reaches
+(below one, or one below it). The outermost such union is wrapped, once. Where a union
+is not such a tree (a floor beside the glass that is a module or a triangle), its
+operands that are go under a new union of their own first, in a system without rand()
+(their numbers in the union change, which the hashes of every instance below it hold).
+A recursive glass object keeps the inner faces where its parts overlap (README, "How the
+tracer works")."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -30,19 +33,27 @@ MAX_PRIMITIVES = 64
 
 
 def glass_unions_as_solids(graph: Graph) -> Graph:
-    """`graph` with the unions that glass is made of (above) each under a difference of
-    one operand, or `graph` itself where there are none."""
+    """`graph` with what glass is made of (above) under a difference of one operand, or
+    `graph` itself where there is nothing to change."""
     glass = {name for name, m in graph.scene.materials.items() if m.get("transmit", 0) > 0}
-    if not glass or (graph.exprs.arrays()["code"][:, 0] == RAND).any():
+    if not glass:
         return graph
     nodes = graph.nodes
     size = _fixed_sizes(graph)
-    wrapped: dict[int, int] = {}
+    # numbering a union's operands anew changes the hashes below them (rand(), the
+    # instance table): only in a system without rand(), as regroup's splice
+    regroup = not (graph.exprs.arrays()["code"][:, 0] == RAND).any()
+
+    def fixed_glass(i: int, under_glass: bool) -> bool:
+        return 0 < size[i] <= MAX_PRIMITIVES and (under_glass or _glass_below(graph, i, glass))
+
+    whole: set[int] = set()                 # unions wrapped as they are
+    grouped: dict[int, list[int]] = {}      # union -> its operands wrapped as one union
     # (node, whether a transmitting material is above it), each pair once
     stack, seen = [(graph.root, False)], set()
     while stack:
         i, under_glass = stack.pop()
-        if (i, under_glass) in seen or i in wrapped:
+        if (i, under_glass) in seen or i in whole:
             continue
         seen.add((i, under_glass))
         n = nodes[i]
@@ -50,19 +61,42 @@ def glass_unions_as_solids(graph: Graph) -> Graph:
             under_glass = n.name in glass
         if n.kind in (INTERSECTION, DIFFERENCE):
             continue        # traced as intervals already
-        if n.kind == UNION and 0 < size[i] <= MAX_PRIMITIVES and \
-                (under_glass or _glass_below(graph, i, glass)):
-            wrapped[i] = len(nodes) + len(wrapped)
+        if n.kind == UNION and fixed_glass(i, under_glass):
+            whole.add(i)
             continue
-        stack += [(c, under_glass) for c in n.children]
-    if not wrapped:
+        if n.kind == UNION and regroup and i not in grouped:
+            # glass given operand by operand beside a floor that is a module, or many
+            # primitives: `material(glass) A ∪ material(glass) B ∪ F` (QA)
+            ops, total = [], 0
+            for c in n.children:
+                if c not in ops and fixed_glass(c, under_glass) and \
+                        total + size[c] <= MAX_PRIMITIVES:
+                    ops.append(c)
+                    total += size[c]
+            if len(ops) > 1:
+                grouped[i] = ops
+        stack += [(c, under_glass) for c in n.children if c not in grouped.get(i, ())]
+    if not whole and not grouped:
         return graph
-    new = list(nodes) + [Node(DIFFERENCE, children=[i], edge_spans=[nodes[i].span],
-                              span=nodes[i].span) for i in wrapped]
-    for p, n in enumerate(nodes):
-        if any(c in wrapped for c in n.children):
-            new[p] = replace(n, children=[wrapped.get(c, c) for c in n.children])
-    return replace(graph, nodes=new, root=wrapped.get(graph.root, graph.root))
+    new = list(nodes)
+
+    def solid(children: list[int], span) -> int:
+        new.append(Node(DIFFERENCE, children=children, edge_spans=[span], span=span))
+        return len(new) - 1
+    wrapper = {i: solid([i], nodes[i].span) for i in sorted(whole)}
+    for i, ops in grouped.items():
+        n = nodes[i]
+        spans = dict(zip(n.children, n.edge_spans))
+        new.append(Node(UNION, children=ops, edge_spans=[spans[c] for c in ops], span=n.span))
+        one = solid([len(new) - 1], n.span)
+        kept = [k for k, c in enumerate(n.children) if c not in ops or c == ops[0]]
+        new[i] = replace(n, children=[one if n.children[k] == ops[0] else n.children[k]
+                                      for k in kept],
+                         edge_spans=[n.edge_spans[k] for k in kept])
+    for p, n in enumerate(new[:len(nodes)]):
+        if any(c in wrapper for c in n.children):
+            new[p] = replace(n, children=[wrapper.get(c, c) for c in n.children])
+    return replace(graph, nodes=new, root=wrapper.get(graph.root, graph.root))
 
 
 def _fixed_sizes(graph: Graph) -> list[int]:
@@ -78,7 +112,7 @@ def _fixed_sizes(graph: Graph) -> list[int]:
             if size[i] >= 0:
                 continue
             n = nodes[i]
-            if n.kind == SELECT:
+            if n.kind == SELECT or any(graph.exprs.uses_rand(e) for e in n.exprs):
                 size[i] = 0
             elif n.kind == PRIMITIVE:
                 size[i] = 0 if n.name in UNION_ONLY_PRIMITIVES else 1
