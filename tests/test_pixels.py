@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from PIL import Image
 
 import pcsg
 from pcsg.cli import main
@@ -150,3 +151,37 @@ def test_a_pixels_system_that_only_an_instance_walk_bounds_says_it_is_unbounded(
     # without `pixels`, the same system is walked and bounded
     plain = pcsg.loads(text.replace(" || pixels < 4", ""))
     assert plain.bounds_method == "every instance" and not plain.warnings
+
+
+# the camera sees a red ball (rule 1) where `pixels` is below T: its shadow and its mirror
+# image must be the ball's too, not the cross of rule 2
+SEEN_SMALL = """#camera eye=(0, -30, 12) at=(0, 0, 0.5) fov=30
+#light at=(0, 0, 40)
+#material mirror reflect=0.9
+A ∪ {FLOOR}
+A if(pixels < 200, 1, 2)
+1: A → paint(1,0,0) move(0,0,2) sphere
+2: A → paint(0,0,1) move(0,0,2) (scale(1,0.1,0.1) cube ∪ scale(0.1,1,0.1) cube)
+"""
+
+
+@pytest.mark.parametrize("floor, options", [
+    ("paint(0.8,0.8,0.8) plane", ["--shadow-samples", "1"]),
+    ("material(mirror) plane", ["--no-shadows"]),
+])
+def test_shadows_and_mirror_images_choose_the_rule_the_camera_sees(tmp_path, floor, options):
+    """A shadow or reflected ray's footprint is the beam's from the eye (Bekaert &
+    Willems §3.1): it starts as wide as the pixel it leaves. Without that width a shadow
+    ray leaving the ground beside the ball saw it hundreds of pixels large, and the ball
+    cast the shadow of the cross (QA), its mirror image too."""
+    pictures = []
+    for text in (SEEN_SMALL, SEEN_SMALL.replace("if(pixels < 200, 1, 2)", "1")):
+        src = tmp_path / "s.pcsg"
+        src.write_text(text.replace("{FLOOR}", floor), encoding="utf-8")
+        out = tmp_path / f"s{len(pictures)}.png"
+        assert main(["render", str(src), "--size", "160x120", "-q", "-o", str(out),
+                     "--no-adaptive", *options]) == 0
+        pictures.append(np.asarray(Image.open(out).convert("RGB"), int))
+    switching, ball = pictures
+    assert (np.abs(ball - ball[0, 0]).max(axis=2) > 30).sum() > 200     # ball, and more
+    assert np.array_equal(switching, ball)

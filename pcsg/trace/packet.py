@@ -194,8 +194,10 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
         P.count[0] = 0
         P.count[1] = 0
         dmax = 0.0
+        cmax = 0.0
         for k in range(n):
             dmax = max(dmax, P.dnorm[k])
+            cmax = max(cmax, P.cone[k])
         budget = S.visits[1]
         # --stack-depth bounds the packet's pending frames too, and then each ray's own walk
         cap = min(FRAMES, S.F.shape[0])
@@ -283,7 +285,7 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
                     break
                 if kind == SELECT:
                     on, below_all = pixel_split(flat, node, P, g, phase, cap, lod, lod * dmax,
-                                                max_depth)
+                                                cmax, max_depth)
                     if on == WAIT:
                         sp += 1
                         break
@@ -345,13 +347,13 @@ def trace(flat, n, tmin, tmax, any_hit, lod, max_depth, S, P, together, ev, res)
 
 
 @inline
-def pixel_split(flat, node, P, g, phase, cap, lod, reach, max_depth):
+def pixel_split(flat, node, P, g, phase, cap, lod, reach, widest, max_depth):
     """At an S-node the rays for which the instance is below their pixel stop refining.
     If only some are, frame g keeps those, marked ALONE, and a copy of it at g + 1 takes
     the others: returns (the frame that goes on: g, g + 1, or WAIT where there is no
     room above g and frame g, all its rays marked ALONE, is to be pushed again; whether
     all its rays are below their pixel). `reach` is lod times the packet's largest
-    direction length."""
+    direction length, `widest` its largest cone (walk.choose_rule's footprint)."""
     F, I, H, act, win = P.F, P.I, P.H, P.act, P.win
     m = P.n[g]
     if I[g, CUT] != 0 or I[g, LEVEL] + 1 > max_depth or lod <= 0.0:
@@ -361,7 +363,7 @@ def pixel_split(flat, node, P, g, phase, cap, lod, reach, max_depth):
     # it enters can pass this one (products of non-negative factors round monotonically):
     # most instances are far above every pixel (a terrain patch's box spans all its
     # heights), and the loop below would go over every ray of the frame
-    if size >= reach * max(F[g, T0], 0.0):
+    if size >= widest + reach * max(F[g, T0], 0.0):
         return g, False
     below = 0
     for j in range(m):
@@ -396,8 +398,9 @@ def pixel_split(flat, node, P, g, phase, cap, lod, reach, max_depth):
 @inline
 def below_pixel(size, lod, P, g, j):
     """Whether an instance of world size `size` is below the pixel of frame g's ray j
-    where it enters the instance."""
-    return size < lod * P.dnorm[P.act[g, j]] * max(P.win[g, j, 0], 0.0)
+    where it enters the instance (its cone and lod over its length, as walk.choose_rule)."""
+    k = P.act[g, j]
+    return size < P.cone[k] + lod * P.dnorm[k] * max(P.win[g, j, 0], 0.0)
 
 
 @inline

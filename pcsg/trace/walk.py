@@ -44,13 +44,17 @@ HIT_SOLID, HIT_SHEET, HIT_SHELL = 1.0, 2.0, 3.0
 
 
 @inline
-def choose_rule(flat, node, F, I, H, f, S, lod, dnorm, max_depth, t_enter, ev):
+def choose_rule(flat, node, F, I, H, f, S, lod, cone, dnorm, max_depth, t_enter, ev):
     """The S-node's rule for frame f: >= 0 a rule, -1 the instance is empty, -2 hit its box.
     Past the depth bound or below the pixel footprint the walk stops refining and
     follows the rule that ends soonest (graph/terminating.py). A selection that reads
     `pixels` finds there the diameter of the instance's box over the pixel footprint
-    where the ray enters it. Past the ray's budget
-    of instances every instance is empty, so that the walk ends."""
+    where the ray enters it. The footprint is the beam's from the eye (Bekaert & Willems
+    §3.1): `cone`, its width where a shadow or reflected ray leaves a surface, grown by
+    lod over the ray's length; without the cone, a shadow ray leaving the ground beside an
+    object saw it tens of pixels large, and its shadow was the other rule's (QA: a ball
+    cast the shadow of a cross, the pixel forest's crowns the shadows of branches). Past
+    the ray's budget of instances every instance is empty, so that the walk ends."""
     params, stack, visits = S.params, S.stack, S.visits
     level = I[f, LEVEL] + 1
     I[f, LEVEL] = level
@@ -63,7 +67,8 @@ def choose_rule(flat, node, F, I, H, f, S, lod, dnorm, max_depth, t_enter, ev):
         if level > max_depth:
             I[f, CUT] = 1
             note(ev, EV_DEPTH, node, level)
-        elif lod > 0.0 and world_size(flat.box, node, F, f) < lod * dnorm * max(t_enter, 0.0):
+        elif lod > 0.0 and world_size(flat.box, node, F, f) < \
+                cone + lod * dnorm * max(t_enter, 0.0):
             I[f, CUT] = 1
             note(ev, EV_LOD, node, level)
     if I[f, CUT] == 1:
@@ -74,7 +79,7 @@ def choose_rule(flat, node, F, I, H, f, S, lod, dnorm, max_depth, t_enter, ev):
             return -1
         return r
     if flat.pixels_slot >= 0:
-        foot = lod * dnorm * max(t_enter, 0.0)
+        foot = cone + lod * dnorm * max(t_enter, 0.0) if lod > 0.0 else 0.0
         params[I[f, SLOT], flat.pixels_slot] = (world_diameter(flat.box, node, F, f) / foot
                                                 if foot > 0.0 else np.inf)
     r = pick_rule(flat, node, params, I[f, SLOT], H[f], stack)
@@ -288,7 +293,7 @@ def push_list(lists, ls, start, count):
 
 
 @kernel
-def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, dnorm, max_depth, ev):
+def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, cone, dnorm, max_depth, ev):
     """The interval list of frame f0's subtree along [tmin, tmax], computed bottom-up
     with an explicit stack; operators keep a phase (the next child) while their children
     run. Returns (start row in S.iv, count).
@@ -350,7 +355,7 @@ def intervals(flat, F0, I0, H0, f0, tmin, tmax, S, lod, dnorm, max_depth, ev):
                     ls = push_list(lists, ls, top, 0)
                     sp -= 1
                     continue
-                r = choose_rule(flat, node, F, I, H, f, S, lod, dnorm, max_depth,
+                r = choose_rule(flat, node, F, I, H, f, S, lod, cone, dnorm, max_depth,
                                 t0, ev)
                 if r >= 0:
                     t0, t1 = state_window(flat, node, I, f, params, F, t0, t1)
@@ -616,7 +621,7 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                 ax, ay, az = 0.0, 0.0, 0.0
                 if flat.normal_decay > 0.0:
                     ax, ay, az = average_box_normal(flat, node, F, f, t0)
-                r = choose_rule(flat, node, F, I, H, f, S, lod, dnorm, max_depth,
+                r = choose_rule(flat, node, F, I, H, f, S, lod, cone, dnorm, max_depth,
                                 t0, ev)
                 if r == -2:
                     if t0 > tmin and t0 < best:
@@ -680,7 +685,7 @@ def walk(flat, sp, best, tmin, tmax, any_hit, lod, cone, dnorm, wdx, wdy, wdz, m
                 sp += m
                 break
             if kind == INTERSECTION or kind == DIFFERENCE:
-                start, count = intervals(flat, F, I, H, f, tmin, tmax, S, lod, dnorm,
+                start, count = intervals(flat, F, I, H, f, tmin, tmax, S, lod, cone, dnorm,
                                          max_depth, ev)
                 for j in range(2 * count):          # every end, in order along the ray
                     row = start + j // 2
