@@ -458,7 +458,10 @@ def _render_into(args, files: list[str], opts, distributed: bool, outputs: list[
     for k, (path, out) in enumerate(zip(files, outputs)):
         timings = Timings(startup=k == 0)
         try:
-            summary, notes = render_file(Path(path), out, opts, timings)
+            summary, notes = render_file(
+                Path(path), out, opts, timings,
+                tell=lambda note, path=path: print(labelled(path, note), file=sys.stderr,
+                                                   flush=True))
         except PcsgError as e:
             _report(e, [])
             failed.append(path)

@@ -285,3 +285,20 @@ def test_an_endless_system_too_large_to_walk_whole_is_told_to_take_a_depth():
                               "its instances can be walked")
     cut = pcsg.loads(text, max_depth=12)
     assert cut.bounds_method == "every instance" and not cut.warnings
+
+
+def test_a_render_says_it_will_be_slow_before_it_renders(capsys, tmp_path, monkeypatch):
+    """"nothing is bounded, so every ray walks all the instances it meets (slow)" came
+    after minutes of a silent render, and never where --timeout stopped it (QA)."""
+    from pcsg.cli import main
+    from pcsg.render import job
+    src = tmp_path / "s.pcsg"
+    src.write_text("S\nS 1\n1: S → S ∪ move(0.1,0,0) S ∪ sphere\n", encoding="utf-8")
+
+    def stopped(*args, **kwargs):
+        raise job.RenderFailed("stopped here")
+    monkeypatch.setattr(job, "render_scene", stopped)
+    assert main(["render", str(src), "--size", "8x6", "-o", str(tmp_path / "s.png")]) == 1
+    err = capsys.readouterr().err
+    said = err.index("nothing is bounded, so every ray walks all the instances it meets")
+    assert said < err.index("stopped here") and err.count("nothing is bounded") == 1

@@ -245,11 +245,14 @@ def summary_line(out: Path, opts: Options, seconds: float, rays: int,
 
 
 def render_file(path: Path, out: Path, opts: Options, timings: Timings | None = None,
-                text: str | None = None) -> tuple[str, list[str]]:
+                text: str | None = None, tell=None) -> tuple[str, list[str]]:
     """Render `path` to `out` (written atomically); returns the summary line and notes,
     and fills `timings` with its phases (--timings). Raises RenderFailed, having written
     nothing, past --timeout or, with --strict, when instances were empty because of
-    runtime errors. `text`, where given, is the file's, read before (a pipe's is gone)."""
+    runtime errors. `text`, where given, is the file's, read before (a pipe's is gone).
+    `tell(note)`, where given, takes the compile's and the bounds' notes before the render
+    starts, and they are not returned: "nothing is bounded, so every ray walks all the
+    instances it meets (slow)" came after minutes of a silent render (QA)."""
     clock = timings or Timings()
     deadline = None if opts.timeout is None else time.perf_counter() + opts.timeout
     compiling = not opts.reference and not kernelcache.cached()
@@ -266,6 +269,11 @@ def render_file(path: Path, out: Path, opts: Options, timings: Timings | None = 
             scene = prepare_scene(graph, opts, poll)
         finally:
             progress.close()
+    static = scene.notes
+    if tell is not None:
+        for note in static:
+            tell(note)
+        static = []
     if boxcache.hits > kept:
         clock.annotate("bounds", f"read from {boxcache.folder()}, kept by an earlier "
                                  f"render (PCSG_BOUNDS_CACHE=0: walk again)")
@@ -284,7 +292,7 @@ def render_file(path: Path, out: Path, opts: Options, timings: Timings | None = 
         write_png(out, frame, opts.alpha)
         if opts.depth is not None:
             write_depth(opts.depth, frame)
-    return summary_line(out, opts, frame.seconds, frame.rays, compiling), scene.notes + notes
+    return summary_line(out, opts, frame.seconds, frame.rays, compiling), static + notes
 
 
 # a pixel's visits of one expanded node, with its shadow rays and oversampling: the
