@@ -42,9 +42,16 @@ def regroup(graph: Graph) -> Graph:
     g = replace(graph, nodes=nodes)
     r = _Regroup(g)
     g.root = r.distribute()
-    if not (g.exprs.arrays()["code"][:, 0] == RAND).any():
+    if not draws_per_instance(g):
         r.splice()
     return g
+
+
+def draws_per_instance(graph: Graph) -> bool:
+    """Whether some expression calls rand() without a seed, whose numbers hash each
+    instance's path (operand numbers included): a rewrite that numbers operands anew
+    changes its picture."""
+    return bool((graph.exprs.arrays()["code"][:, 0] == RAND).any())
 
 
 def _copy(node, children: list[int]):

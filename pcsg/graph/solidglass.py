@@ -26,8 +26,8 @@ from __future__ import annotations
 from dataclasses import replace
 
 from ..language.names import UNION_ONLY_PRIMITIVES
-from ..trace.vm import RAND
 from .model import DIFFERENCE, INTERSECTION, MATERIAL, PRIMITIVE, SELECT, UNION, Graph, Node
+from .regroup import draws_per_instance
 
 MAX_PRIMITIVES = 64
 
@@ -39,13 +39,13 @@ def glass_unions_as_solids(graph: Graph) -> Graph:
     if not glass:
         return graph
     nodes = graph.nodes
-    size = _fixed_sizes(graph)
+    size, glass_below = _fixed_trees(graph, glass)
     # numbering a union's operands anew changes the hashes below them (rand(), the
     # instance table): only in a system without rand(), as regroup's splice
-    regroup = not (graph.exprs.arrays()["code"][:, 0] == RAND).any()
+    regroup = not draws_per_instance(graph)
 
     def fixed_glass(i: int, under_glass: bool) -> bool:
-        return 0 < size[i] <= MAX_PRIMITIVES and (under_glass or _glass_below(graph, i, glass))
+        return 0 < size[i] <= MAX_PRIMITIVES and (under_glass or glass_below[i])
 
     whole: set[int] = set()                 # unions wrapped as they are
     grouped: dict[int, list[int]] = {}      # union -> its operands wrapped as one union
@@ -99,12 +99,14 @@ def glass_unions_as_solids(graph: Graph) -> Graph:
     return replace(graph, nodes=new, root=wrapper.get(graph.root, graph.root))
 
 
-def _fixed_sizes(graph: Graph) -> list[int]:
+def _fixed_trees(graph: Graph, glass: set[str]) -> tuple[list[int], list[bool]]:
     """For each node, the primitives of its expansion where no S-node is below it and all
     are solids, else 0: a recursive operand, or a flat triangle or a fractal, which have
-    no inside (union only, notation §5) and so would turn solid in an interval list."""
+    no inside (union only, notation §5) and so would turn solid in an interval list; and
+    where it is such a tree, whether a transmitting material is in it."""
     nodes = graph.nodes
     size = [-1] * len(nodes)
+    glass_below = [False] * len(nodes)
     for root in range(len(nodes)):
         stack = [(root, False)]
         while stack:
@@ -119,21 +121,9 @@ def _fixed_sizes(graph: Graph) -> list[int]:
             elif done:
                 parts = [size[c] for c in n.children]
                 size[i] = 0 if 0 in parts else min(sum(parts), MAX_PRIMITIVES + 1)
+                glass_below[i] = (n.kind == MATERIAL and n.name in glass) or \
+                    any(glass_below[c] for c in n.children)
             else:
                 stack.append((i, True))
                 stack += [(c, False) for c in n.children if size[c] < 0]
-    return size
-
-
-def _glass_below(graph: Graph, i: int, glass: set[str]) -> bool:
-    stack, seen = [i], set()
-    while stack:
-        j = stack.pop()
-        if j in seen:
-            continue
-        seen.add(j)
-        n = graph.nodes[j]
-        if n.kind == MATERIAL and n.name in glass:
-            return True
-        stack += n.children
-    return False
+    return size, glass_below
