@@ -40,6 +40,11 @@ SHAPES = {
     "plane": "plane { z, 0 }",
 }
 MIN_AXIS = 1e-9         # the shortest axis an exported object gets (_drawable)
+# POV-Ray draws nothing of a sphere, cylinder or cone whose shortest axis is under about
+# 1e-7 of its longest (a disc scale(1, 1, 1e-8) sphere: 0 pixels at 1e-7, all at 1e-6,
+# whatever the size); these get at least this share of their longest axis (_drawable)
+QUADRIC_RATIO = 1e-5
+QUADRICS = frozenset({"sphere", "cylinder", "cone"})
 LINES_AT_ONCE = 1 << 13  # lines formatted at a time: their strings and lists stay few
 SKY_STEPS = 12          # colour-map entries for the sky's s**0.6 blend
 # POV-Ray takes a camera within 1e-5 of its look_at as none ("Camera location and look_at
@@ -228,26 +233,31 @@ def _write_rows(out, line: str, rows: np.ndarray):
         out.write("".join([line % tuple(r) for r in rows[b:b + LINES_AT_ONCE].tolist()]))
 
 
-def _drawable(world: np.ndarray) -> np.ndarray:
+def _drawable(world: np.ndarray, quadric: np.ndarray) -> np.ndarray:
     """World maps (k, 3, 4) with every axis shorter than MIN_AXIS lengthened to it (the
-    singular values of their linear part): POV-Ray draws an object thinner than about
-    1e-10 in some direction as a large flat face, where pcsg draws a speck (the fern's
-    stem of a stem ... at depth 8 is 1e-12 thick). At MIN_AXIS it is still far below any
-    pixel."""
+    singular values of their linear part), and where `quadric` (k,) says so, shorter than
+    QUADRIC_RATIO of the longest: POV-Ray draws an object thinner than about 1e-10 in
+    some direction as a large flat face, where pcsg draws a speck (the fern's stem of a
+    stem ... at depth 8 is 1e-12 thick), and a flat sphere, cylinder or cone not at all,
+    where pcsg draws a disc. Either is still far below any pixel."""
     a = world[:, :, :3]
     with np.errstate(all="ignore"):
-        # the least singular value is at least 2 |det| / |a|^2 (Frobenius): a test that
-        # spares the decomposition of nearly every map (0.16 s for 65 536, the test 5 ms)
-        det = np.einsum("ki,ki->k", a[:, :, 0], np.cross(a[:, :, 1], a[:, :, 2]))
-        maybe = np.flatnonzero(~(2 * np.abs(det) >= MIN_AXIS * np.einsum("kij,kij->k", a, a)))
+        # the least singular value is at least 2 |det| / |a|^2 (Frobenius), and the
+        # largest at most |a|: a test that spares the decomposition of nearly every map
+        # (0.16 s for 65 536, the test 5 ms)
+        det2 = 2 * np.abs(np.einsum("ki,ki->k", a[:, :, 0], np.cross(a[:, :, 1], a[:, :, 2])))
+        norm2 = np.einsum("kij,kij->k", a, a)
+        sure = (det2 >= MIN_AXIS * norm2) & ~(quadric & ~(det2 >= QUADRIC_RATIO * norm2 ** 1.5))
+        maybe = np.flatnonzero(~sure)
         if not len(maybe):
             return world
         u, sv, vt = np.linalg.svd(a[maybe])
-    thin = ((sv > 0.0) & (sv < MIN_AXIS)).any(axis=1)
+    floor = np.where(quadric[maybe], np.maximum(QUADRIC_RATIO * sv[:, 0], MIN_AXIS), MIN_AXIS)
+    thin = ((sv > 0.0) & (sv < floor[:, None])).any(axis=1)
     if not thin.any():
         return world
     out = world.copy()
-    s = np.where(sv[thin] > 0.0, np.maximum(sv[thin], MIN_AXIS), 0.0)
+    s = np.where(sv[thin] > 0.0, np.maximum(sv[thin], floor[thin, None]), 0.0)
     out[maybe[thin], :, :3] = (u[thin] * s[:, None, :]) @ vt[thin]
     return out
 
@@ -362,16 +372,19 @@ def _objects(leaves, rows: np.ndarray, tex: list, names: list, textures,
              k: float = 1.0) -> list[str]:
     """The object lines of the primitives `rows` of a chunk, their maps scaled by k; a
     cut graftal instance's volume as an intersection with the volumes that clip it."""
-    maps = _drawable(k * leaves.world[rows]).transpose(0, 2, 1).reshape(-1, 12).tolist()
+    nodes = leaves.node[rows]
+    quadric = np.array([name in QUADRICS for name in names], dtype=bool)[nodes]
+    maps = _drawable(k * leaves.world[rows], quadric).transpose(0, 2, 1).reshape(-1, 12).tolist()
     lines = [f"object {{ P_{names[n]} {_MATRIX % tuple(m)} texture {{ {tex[j]} }}"
              f"{textures.interior(mat)} }}"
-             for j, n, m, mat in zip(rows.tolist(), leaves.node[rows].tolist(), maps,
+             for j, n, m, mat in zip(rows.tolist(), nodes.tolist(), maps,
                                      leaves.material[rows].tolist())]
     clipped = [] if leaves.clips is None else [
         (i, j) for i, j in enumerate(rows.tolist()) if leaves.clips[j]]
     if clipped:
         volumes = [v for _, j in clipped for v in leaves.clips[j]]
-        maps = iter(_drawable(k * np.array([m[:3] for _, m in volumes]))
+        maps = iter(_drawable(k * np.array([m[:3] for _, m in volumes]),
+                              np.array([name in QUADRICS for name, _ in volumes], dtype=bool))
                     .transpose(0, 2, 1).reshape(-1, 12).tolist())
         for i, j in clipped:
             lines[i] = "intersection { " + " ".join(

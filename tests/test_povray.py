@@ -32,6 +32,7 @@ TERRAIN = ROOT / "grammars" / "carpenter_terrain.pcsg"
 CSG = Path(__file__).resolve().parent / "data" / "csg_export.pcsg"
 EMPTY = Path(__file__).resolve().parent / "data" / "empty_export.pcsg"
 THIN = Path(__file__).resolve().parent / "data" / "thin_export.pcsg"
+FLAT = Path(__file__).resolve().parent / "data" / "flat_export.pcsg"
 NESTED = Path(__file__).resolve().parent / "data" / "nested_empty_export.pcsg"
 MIRROR = Path(__file__).resolve().parent / "data" / "mirror_export.pcsg"
 FLUSH = Path(__file__).resolve().parent / "data" / "flush_export.pcsg"
@@ -331,7 +332,8 @@ def both_pictures(tmp_path, grammar, *options):
                                                            "--at", "0,0,0.2", "--up", "0,1,1",
                                                            "--fov", "45", "--light",
                                                            "-4,-6,8"]),
-                                             (EMPTY, []), (THIN, []), (NESTED, []),
+                                             (EMPTY, []), (THIN, []), (FLAT, []),
+                                             (NESTED, []),
                                              (MIRROR, []),
                                              (FERN, ["--max-depth", "4"]),
                                              # no bounce: the surfaces' whole own colours

@@ -166,6 +166,42 @@ def test_unnormalised_directions_give_the_same_points(name):
                         assert out[i] == ref[i]
 
 
+@pytest.mark.parametrize("name", SOLIDS)
+def test_origins_far_along_the_line_give_the_same_points(name):
+    """A camera far from a small or flattened object puts the ray's origin far off in the
+    object's frame (scale(1e-8, 1, 1) cone seen from 6 units: 6e8 along x). Moving the
+    origin back along the line changes the hits by no more than rounding at that
+    distance; the cone's quadratic lost everything there and hit its whole box (QA)."""
+    rng = np.random.default_rng(11)
+    o, d = random_rays(rng, 300)
+    for k in range(len(o)):
+        u = d[k] / np.linalg.norm(d[k])
+        ok, ref = hit(name, o[k], u)
+        chord = ref[1] - ref[0] if ok else 0.0
+        for far in (1e4, 1e8, 6e8):
+            start = o[k] - far * u
+            ok2, out = hit(name, start, u)
+            if ok2 != ok:
+                # only a line that grazes the solid may flip at rounding's distance
+                assert max(chord, out[1] - out[0] if ok2 else 0.0) < 1e-6, (k, far, ref, out)
+                continue
+            if ok and name != "plane":
+                np.testing.assert_allclose(out[:2] - far, ref[:2], atol=1e-6 + far * 1e-14)
+
+
+def test_a_flattened_cone_seen_side_on_from_far_is_a_triangle():
+    """The QA's scene in the cone's frame: scale(1e-8, 1, 1) cone seen along -x from
+    x = 6, every line through the yz plane hits where |y| <= 1 - z, 0 <= z <= 1."""
+    rng = np.random.default_rng(3)
+    y = rng.uniform(-1.2, 1.2, 3000)
+    z = rng.uniform(-0.2, 1.2, 3000)
+    inside = (z >= 0) & (z <= 1) & (np.abs(y) <= 1 - z)
+    edge = np.minimum.reduce([np.abs(np.abs(y) - (1 - z)), np.abs(z), np.abs(z - 1)]) < 1e-9
+    got = np.array([hit("cone", (6e8, y[k], z[k]), (-1e8, 0, 0))[0] for k in range(len(y))])
+    assert inside.sum() > 500
+    assert np.array_equal(got[~edge], inside[~edge])
+
+
 # ---- solids: exact cases ---------------------------------------------------------------
 
 AXIS_CASES = [

@@ -443,3 +443,17 @@ def test_a_depth_of_another_integer_type_does_not_compile_the_kernel_again():
     obj.max_depth = np.int32(3)
     assert obj.trace([0, 0, 5], [0, 0, -1]).t[0] == 4.0
     assert list(trace_share.signatures) == compiled
+
+
+def test_a_cone_flattened_to_a_sheet_keeps_its_outline():
+    """`scale(1e-8, 1, 1) cone` seen side on from 6 units is the triangle that
+    `scale(0.01, 1, 1) cone` is: it was drawn as its bounding rectangle, the cone's
+    quadratic solved 6e8 away in its frame (QA)."""
+    y, z = np.meshgrid(np.linspace(-1.2, 1.2, 61), np.linspace(-0.2, 1.2, 37))
+    origins = np.column_stack([np.full(y.size, 6.0), y.ravel(), z.ravel()])
+    directions = np.tile([-1.0, 0.0, 0.0], (y.size, 1))
+    sheet = pcsg.loads("scale(1e-8, 1, 1) cone").trace(origins, directions).hit
+    thick = pcsg.loads("scale(0.01, 1, 1) cone").trace(origins, directions).hit
+    edge = np.abs(np.abs(y.ravel()) - (1 - z.ravel())) < 1e-9
+    assert 400 < thick.sum() < 0.6 * y.size
+    assert np.array_equal(sheet[~edge], thick[~edge])

@@ -273,11 +273,19 @@ def _cone(out, ox, oy, oz, dx, dy, dz):
     s1 = out[1]
     if s0 > s1:
         return False
-    w0 = 1.0 - oz
-    # f(t) = |xy(t)|^2 - w(t)^2 = A t^2 + 2 B t + C, w(t) = w0 - t dz
+    # the quadratic is solved from the ray's point nearest the frame's origin, t measured
+    # from there (tc): from the origin itself, B^2 - A C cancelled to nothing where the
+    # origin was far, and a cone seen side on from 6e8 away (scale(1e-8, 1, 1) cone,
+    # 6 units from the camera) was drawn as its bounding rectangle (QA)
+    dd = dx * dx + dy * dy + dz * dz
+    tc = -(ox * dx + oy * dy + oz * dz) / dd if dd > 0.0 else 0.0
+    px = ox + tc * dx
+    py = oy + tc * dy
+    w0 = 1.0 - (oz + tc * dz)
+    # f(tc + u) = |xy|^2 - w^2 = A u^2 + 2 B u + C, w(u) = w0 - u dz
     A = dx * dx + dy * dy - dz * dz
-    B = ox * dx + oy * dy + w0 * dz
-    C = ox * ox + oy * oy - w0 * w0
+    B = px * dx + py * dy + w0 * dz
+    C = px * px + py * py - w0 * w0
     # {f <= 0} is up to two pieces [p0, p1], [p2, p3]
     n = 0
     p0 = -_INF
@@ -327,6 +335,10 @@ def _cone(out, ox, oy, oz, dx, dy, dz):
                 n = 2
                 p1 = r1
                 p2 = r2
+    p0 += tc
+    p1 += tc
+    p2 += tc
+    p3 += tc
     # each piece clipped to the slab; the hull of the non-empty ones (the result
     # is convex, so it is their union)
     tin = _INF
