@@ -73,8 +73,9 @@ def parser() -> argparse.ArgumentParser:
     e.add_argument("file", metavar="FILE")
     e.add_argument("-n", "--steps", type=int, default=1, help="derivation steps (default 1)")
     e.add_argument("-o", "--output", metavar="OUT", help="write to OUT instead of stdout")
-    e.add_argument("--max-chars", type=int, default=50_000_000,
-                   help="refuse expansions longer than this (default 50 million)")
+    e.add_argument("--max-chars", type=int, default=None,
+                   help="refuse expansions longer than this (default: what pcsg reads "
+                        "back, 8 MiB)")
 
     s = sub.add_parser("stats", parents=[common], help="node, module and primitive counts")
     s.add_argument("files", nargs="+", metavar="FILE")

@@ -22,7 +22,7 @@ from .arguments import parser  # noqa: E402
 from .interrupt import (Terminated, redeliver_in_finalizers, release_compiler_lock,  # noqa: E402
                         tell, terminate_as_interrupt)
 from .language import prefetch  # noqa: E402
-from .language.files import pcsg_files  # noqa: E402
+from .language.files import MAX_FILE_BYTES, pcsg_files  # noqa: E402
 from .language.errors import PcsgError, labelled  # noqa: E402
 from .overrides import given_twice  # noqa: E402
 from .limits import (GIF_FPS, GIF_PIXELS, MAX_FRAMES, bounces_problem,  # noqa: E402
@@ -43,15 +43,17 @@ def expand_globs(patterns: list[str]) -> list[str]:
     out = []
     for pat in patterns:
         if not os.path.exists(pat) and any(ch in pat for ch in "*?["):
-            matches = sorted(glob.glob(pat))
+            # `**` as bash's globstar: any depth of directories (it was one level)
+            matches = sorted(glob.glob(pat, recursive=True))
             if not matches:
                 raise UsageError(f"no file matches '{pat}'")
         else:
             matches = [pat]
+        found: dict[str, None] = {}     # 'd/**' matches d/ and its files: each once
         for m in matches:
-            found = pcsg_files(m) if os.path.isdir(m) else []
-            # one without any fails alone, as a file that cannot be read does
-            out += found or [m]
+            found.update(dict.fromkeys(pcsg_files(m) if os.path.isdir(m) else [m]))
+        # where no directory held any, each fails alone, as a file that cannot be read does
+        out += found or matches
     return out
 
 
@@ -182,6 +184,10 @@ def _output_directory(output: str, option: str = "-o"):
     parent = Path(output).parent
     if Path(output).is_dir():
         raise UsageError(f"{option} {output}: that is a directory; name a file in it")
+    if output.endswith(("/", os.sep)):
+        # Path() drops the slash: `-o new/` wrote a file named new (QA)
+        raise UsageError(f"{option} {output}: a name that ends in / is a directory's; name "
+                         f"a file")
     if not parent.is_dir():
         what = (f"the directory {parent} does not exist" if not parent.exists()
                 else f"{parent} is a file, not a directory")
@@ -205,17 +211,31 @@ def cmd_expand(args) -> int:
     if args.steps > MAX_LEVELS:
         # expand stopped at MAX_LEVELS steps and its header said -n's
         raise UsageError(f"-n {args.steps}: expand takes at most {MAX_LEVELS} steps")
-    if args.max_chars < 1:
+    if args.max_chars is not None and args.max_chars < 1:
         raise UsageError(f"--max-chars {args.max_chars}: give 1 or more")
     if args.output:
         _named_as_another_kind(args.output, "-o", "a grammar", ".pcsg")
     graph = _compile(args.file, args.overrides)
     _report(None, graph.warnings)
     notes: list[str] = []
+    # by default no longer than pcsg reads back: 50 million characters were written that
+    # check and render then refused (QA); a character is at least a byte
+    readable = f"pcsg reads grammars of up to {MAX_FILE_BYTES:,} bytes (8 MiB)"
+    limit = MAX_FILE_BYTES if args.max_chars is None else args.max_chars
     try:
-        text = expand_file(graph, args.steps, args.max_chars, notes, args.overrides)
+        text = expand_file(graph, args.steps, limit, notes, args.overrides)
+        size = len(text.encode("utf-8")) if len(text) > MAX_FILE_BYTES // 4 else 0
     except ExpansionTooLarge as e:
-        raise UsageError(str(e)) from None
+        if args.max_chars is not None:
+            raise UsageError(str(e)) from None
+        size = None
+    if args.max_chars is None and (size is None or size > MAX_FILE_BYTES):
+        said = f"more than {MAX_FILE_BYTES:,}" if size is None else f"{size:,}"
+        raise UsageError(f"the expansion is {said} bytes, and {readable}: use fewer "
+                         f"steps, or --max-chars to write it anyway")
+    if size and size > MAX_FILE_BYTES:
+        notes.append(f"the expansion is {size:,} bytes, and {readable}: check and render "
+                     f"will refuse it")
     _write(text, args.output, args.file)
     for note in notes:
         print(f"{args.file}: warning: {note}", file=sys.stderr)
@@ -417,18 +437,19 @@ def cmd_render(args) -> int:
         raise UsageError("--depth names one file; render one .pcsg file with it")
     if opts.depth is not None:
         _depth_output(str(opts.depth), files)       # before -o's directory is made
-    out = Path(args.output or ".").absolute()
-    made = [d for d in (out, *out.parents) if not os.path.lexists(d)]
-    outputs = _outputs(files, args.output)
-    with _removed_if_left_empty(made):
+    with _removed_if_left_empty(Path(args.output or ".")):
+        outputs = _outputs(files, args.output)
         return _render_into(args, files, opts, distributed, outputs)
 
 
 @contextlib.contextmanager
-def _removed_if_left_empty(made: list[Path]):
-    """The directories `-o DIR/` made (DIR and its new parents, deepest first), removed
-    again where the command wrote nothing in them: a usage error after they were made, or
-    a batch whose every file failed, left them there."""
+def _removed_if_left_empty(directory: Path):
+    """The directories that `-o DIR/` makes (DIR and its new parents, deepest first),
+    removed again where the command wrote nothing in them: a usage error after they were
+    made, a batch whose every file failed, or a sweep or animation stopped before its
+    first image, left them there."""
+    out = directory.absolute()
+    made = [d for d in (out, *out.parents) if not os.path.lexists(d)]
     try:
         yield
     finally:
@@ -488,8 +509,7 @@ def _render_into(args, files: list[str], opts, distributed: bool, outputs: list[
 
 
 def cmd_sweep(args) -> int:
-    from .distributed.batch import Job, run_jobs
-    from .distributed.sweep import Swept, drop_other_widths, sweep_outputs
+    from .distributed.sweep import Swept
     ranges = [(name, values) for name, values in args.overrides if isinstance(values, Swept)]
     if len(ranges) != 1:
         raise UsageError("give one parameter to sweep, e.g. --set c=1..12 "
@@ -505,6 +525,13 @@ def cmd_sweep(args) -> int:
         # it made a directory of that name
         raise UsageError(f"-o {args.output}: a sweep writes one image per value into a "
                          f"directory; name it, e.g. -o {out_dir.with_suffix('')}/")
+    with _removed_if_left_empty(out_dir):
+        return _sweep_into(args, out_dir, name, values, fixed)
+
+
+def _sweep_into(args, out_dir: Path, name: str, values: list, fixed: dict) -> int:
+    from .distributed.batch import Job, run_jobs
+    from .distributed.sweep import drop_other_widths, sweep_outputs
     # the file's errors and unknown names once, not once for every image
     graph = _compile(args.file, {**fixed, name: values[0]})
     if any(w.code == "set-unread" and w.message.startswith(f"'{name}' ")
@@ -650,7 +677,8 @@ def cmd_animate(args) -> int:
         except ClusterUnavailable as e:
             raise UsageError(str(e)) from None
     try:
-        failed = animate(anim)
+        with _removed_if_left_empty(out):
+            failed = animate(anim)
     except BadAnimation as e:
         raise UsageError(str(e)) from None
     except CannotFrame as e:        # found once the file is compiled: as render says it

@@ -273,6 +273,54 @@ def test_a_render_that_writes_nothing_leaves_no_directory_it_made(capsys, sierpi
     assert [p.name for p in out.iterdir()] == ["s.png"]
 
 
+def test_a_sweep_or_animation_that_writes_nothing_leaves_no_directory_it_made(
+        capsys, sierpinski, tmp_path):
+    """As render's: `sweep ... --timeout 1e-9 -o new/` and an animation stopped before its
+    first frame left their directories there empty (QA)."""
+    out = tmp_path / "new" / "sweep"
+    assert run(capsys, "sweep", str(sierpinski), "--set", "c=1..2", "--size", "8x6", "-q",
+               "--timeout", "1e-9", "-o", f"{out}/")[0] == 1
+    assert not (tmp_path / "new").exists()
+    moving = tmp_path / "m.pcsg"
+    moving.write_text("move(0, 0, t) sphere\n", encoding="utf-8")
+    assert run(capsys, "animate", str(moving), "--frames", "2", "--size", "8x6", "-q",
+               "--timeout", "1e-9", "-o", f"{out}/")[0] == 1
+    assert not (tmp_path / "new").exists()
+    assert run(capsys, "sweep", str(sierpinski), "--set", "c=1..2", "--size", "8x6", "-q",
+               "-o", f"{out}/")[0] == 0
+    assert sorted(p.name for p in out.glob("*.png")) == ["s_c=1.png", "s_c=2.png"]
+
+
+@pytest.mark.parametrize("command", ["graph", "expand"])
+def test_an_output_named_as_a_directory_is_refused(capsys, sierpinski, tmp_path, command):
+    # `-o new/` wrote a file named new (QA)
+    code, _, err = run(capsys, command, str(sierpinski), "-o", f"{tmp_path}/new/")
+    assert code == 2 and "a name that ends in / is a directory's; name a file" in err
+    assert not (tmp_path / "new").exists()
+
+
+def test_expand_writes_by_default_only_what_pcsg_reads_back(capsys, sierpinski, tmp_path,
+                                                            monkeypatch):
+    """expand's default limit was 50 million characters, where check and render read 8 MiB:
+    a word of 15 MB was written and then refused (QA). The reader's limit, made small."""
+    import pcsg.cli
+    import pcsg.language.files
+    for module in (pcsg.cli, pcsg.language.files):
+        monkeypatch.setattr(module, "MAX_FILE_BYTES", 20_000)
+    out = tmp_path / "e.pcsg"
+    code, _, err = run(capsys, "expand", str(sierpinski), "-n", "5", "-o", str(out))
+    assert code == 2 and not out.exists()
+    assert "pcsg reads grammars of up to 20,000 bytes" in err and "--max-chars" in err
+    code, _, err = run(capsys, "expand", str(sierpinski), "-n", "5", "-o", str(out),
+                       "--max-chars", "1000000")
+    size = out.stat().st_size
+    assert code == 0 and size > 20_000
+    assert f"the expansion is {size:,} bytes" in err and "check and render will refuse it" in err
+    assert run(capsys, "check", str(out))[0] == 1
+    code, _, err = run(capsys, "expand", str(sierpinski), "-n", "2", "-o", str(out))
+    assert code == 0 and err == "" and run(capsys, "check", str(out))[0] == 0
+
+
 @pytest.mark.parametrize("command", ["graph", "expand"])
 def test_output_directory_missing(capsys, sierpinski, tmp_path, command):
     # the message named the temporary file beside the output
@@ -694,6 +742,14 @@ def test_a_directory_is_its_pcsg_files_and_an_empty_output_name_is_refused(capsy
     (sub / "c.pcsg").write_text("sphere\n", encoding="utf-8")
     assert main(["check", str(tmp_path / "s?b")]) == 0
     assert "c.pcsg: ok" in capsys.readouterr().out
+    # ** is any depth of directories, as bash's globstar (it was one level: QA); the
+    # directories it matches give their files once
+    (sub / "deep").mkdir()
+    (sub / "deep" / "d.pcsg").write_text("sphere\n", encoding="utf-8")
+    for pattern in ("sub/**/*.pcsg", "sub/**"):
+        assert main(["check", str(tmp_path / pattern)]) == 0
+        out = capsys.readouterr().out
+        assert out.count("c.pcsg: ok") == 1 and out.count("d.pcsg: ok") == 1, pattern
 
 
 def test_a_size_past_the_limit_says_its_pixels_exactly(capsys, tmp_path):
