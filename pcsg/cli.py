@@ -544,8 +544,8 @@ def _sweep_into(args, out_dir: Path, name: str, values: list, fixed: dict) -> in
     _make_directory(out_dir, args.output)
     outputs = sweep_outputs(args.file, out_dir, name, values)
     _no_directory_in_the_way(outputs)
-    if (dropped := drop_other_widths(args.file, out_dir, name, values, outputs)) and \
-            not args.quiet:
+    # said under -q too: it tells of files removed, not of progress (QA)
+    if dropped := drop_other_widths(args.file, out_dir, name, values, outputs):
         print(f"pcsg sweep: removed {_many(len(dropped), 'image')} "
               f"of these values that an earlier sweep named with other digits "
               f"({', '.join(dropped[:3])}{', ...' if len(dropped) > 3 else ''})",

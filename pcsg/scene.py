@@ -168,6 +168,12 @@ def build_scene(directives: list[ast.Directive], constants, report,
                                     "of the camera)", "directive")
             scene.lights.append(values)
         elif d.kind == "sky":
+            if {"color", "horizon", "zenith"} <= values.keys():
+                # each end is its own key's: the colour was dropped without a word (QA)
+                span = next(i.key_span for i in d.items if i.key == "color")
+                warn(span, "#sky: 'color' colours nothing where 'horizon' and 'zenith' "
+                           "are both given (each end is its own key's); leave one out",
+                     "directive")
             scene.sky = values
         elif d.kind == "occlusion":
             scene.occlusion = values

@@ -91,6 +91,23 @@ class TestTermination:
                 "rewritten there (i = -1000): a count running away from its end?") in \
             capsys.readouterr().err
 
+    def test_a_derivation_that_ends_past_what_a_render_follows_is_said_by_check(
+            self, capsys, tmp_path):
+        """A chain of 5,000 levels ends, but a render cuts it at 64 and says so: check said
+        ok (only a count past 10,000 levels was warned of), where the README says it warns
+        past 1,000 (QA). The render's words, with its depth."""
+        from pcsg.cli import main
+        src = tmp_path / "t.pcsg"
+        chain = ("S if(c > 0, 2, 1)\n1: S → sphere\n"
+                 "2: S → {c = c - 1} (cube ∪ uscale(0.9) move(1, 0, 0) S)\n")
+        src.write_text("{c = 5000} S\n" + chain, encoding="utf-8")
+        assert main(["check", "--werror", str(src)]) == 1
+        assert ("t.pcsg:2:1: warning: the derivation ends 5,000 levels down, deeper than the "
+                "1,000 a render follows without --max-depth: it is cut at 64; --max-depth "
+                "5001 draws it whole") in capsys.readouterr().err
+        src.write_text("{c = 999} S\n" + chain, encoding="utf-8")
+        assert main(["check", "--werror", str(src)]) == 0
+
     def test_a_module_between_that_counts_down_ends_the_cycle(self):
         # T counts n down on the way round: SEG, reading a constant flag, was "endless"
         assert [x for x in warnings_of(

@@ -417,6 +417,15 @@ def test_a_material_that_reflects_and_lets_through_more_than_comes_is_warned_of(
     assert not warnings_of("#material m reflect=0.2 transmit=0.8\nmaterial(m) sphere\n")
 
 
+def test_a_sky_colour_that_both_ends_replace_is_warned_of():
+    # notation §8 gives the two forms as alternatives; given together, color was dropped
+    w = warnings_of("#sky color=(1, 1, 1) horizon=(1, 0, 0) zenith=(0, 0, 1)\nsphere\n")
+    assert [(x.code, placed(x)) for x in w] == [
+        ("directive", "1:6: #sky: 'color' colours nothing where 'horizon' and 'zenith' are "
+                      "both given (each end is its own key's); leave one out")]
+    assert not warnings_of("#sky color=(1, 1, 1) horizon=(1, 0, 0)\nsphere\n")
+
+
 @pytest.mark.parametrize("text, said", [
     # a constant byte beside computed ones: warned only where all three were constants
     ("{n = 2} S\nS if(n > 0, 2, 1)\n1: S → sphere\n2: S → {n = n - 1} "

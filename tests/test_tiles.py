@@ -94,7 +94,7 @@ def test_a_wider_sweep_replaces_the_images_it_names_with_other_digits(capsys, tm
     (out / "sierpinski_c=3.png").write_bytes(b"not made by a sweep")
     (out / "other_c=1.png").write_bytes(b"another file's")
     capsys.readouterr()
-    assert main(["sweep", SIERPINSKI, "--set", "c=1..11..2", *small]) == 0
+    assert main(["sweep", SIERPINSKI, "--set", "c=1..11..2", *small, "-q"]) == 0
     err = capsys.readouterr().err
     assert "removed 2 images of these values that an earlier sweep named with other " \
            "digits (sierpinski_c=1.png, sierpinski_c=7.png)" in err

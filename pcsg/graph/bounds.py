@@ -344,6 +344,15 @@ class _Walker:
         return sorted(found)
 
 
+def deep_derivation(graph: Graph, deepest: int, span=None) -> Diagnostic:
+    """The warning for a derivation that ends `deepest` levels down, past DEEPEST_DEFAULT:
+    a render cuts it (render's bounds and `check` say it alike)."""
+    return Diagnostic("warning", f"the derivation ends {deepest:,} levels down, deeper than "
+                      f"the {DEEPEST_DEFAULT:,} a render follows without --max-depth: it is "
+                      f"cut at {MAX_DEPTH}; --max-depth {deepest + 1} draws it whole", span,
+                      graph.source, code="deep-derivation")
+
+
 def _memoised(graph: Graph, faults: set | None = None, max_depth: int | None = None,
               voids: frozenset = frozenset(), any_rule: bool = False, said: list | None = None
               ) -> tuple[tuple[np.ndarray, dict, StateTable | None], int]:
@@ -360,11 +369,7 @@ def _memoised(graph: Graph, faults: set | None = None, max_depth: int | None = N
         if ends and deepest > DEEPEST_DEFAULT and said is not None:
             # a chain of 3,000 modules drew nothing, its instances at 64 "finished with
             # their terminating rule", which only led on
-            said.append(Diagnostic(
-                "warning", f"the derivation ends {deepest:,} levels down, deeper than the "
-                f"{DEEPEST_DEFAULT:,} a render follows without --max-depth: it is cut at "
-                f"{MAX_DEPTH}; --max-depth {deepest + 1} draws it whole", None, graph.source,
-                code="deep-derivation"))
+            said.append(deep_derivation(graph, deepest))
         ends = ends and deepest <= DEEPEST_DEFAULT
         max_depth = max(MAX_DEPTH, deepest + 1) if ends else MAX_DEPTH
     # a state that recurs in a module with a terminating rule (Sierpinski at c=1e16,

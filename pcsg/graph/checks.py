@@ -78,7 +78,28 @@ def derivation_faults(graph: Graph, max_states: int = CHECK_STATES):
                               d.span, d.source, code=d.code)
                    for d in e.diagnostics if d.code == "repeats"]
         return [], map_faults(graph, faults) + (repeats or _runaway(graph))
-    return [], map_faults(graph, faults)
+    return [], map_faults(graph, faults) + _deeper_than_a_render_follows(graph)
+
+
+def _deeper_than_a_render_follows(graph: Graph) -> list[Diagnostic]:
+    """A derivation that ends, but deeper than the levels a render follows without
+    --max-depth (it is cut there): render's warning, said by `check` too (it said ok of
+    5,000 levels, where only a count past 10,000 was warned of: QA). Its depth from the
+    memoised walk the render takes, only where the check's own derivation went deep."""
+    from ..recursion import recursion_limit
+    from .bounds import DoesNotContract, TooManyStates, _memoised_walk, deep_derivation
+    from .stats import MAX_LEVELS
+    stopped = _from_axiom(graph)
+    if stopped is None or not stopped.deep:
+        return []
+    try:
+        with recursion_limit(20 * MAX_LEVELS):
+            _, deepest, ends = _memoised_walk(graph, None, False)
+    except (TooManyStates, DoesNotContract, PcsgError):
+        return []           # too many states to tell: the render says it, as it walks
+    if not ends or deepest <= DEEPEST_DEFAULT:
+        return []
+    return [deep_derivation(graph, deepest, stopped.diagnostic.span)]
 
 
 def map_faults(graph: Graph, faults: set) -> list[Diagnostic]:
