@@ -89,6 +89,8 @@ def _deeper_than_a_render_follows(graph: Graph) -> list[Diagnostic]:
     from ..recursion import recursion_limit
     from .bounds import DoesNotContract, TooManyStates, _memoised_walk, deep_derivation
     from .stats import MAX_LEVELS
+    if graph.pixels >= 0:
+        return []           # +inf here: the render's pixels end it
     stopped = _from_axiom(graph)
     if stopped is None or not stopped.deep:
         return []
